@@ -1,0 +1,176 @@
+//! Ray–scene intersection, independent of the BVH library behind it.
+//!
+//! [`Accel`] is the only type the renderer traces rays through. It answers two queries:
+//! [`Accel::intersect`] (closest hit: distance, primitive, barycentrics, geometric normal) and
+//! [`Accel::occluded`] (is there any hit within the ray's extent). Primitive ids are indices
+//! into [`crate::scene::Scene::triangles`]; barycentrics follow p = (1 − u − v)·p0 + u·p1 + v·p2;
+//! the geometric normal is normalize((p1 − p0) × (p2 − p0)), the front side of a
+//! counter-clockwise triangle. Integrators never see backend types.
+//!
+//! Backends form a closed set, dispatched by `match` (no virtual calls in the ray loop).
+
+mod embree_backend;
+
+use glam::Vec3;
+use std::fmt;
+use std::str::FromStr;
+
+use crate::scene::Scene;
+
+pub use embree_backend::EmbreeAccel;
+
+/// A ray segment `org + t·dir`, t in `[t_min, t_max]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub org: Vec3,
+    pub dir: Vec3,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(org: Vec3, dir: Vec3) -> Ray {
+        Ray {
+            org,
+            dir,
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.org + t * self.dir
+    }
+}
+
+/// The closest intersection of a ray with the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Index of the triangle in the scene.
+    pub prim: u32,
+    /// Barycentric coordinates of the hit point.
+    pub u: f32,
+    pub v: f32,
+    /// Unit geometric normal on the counter-clockwise (front) side.
+    pub ng: Vec3,
+}
+
+/// Which BVH library traces the rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    Embree,
+}
+
+impl FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "embree" => Ok(Backend::Embree),
+            other => Err(format!("unknown backend '{other}' (available: embree)")),
+        }
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Backend::Embree => "embree",
+        })
+    }
+}
+
+/// BVH build quality, shared by every backend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BuildQuality {
+    Low,
+    #[default]
+    Medium,
+    High,
+}
+
+impl FromStr for BuildQuality {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "low" => Ok(BuildQuality::Low),
+            "medium" => Ok(BuildQuality::Medium),
+            "high" => Ok(BuildQuality::High),
+            other => Err(format!("unknown BVH quality '{other}' (low, medium, high)")),
+        }
+    }
+}
+
+/// Options for building an [`Accel`].
+#[derive(Clone, Copy, Debug)]
+pub struct AccelOptions {
+    pub backend: Backend,
+    pub quality: BuildQuality,
+    /// Worker threads for the BVH build (0: all cores).
+    pub threads: usize,
+}
+
+impl Default for AccelOptions {
+    fn default() -> Self {
+        AccelOptions {
+            backend: Backend::Embree,
+            quality: BuildQuality::default(),
+            threads: 0,
+        }
+    }
+}
+
+/// An error while building the acceleration structure.
+#[derive(Debug, thiserror::Error)]
+pub enum AccelError {
+    #[error("the scene has no triangles to build a BVH over")]
+    Empty,
+    #[error(transparent)]
+    Embree(#[from] crate::embree::EmbreeError),
+}
+
+/// The acceleration structure of a scene.
+pub enum Accel {
+    Embree(EmbreeAccel),
+}
+
+impl Accel {
+    /// Builds the acceleration structure over every triangle of `scene`.
+    pub fn build(scene: &Scene, options: &AccelOptions) -> Result<Accel, AccelError> {
+        if scene.triangles.is_empty() {
+            return Err(AccelError::Empty);
+        }
+        match options.backend {
+            Backend::Embree => Ok(Accel::Embree(EmbreeAccel::build(scene, options)?)),
+        }
+    }
+
+    /// The closest hit along the ray within `[t_min, t_max]`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match self {
+            Accel::Embree(a) => a.intersect(ray),
+        }
+    }
+
+    /// True when any surface lies along the ray within `[t_min, t_max]`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        match self {
+            Accel::Embree(a) => a.occluded(ray),
+        }
+    }
+
+    pub fn backend(&self) -> Backend {
+        match self {
+            Accel::Embree(_) => Backend::Embree,
+        }
+    }
+
+    /// A one-line description of the backend (library and version).
+    pub fn describe(&self) -> String {
+        match self {
+            Accel::Embree(a) => a.describe(),
+        }
+    }
+}

@@ -1,0 +1,524 @@
+//! A small safe wrapper over Intel Embree (3.13 or 4.x), the only place in strata with `unsafe`.
+//!
+//! `build.rs` generates the raw bindings (module [`sys`]) from whichever header it found and sets
+//! `cfg(embree3)` or `cfg(embree4)`. The differences between the two APIs (the intersection
+//! context of Embree 3 versus the optional argument structs of Embree 4, ray masks enabled by
+//! default in Embree 4) stay inside this file: callers see [`Device`], [`SceneBuilder`] and the
+//! committed, thread-safe [`Scene`] with [`Scene::intersect`] and [`Scene::occluded`].
+//!
+//! Device errors reported through the error callback or `rtcGetDeviceError` become
+//! [`EmbreeError`]s; nothing is ignored.
+
+use std::ffi::{c_char, c_void, CStr, CString};
+use std::fmt;
+use std::sync::{Arc, Mutex};
+
+#[allow(
+    non_camel_case_types,
+    non_snake_case,
+    non_upper_case_globals,
+    dead_code,
+    unused_imports,
+    clippy::all,
+    clippy::pedantic,
+    unsafe_op_in_unsafe_fn
+)]
+pub mod sys {
+    include!(concat!(env!("OUT_DIR"), "/embree_bindings.rs"));
+}
+
+/// The Embree major version strata was compiled against.
+#[cfg(embree4)]
+pub const MAJOR: u32 = 4;
+/// The Embree major version strata was compiled against.
+#[cfg(embree3)]
+pub const MAJOR: u32 = 3;
+
+/// `RTC_INVALID_GEOMETRY_ID` is a macro (`(unsigned int)-1`) that bindgen does not translate.
+pub const INVALID_GEOMETRY_ID: u32 = u32::MAX;
+
+/// An error reported by Embree.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EmbreeError {
+    pub code: u32,
+    pub message: String,
+}
+
+impl fmt::Display for EmbreeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "Embree error {} ({})",
+            error_name(self.code),
+            self.message
+        )
+    }
+}
+
+impl std::error::Error for EmbreeError {}
+
+fn error_name(code: u32) -> &'static str {
+    match code {
+        sys::RTC_ERROR_NONE => "RTC_ERROR_NONE",
+        sys::RTC_ERROR_UNKNOWN => "RTC_ERROR_UNKNOWN",
+        sys::RTC_ERROR_INVALID_ARGUMENT => "RTC_ERROR_INVALID_ARGUMENT",
+        sys::RTC_ERROR_INVALID_OPERATION => "RTC_ERROR_INVALID_OPERATION",
+        sys::RTC_ERROR_OUT_OF_MEMORY => "RTC_ERROR_OUT_OF_MEMORY",
+        sys::RTC_ERROR_UNSUPPORTED_CPU => "RTC_ERROR_UNSUPPORTED_CPU",
+        sys::RTC_ERROR_CANCELLED => "RTC_ERROR_CANCELLED",
+        _ => "unrecognised error code",
+    }
+}
+
+/// Sets flush-to-zero and denormals-are-zero in this thread's MXCSR, as Embree's documentation
+/// asks of every thread that traces rays (denormal arithmetic is very slow in traversal).
+pub fn enable_ftz_daz() {
+    #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
+    {
+        const FTZ: u32 = 1 << 15;
+        const DAZ: u32 = 1 << 6;
+        let mut csr: u32 = 0;
+        // SAFETY: stmxcsr/ldmxcsr only read and write this thread's SSE control register through
+        // a pointer to a local; setting FTZ and DAZ changes no memory and cannot fault.
+        unsafe {
+            std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack));
+            csr |= FTZ | DAZ;
+            std::arch::asm!("ldmxcsr [{}]", in(reg) &csr, options(nostack, readonly));
+        }
+    }
+}
+
+/// True when both FTZ and DAZ are set on this thread (for tests).
+pub fn ftz_daz_enabled() -> bool {
+    #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
+    {
+        let mut csr: u32 = 0;
+        // SAFETY: stmxcsr writes this thread's MXCSR into a local u32.
+        unsafe {
+            std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack));
+        }
+        csr & ((1 << 15) | (1 << 6)) == (1 << 15) | (1 << 6)
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "x86")))]
+    {
+        true
+    }
+}
+
+/// Errors collected by the device's error callback until the next [`Device::check`].
+type ErrorSlot = Mutex<Option<EmbreeError>>;
+
+struct DeviceInner {
+    raw: sys::RTCDevice,
+    /// Owned by this struct and handed to Embree as the callback's user pointer.
+    errors: *mut ErrorSlot,
+}
+
+// SAFETY: an RTCDevice may be used from any thread (Embree's API is thread-safe at the device
+// level), and the error slot behind `errors` is a Mutex.
+unsafe impl Send for DeviceInner {}
+// SAFETY: as above; shared access only reaches Embree calls documented as thread-safe and the
+// Mutex-protected error slot.
+unsafe impl Sync for DeviceInner {}
+
+impl Drop for DeviceInner {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewDevice and this is the last reference we hold; the error
+        // callback is removed before the slot it points to is freed.
+        unsafe {
+            sys::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
+            sys::rtcReleaseDevice(self.raw);
+            drop(Box::from_raw(self.errors));
+        }
+    }
+}
+
+/// An Embree device: the owner of every scene and geometry made from it.
+#[derive(Clone)]
+pub struct Device {
+    inner: Arc<DeviceInner>,
+}
+
+unsafe extern "C" fn error_callback(
+    user: *mut c_void,
+    code: sys::RTCError,
+    message: *const c_char,
+) {
+    if user.is_null() {
+        return;
+    }
+    // SAFETY: `user` is the `*mut ErrorSlot` registered in Device::new and stays alive until the
+    // callback is unregistered in Drop; `message` is a NUL-terminated string or null per Embree.
+    let (slot, text) = unsafe {
+        let text = if message.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(message).to_string_lossy().into_owned()
+        };
+        (&*(user as *const ErrorSlot), text)
+    };
+    if let Ok(mut guard) = slot.lock() {
+        // Keep the first error: later ones are usually consequences of it.
+        guard.get_or_insert(EmbreeError {
+            code,
+            message: text,
+        });
+    }
+}
+
+impl Device {
+    /// Creates a device with the given Embree configuration string (e.g. `"threads=2"`).
+    pub fn new(config: &str) -> Result<Device, EmbreeError> {
+        let config = CString::new(config).map_err(|_| EmbreeError {
+            code: sys::RTC_ERROR_INVALID_ARGUMENT,
+            message: "device configuration contains a NUL byte".into(),
+        })?;
+        // SAFETY: `config` is a valid NUL-terminated string for the duration of the call.
+        let raw = unsafe { sys::rtcNewDevice(config.as_ptr()) };
+        if raw.is_null() {
+            // SAFETY: rtcGetDeviceError accepts a null device and returns the thread's last
+            // device-creation error.
+            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(EmbreeError {
+                code,
+                message: format!("rtcNewDevice({config:?}) failed"),
+            });
+        }
+        let errors: *mut ErrorSlot = Box::into_raw(Box::new(Mutex::new(None)));
+        // SAFETY: `raw` is a live device; `errors` points to a heap slot that outlives the
+        // registration (it is unregistered before being freed in DeviceInner::drop).
+        unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), errors.cast()) };
+        Ok(Device {
+            inner: Arc::new(DeviceInner { raw, errors }),
+        })
+    }
+
+    /// Returns and clears the first error Embree reported since the last check.
+    pub fn check(&self) -> Result<(), EmbreeError> {
+        // SAFETY: `errors` is valid for the lifetime of `inner` (see DeviceInner).
+        let slot = unsafe { &*self.inner.errors };
+        let reported = slot.lock().ok().and_then(|mut g| g.take());
+        // SAFETY: `raw` is a live device.
+        let code = unsafe { sys::rtcGetDeviceError(self.inner.raw) };
+        match reported {
+            Some(e) => Err(e),
+            None if code != sys::RTC_ERROR_NONE => Err(EmbreeError {
+                code,
+                message: "reported by rtcGetDeviceError".into(),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The version of the Embree library loaded at run time, e.g. `"4.4.0"`.
+    pub fn version(&self) -> String {
+        // SAFETY: `raw` is a live device; the property is a plain integer query.
+        let v =
+            unsafe { sys::rtcGetDeviceProperty(self.inner.raw, sys::RTC_DEVICE_PROPERTY_VERSION) };
+        format!("{}.{}.{}", v / 10000, (v / 100) % 100, v % 100)
+    }
+}
+
+/// Scene build quality, mapped to `RTCBuildQuality`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuildQuality {
+    Low,
+    Medium,
+    High,
+}
+
+/// Options for building a scene.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneOptions {
+    pub quality: BuildQuality,
+    /// `RTC_SCENE_FLAG_ROBUST`: avoids optimisations that trade watertightness for speed.
+    pub robust: bool,
+    /// `RTC_SCENE_FLAG_COMPACT`: smaller BVH at some traversal cost.
+    pub compact: bool,
+}
+
+/// A scene under construction: geometry is attached, then [`SceneBuilder::commit`] builds the BVH.
+pub struct SceneBuilder {
+    device: Device,
+    raw: sys::RTCScene,
+    quality: BuildQuality,
+}
+
+impl Drop for SceneBuilder {
+    fn drop(&mut self) {
+        if !self.raw.is_null() {
+            // SAFETY: `raw` came from rtcNewScene and has not been released (commit nulls it).
+            unsafe { sys::rtcReleaseScene(self.raw) };
+        }
+    }
+}
+
+impl SceneBuilder {
+    pub fn new(device: &Device, options: SceneOptions) -> Result<SceneBuilder, EmbreeError> {
+        // SAFETY: the device is live; a null return is handled below.
+        let raw = unsafe { sys::rtcNewScene(device.inner.raw) };
+        device.check()?;
+        if raw.is_null() {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_UNKNOWN,
+                message: "rtcNewScene returned null".into(),
+            });
+        }
+        let mut flags = sys::RTC_SCENE_FLAG_NONE;
+        if options.robust {
+            flags |= sys::RTC_SCENE_FLAG_ROBUST;
+        }
+        if options.compact {
+            flags |= sys::RTC_SCENE_FLAG_COMPACT;
+        }
+        let quality = to_quality(options.quality);
+        // SAFETY: `raw` is a live, uncommitted scene; flags and quality are valid enum values.
+        unsafe {
+            sys::rtcSetSceneFlags(raw, flags);
+            sys::rtcSetSceneBuildQuality(raw, quality);
+        }
+        let builder = SceneBuilder {
+            device: device.clone(),
+            raw,
+            quality: options.quality,
+        };
+        device.check()?;
+        Ok(builder)
+    }
+
+    /// Attaches a triangle mesh; returns its geometry id. Primitive ids of hits are indices
+    /// into `indices`. Vertex and index data are copied into buffers Embree allocates (so
+    /// its padding requirement for vertex buffers is met).
+    pub fn attach_triangles(
+        &mut self,
+        positions: &[[f32; 3]],
+        indices: &[[u32; 3]],
+    ) -> Result<u32, EmbreeError> {
+        if positions.is_empty() || indices.is_empty() {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_INVALID_ARGUMENT,
+                message: "a triangle mesh needs at least one vertex and one triangle".into(),
+            });
+        }
+        let vertex_count = positions.len();
+        if let Some(bad) = indices
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= vertex_count)
+        {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_INVALID_ARGUMENT,
+                message: format!("vertex index {bad} out of range ({vertex_count} vertices)"),
+            });
+        }
+        let device = self.device.inner.raw;
+        // SAFETY: the device is live; a null geometry is reported by device.check().
+        let geom = unsafe { sys::rtcNewGeometry(device, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        self.device.check()?;
+        let result = (|| {
+            // SAFETY: `geom` is a live triangle geometry. Embree allocates buffers of exactly
+            // `count` items of the given stride (plus its own padding); we write no more than
+            // `count` items into each, and null pointers are checked before use.
+            unsafe {
+                sys::rtcSetGeometryBuildQuality(geom, to_quality(self.quality));
+                let vb = sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    sys::RTC_FORMAT_FLOAT3,
+                    12,
+                    vertex_count,
+                ) as *mut [f32; 3];
+                self.device.check()?;
+                if vb.is_null() {
+                    return Err(null_buffer("vertex"));
+                }
+                std::ptr::copy_nonoverlapping(positions.as_ptr(), vb, vertex_count);
+                let ib = sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    sys::RTC_FORMAT_UINT3,
+                    12,
+                    indices.len(),
+                ) as *mut [u32; 3];
+                self.device.check()?;
+                if ib.is_null() {
+                    return Err(null_buffer("index"));
+                }
+                std::ptr::copy_nonoverlapping(indices.as_ptr(), ib, indices.len());
+                sys::rtcCommitGeometry(geom);
+                let id = sys::rtcAttachGeometry(self.raw, geom);
+                self.device.check()?;
+                Ok(id)
+            }
+        })();
+        // SAFETY: the scene holds its own reference once attached; ours is released either way.
+        unsafe { sys::rtcReleaseGeometry(geom) };
+        result
+    }
+
+    /// Builds the BVH. The returned scene is immutable and may be traced from many threads.
+    pub fn commit(mut self) -> Result<Scene, EmbreeError> {
+        // SAFETY: `raw` is a live scene with committed geometries.
+        unsafe { sys::rtcCommitScene(self.raw) };
+        self.device.check()?;
+        let raw = std::mem::replace(&mut self.raw, std::ptr::null_mut());
+        Ok(Scene {
+            device: self.device.clone(),
+            raw,
+        })
+    }
+}
+
+fn to_quality(q: BuildQuality) -> sys::RTCBuildQuality {
+    match q {
+        BuildQuality::Low => sys::RTC_BUILD_QUALITY_LOW,
+        BuildQuality::Medium => sys::RTC_BUILD_QUALITY_MEDIUM,
+        BuildQuality::High => sys::RTC_BUILD_QUALITY_HIGH,
+    }
+}
+
+fn null_buffer(what: &str) -> EmbreeError {
+    EmbreeError {
+        code: sys::RTC_ERROR_OUT_OF_MEMORY,
+        message: format!("rtcSetNewGeometryBuffer returned null for the {what} buffer"),
+    }
+}
+
+/// A committed scene. Queries take `&self` and are safe from any number of threads.
+pub struct Scene {
+    device: Device,
+    raw: sys::RTCScene,
+}
+
+// SAFETY: a committed RTCScene is immutable; Embree documents rtcIntersect1/rtcOccluded1 on a
+// committed scene as thread-safe, and the scene is only released in Drop (exclusive access).
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: `raw` is the scene committed in SceneBuilder::commit, released exactly once.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+    }
+}
+
+/// The closest hit of a ray, as Embree reports it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawHit {
+    pub t: f32,
+    pub geom_id: u32,
+    pub prim_id: u32,
+    /// Barycentric coordinates: p = (1 − u − v)·v0 + u·v1 + v·v2.
+    pub u: f32,
+    pub v: f32,
+    /// Unnormalised geometric normal, (v1 − v0) × (v2 − v0) for triangles.
+    pub ng: [f32; 3],
+}
+
+fn make_ray(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: org[0],
+        org_y: org[1],
+        org_z: org[2],
+        tnear,
+        dir_x: dir[0],
+        dir_y: dir[1],
+        dir_z: dir[2],
+        time: 0.0,
+        tfar,
+        // Embree 4 enables ray masks by default: a zero mask would miss everything.
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+#[cfg(embree3)]
+fn intersect_context() -> sys::RTCIntersectContext {
+    // rtcInitIntersectContext is an inline function bindgen cannot bind; this is its body.
+    let mut ctx = sys::RTCIntersectContext {
+        flags: sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+        ..Default::default()
+    };
+    ctx.filter = None;
+    ctx.instID.fill(INVALID_GEOMETRY_ID);
+    ctx
+}
+
+impl Scene {
+    /// The closest hit along `org + t·dir` for t in `[tnear, tfar]`, if any.
+    #[inline]
+    pub fn intersect(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> Option<RawHit> {
+        let mut rayhit = sys::RTCRayHit {
+            ray: make_ray(org, dir, tnear, tfar),
+            hit: sys::RTCHit {
+                geomID: INVALID_GEOMETRY_ID,
+                primID: INVALID_GEOMETRY_ID,
+                ..Default::default()
+            },
+        };
+        #[cfg(embree3)]
+        {
+            let mut ctx = intersect_context();
+            // SAFETY: the scene is committed; `ctx` and `rayhit` are valid, aligned locals that
+            // Embree reads and writes only during the call.
+            unsafe { sys::rtcIntersect1(self.raw, &mut ctx, &mut rayhit) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: the scene is committed; `rayhit` is a valid, aligned local; null arguments
+            // select Embree 4's defaults.
+            unsafe { sys::rtcIntersect1(self.raw, &mut rayhit, std::ptr::null_mut()) };
+        }
+        if rayhit.hit.geomID == INVALID_GEOMETRY_ID {
+            return None;
+        }
+        Some(RawHit {
+            t: rayhit.ray.tfar,
+            geom_id: rayhit.hit.geomID,
+            prim_id: rayhit.hit.primID,
+            u: rayhit.hit.u,
+            v: rayhit.hit.v,
+            ng: [rayhit.hit.Ng_x, rayhit.hit.Ng_y, rayhit.hit.Ng_z],
+        })
+    }
+
+    /// True when anything lies along `org + t·dir` for t in `[tnear, tfar]`.
+    #[inline]
+    pub fn occluded(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
+        let mut ray = make_ray(org, dir, tnear, tfar);
+        #[cfg(embree3)]
+        {
+            let mut ctx = intersect_context();
+            // SAFETY: the scene is committed; `ctx` and `ray` are valid, aligned locals.
+            unsafe { sys::rtcOccluded1(self.raw, &mut ctx, &mut ray) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: the scene is committed; `ray` is a valid, aligned local; null arguments
+            // select Embree 4's defaults.
+            unsafe { sys::rtcOccluded1(self.raw, &mut ray, std::ptr::null_mut()) };
+        }
+        // Embree sets tfar to -inf when an occluder is found.
+        ray.tfar == f32::NEG_INFINITY
+    }
+
+    /// The Embree device this scene belongs to.
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// Axis-aligned bounds of the committed scene: (lower, upper).
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let mut b = sys::RTCBounds::default();
+        // SAFETY: the scene is committed; `b` is a valid, aligned local.
+        unsafe { sys::rtcGetSceneBounds(self.raw, &mut b) };
+        (
+            [b.lower_x, b.lower_y, b.lower_z],
+            [b.upper_x, b.upper_y, b.upper_z],
+        )
+    }
+}

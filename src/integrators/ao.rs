@@ -1,0 +1,110 @@
+//! Ambient occlusion.
+//!
+//! AO(x) = (1/π) ∫_{H²(n_s)} V(x, ω) cos θ dω, with V = 1 when the ray from x in direction ω
+//! meets nothing within `max_distance` (default: unlimited). A camera ray that misses gives 0.
+//! The Mitsuba equivalent is a white (ρ = 1) Lambertian world under a constant environment of
+//! radiance 1, lit directly only.
+//!
+//! | parameter      | default  | meaning                                                        |
+//! |----------------|----------|----------------------------------------------------------------|
+//! | `max_distance` | ∞        | occluders farther than this are ignored (`--ao-distance`)      |
+//! | `hemisphere`   | cosine   | `cosine`: directions with pdf cos θ/π, estimate V;             |
+//! |                |          | `uniform`: pdf 1/(2π), estimate 2·V·cos θ (same mean, more var) |
+//!
+//! Directions are drawn around the shading normal; one that points below the geometric
+//! surface would enter the object, and counts as occluded. One AO ray per camera sample, an
+//! any-hit query leaving the surface through [`SurfaceInteraction::spawn_ray`].
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::accel::{Accel, Ray};
+use crate::integrators::RayCounts;
+use crate::interaction::SurfaceInteraction;
+use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
+use crate::sampling::{Onb, PixelSampler};
+use crate::scene::Scene;
+
+/// How AO directions are sampled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Hemisphere {
+    #[default]
+    Cosine,
+    Uniform,
+}
+
+impl FromStr for Hemisphere {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "cosine" => Ok(Hemisphere::Cosine),
+            "uniform" => Ok(Hemisphere::Uniform),
+            other => Err(format!(
+                "unknown hemisphere sampling '{other}' (cosine, uniform)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Hemisphere {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Hemisphere::Cosine => "cosine",
+            Hemisphere::Uniform => "uniform",
+        })
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoSettings {
+    pub max_distance: f32,
+    pub hemisphere: Hemisphere,
+}
+
+impl Default for AoSettings {
+    fn default() -> Self {
+        AoSettings {
+            max_distance: f32::INFINITY,
+            hemisphere: Hemisphere::Cosine,
+        }
+    }
+}
+
+/// One AO estimate along the camera ray.
+#[inline]
+pub fn li(
+    scene: &Scene,
+    accel: &Accel,
+    ray: &Ray,
+    sampler: &mut PixelSampler,
+    settings: &AoSettings,
+    rays: &mut RayCounts,
+) -> f32 {
+    rays.camera += 1;
+    let Some(hit) = accel.intersect(ray) else {
+        return 0.0;
+    };
+    let si = SurfaceInteraction::from_hit(scene, ray, &hit);
+
+    // Sample a direction in the shading normal's hemisphere and weight it by cos θ / (π·pdf).
+    let u = sampler.next_2d();
+    let (local, weight) = match settings.hemisphere {
+        Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
+        Hemisphere::Uniform => {
+            let w = square_to_uniform_hemisphere(u);
+            // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
+            (w, 2.0 * w.z)
+        }
+    };
+    let wi = Onb::from_normal(si.ns).to_world(local);
+    // A direction below the geometric surface enters the object: occluded.
+    if wi.dot(si.ng) <= 0.0 || weight == 0.0 {
+        return 0.0;
+    }
+    rays.occlusion += 1;
+    if accel.occluded(&si.spawn_ray(wi, settings.max_distance)) {
+        0.0
+    } else {
+        weight
+    }
+}

@@ -1,0 +1,365 @@
+//! `render`: the strata command line. Parse, load, build, render, write, report.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use strata::accel::{Accel, AccelOptions, Backend, BuildQuality};
+use strata::integrators::{AoSettings, Hemisphere, Integrator, IntegratorKind};
+use strata::render::output::{self, Attr};
+use strata::render::{self, RenderSettings};
+use strata::sampling::sampler::SOBOL_MAX_SPP;
+use strata::sampling::SamplerKind;
+use strata::scene::{self, Camera, LoadOptions};
+
+/// Render a glTF 2.0 scene to a linear float32 EXR (and an sRGB PNG preview).
+#[derive(Parser, Debug)]
+#[command(name = "render", version, about, long_about = None)]
+struct Cli {
+    /// The scene: a .gltf (embedded or external buffers) or .glb file.
+    scene: PathBuf,
+
+    /// Output EXR file [default: the scene's name with .exr, in the current directory].
+    #[arg(short, long, value_name = "FILE.exr")]
+    output: Option<PathBuf>,
+
+    /// Ray tracing backend.
+    #[arg(long, default_value = "embree", value_name = "embree")]
+    backend: Backend,
+
+    /// Light transport algorithm.
+    #[arg(long, default_value = "ao", value_name = "ao")]
+    integrator: IntegratorKind,
+
+    /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
+    #[arg(long, default_value = "sobol", value_name = "random|stratified|sobol")]
+    sampler: SamplerKind,
+
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+
+    /// Random seed; the same seed, scene and settings give the same image on any thread count.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+
+    /// Worker threads [default: all cores].
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+
+    /// Image size [default: 640 wide, height from the camera's aspect ratio, else 640x480].
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
+
+    /// Which camera of the file, in the order the default scene lists them.
+    #[arg(long, value_name = "N")]
+    camera: Option<usize>,
+
+    /// AO: occluders farther than this distance are ignored [default: unlimited].
+    #[arg(long, value_name = "DISTANCE")]
+    ao_distance: Option<f32>,
+
+    /// AO: hemisphere sampling, cosine-weighted or uniform (weighted by cos θ / pdf).
+    #[arg(long, default_value = "cosine", value_name = "cosine|uniform")]
+    hemisphere: Hemisphere,
+
+    /// BVH build quality.
+    #[arg(long, default_value = "medium", value_name = "low|medium|high")]
+    bvh_quality: BuildQuality,
+
+    /// Do not write the PNG preview beside the EXR.
+    #[arg(long)]
+    no_png: bool,
+
+    /// Print the time of each phase and the rays by kind.
+    #[arg(long)]
+    stats: bool,
+
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = 16, hide = true)]
+    tile_size: u32,
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=65536).contains(&n))
+    };
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!(
+            "'{s}': width and height must be integers in 1..=65536"
+        )),
+    }
+}
+
+/// How a successful run ended.
+enum Outcome {
+    Finished,
+    Interrupted,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(Outcome::Finished) => ExitCode::SUCCESS,
+        Ok(Outcome::Interrupted) => ExitCode::from(130),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Ctrl-C: the first stops the render after the tiles in flight and saves the image; the
+/// second exits at once.
+fn install_interrupt_handler() -> Arc<AtomicBool> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let installed = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted twice: exiting without saving");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the tiles in flight and saving the image (Ctrl-C again to quit at once)");
+    });
+    if let Err(e) = installed {
+        eprintln!("warning: cannot install the Ctrl-C handler ({e}); an interrupted render will not be saved");
+    }
+    cancel
+}
+
+fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    PathBuf::from(format!("{stem}.exr"))
+}
+
+fn run(cli: Cli) -> Result<Outcome> {
+    let output = cli
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&cli.scene));
+    output::check_output_path(&output)?;
+    if cli.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    if cli.sampler == SamplerKind::Sobol && cli.spp > SOBOL_MAX_SPP {
+        bail!(
+            "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {})",
+            cli.spp
+        );
+    }
+    let ao_distance = match cli.ao_distance {
+        None => f32::INFINITY,
+        Some(d) if d > 0.0 => d,
+        Some(d) => bail!("--ao-distance must be positive (got {d})"),
+    };
+    let cancel = install_interrupt_handler();
+
+    // Load.
+    let t_load = Instant::now();
+    let scene = scene::load(&cli.scene, &LoadOptions::default())?;
+    let load_time = t_load.elapsed();
+    for w in &scene.load_warnings {
+        eprintln!("warning: {}: {w}", cli.scene.display());
+    }
+
+    // Camera and resolution.
+    let chosen = match cli.camera {
+        Some(i) => Some(scene.cameras.get(i).ok_or_else(|| {
+            anyhow!(
+                "{}: --camera {i}, but the file has {} camera(s)",
+                cli.scene.display(),
+                scene.cameras.len()
+            )
+        })?),
+        None => scene.cameras.first(),
+    };
+    let (width, height) =
+        cli.resolution
+            .unwrap_or_else(|| match chosen.and_then(|c| c.aspect_ratio) {
+                Some(a) => (640, ((640.0 / a).round() as u32).clamp(1, 65536)),
+                None => (640, 480),
+            });
+    let camera = match chosen {
+        Some(c) => c.clone(),
+        None => {
+            eprintln!(
+                "note: {} has no camera; framing the scene's bounding box from +Z with a 45° vertical field of view",
+                cli.scene.display()
+            );
+            Camera::framing(scene.bounds.0, scene.bounds.1, width as f32 / height as f32)
+        }
+    };
+
+    // Acceleration structure.
+    let pool = render::thread_pool(cli.threads).context("cannot start the worker threads")?;
+    let threads = pool.current_num_threads();
+    let t_build = Instant::now();
+    let accel = Accel::build(
+        &scene,
+        &AccelOptions {
+            backend: cli.backend,
+            quality: cli.bvh_quality,
+            threads,
+        },
+    )
+    .with_context(|| format!("{}: building the {} BVH", cli.scene.display(), cli.backend))?;
+    let build_time = t_build.elapsed();
+
+    // Render.
+    let integrator = match cli.integrator {
+        IntegratorKind::Ao => Integrator::Ao(AoSettings {
+            max_distance: ao_distance,
+            hemisphere: cli.hemisphere,
+        }),
+    };
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: cli.spp,
+        seed: cli.seed,
+        sampler: cli.sampler,
+        integrator,
+        tile_size: cli.tile_size,
+    };
+    let progress = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}",
+            )
+            .expect("valid progress template"),
+        );
+        bar.enable_steady_tick(Duration::from_millis(200));
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let result = render::render(
+        &scene, &camera, &accel, &settings, &pool, &progress, &cancel,
+    );
+    progress.finish_and_clear();
+
+    // Write.
+    let t_write = Instant::now();
+    let (spp_min, spp_max) = result.film.count_range();
+    let mut attrs = vec![
+        (
+            "strata:scene".to_string(),
+            Attr::Text(cli.scene.display().to_string()),
+        ),
+        (
+            "strata:integrator".into(),
+            Attr::Text(integrator.kind().to_string()),
+        ),
+        ("strata:sampler".into(), Attr::Text(cli.sampler.to_string())),
+        ("strata:spp".into(), Attr::Int(cli.spp as i32)),
+        ("strata:spp_min".into(), Attr::Int(spp_min as i32)),
+        ("strata:spp_max".into(), Attr::Int(spp_max as i32)),
+        ("strata:seed".into(), Attr::Text(cli.seed.to_string())),
+        ("strata:backend".into(), Attr::Text(accel.describe())),
+        (
+            "strata:render_seconds".into(),
+            Attr::Float(result.stats.seconds as f32),
+        ),
+        (
+            "strata:interrupted".into(),
+            Attr::Int(result.interrupted as i32),
+        ),
+    ];
+    match integrator {
+        Integrator::Ao(ao) => {
+            attrs.push((
+                "strata:hemisphere".into(),
+                Attr::Text(ao.hemisphere.to_string()),
+            ));
+            attrs.push(("strata:ao_distance".into(), Attr::Float(ao.max_distance)));
+        }
+    }
+    output::write_exr(&output, &result.film, &attrs)?;
+    if !cli.no_png {
+        output::write_png(&output.with_extension("png"), &result.film)?;
+    }
+    let write_time = t_write.elapsed();
+
+    // Report.
+    let stats = &result.stats;
+    if stats.bad_samples > 0 {
+        eprintln!(
+            "warning: {} sample(s) were NaN or infinite and left out of the image; first:",
+            stats.bad_samples
+        );
+        for b in &stats.first_bad {
+            eprintln!("  pixel ({}, {}) sample {}: {}", b.x, b.y, b.index, b.value);
+        }
+    }
+    let rays = stats.rays.total();
+    let rays_per_s = rays as f64 / stats.seconds.max(1e-9);
+    println!(
+        "{}: {width}x{height}, {} spp, {:.2} s, {:.2} Mrays, {:.2} Mrays/s{}",
+        output.display(),
+        if spp_min == spp_max {
+            spp_max.to_string()
+        } else {
+            format!("{spp_min}-{spp_max}")
+        },
+        stats.seconds,
+        rays as f64 * 1e-6,
+        rays_per_s * 1e-6,
+        if result.interrupted {
+            " (interrupted)"
+        } else {
+            ""
+        }
+    );
+    if cli.stats {
+        let s = &scene.summary;
+        println!(
+            "scene: {} triangles, {} vertices, {} materials, {} textures, {} emissive triangles, {} lights, {} cameras",
+            s.triangles,
+            s.vertices,
+            scene.materials.len(),
+            s.textures,
+            s.emissive_triangles,
+            s.punctual_lights,
+            s.cameras
+        );
+        println!("backend: {}, {threads} threads", accel.describe());
+        println!(
+            "time: load {:.3} s, BVH build {:.3} s, render {:.3} s, write {:.3} s",
+            load_time.as_secs_f64(),
+            build_time.as_secs_f64(),
+            stats.seconds,
+            write_time.as_secs_f64()
+        );
+        println!(
+            "rays: {} camera, {} occlusion, {} total, {:.3} Mrays/s",
+            stats.rays.camera,
+            stats.rays.occlusion,
+            rays,
+            rays_per_s * 1e-6
+        );
+    }
+    Ok(if result.interrupted {
+        eprintln!("saved the image rendered so far ({spp_min}-{spp_max} samples per pixel)");
+        Outcome::Interrupted
+    } else {
+        Outcome::Finished
+    })
+}

@@ -1,0 +1,269 @@
+//! The parallel frontend: the image is cut into tiles that rayon renders in passes of
+//! samples; a film accumulates each pixel's samples in sample-index order, so the image is
+//! bit-identical whatever the thread count.
+//!
+//! Passes split the samples per pixel into up to [`MAX_PASSES`] ranges. Between passes (and
+//! before each tile) the render checks its cancel flag, so an interrupted render still holds
+//! a usable image, with the number of samples each pixel received.
+
+pub mod film;
+pub mod output;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use glam::Vec3;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use crate::accel::Accel;
+use crate::integrators::{Integrator, RayCounts};
+use crate::sampling::{PixelSampler, SamplerKind};
+use crate::scene::{Camera, Scene};
+pub use film::{BadSample, Film};
+
+/// Most passes a render is split into.
+pub const MAX_PASSES: u32 = 16;
+/// How many NaN/Inf samples are kept for the report.
+pub const BAD_SAMPLES_KEPT: usize = 8;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    pub sampler: SamplerKind,
+    pub integrator: Integrator,
+    pub tile_size: u32,
+}
+
+/// What a render did, besides the image.
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub rays: RayCounts,
+    pub seconds: f64,
+    /// Samples rejected because their value was NaN or infinite.
+    pub bad_samples: u64,
+    /// The first few of them, in pixel order, for replay.
+    pub first_bad: Vec<BadSample>,
+}
+
+pub struct RenderResult {
+    pub film: Film,
+    pub stats: RenderStats,
+    /// True when the cancel flag stopped the render early.
+    pub interrupted: bool,
+}
+
+/// A rayon pool whose workers all run with flush-to-zero and denormals-are-zero, as Embree
+/// asks. `threads = 0` uses every core.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, rayon::ThreadPoolBuildError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("strata-worker-{i}"))
+        .start_handler(|_| crate::embree::enable_ftz_daz())
+        .build()
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
+    let size = size.max(1);
+    let mut out = Vec::new();
+    for y0 in (0..height).step_by(size as usize) {
+        for x0 in (0..width).step_by(size as usize) {
+            out.push(Tile {
+                x0,
+                y0,
+                x1: (x0 + size).min(width),
+                y1: (y0 + size).min(height),
+            });
+        }
+    }
+    out
+}
+
+/// Sample-index ranges of the passes: `spp` split into at most [`MAX_PASSES`] near-equal parts.
+pub fn passes(spp: u32) -> Vec<(u32, u32)> {
+    let n = spp.clamp(1, MAX_PASSES);
+    (0..n)
+        .map(|i| {
+            let a = (spp as u64 * i as u64 / n as u64) as u32;
+            let b = (spp as u64 * (i as u64 + 1) / n as u64) as u32;
+            (a, b)
+        })
+        .filter(|(a, b)| b > a)
+        .collect()
+}
+
+struct TileResult {
+    sums: Vec<[f64; 3]>,
+    rays: RayCounts,
+    bad: u64,
+    first_bad: Vec<BadSample>,
+}
+
+fn render_tile(
+    scene: &Scene,
+    camera: &Camera,
+    accel: &Accel,
+    settings: &RenderSettings,
+    tile: Tile,
+    samples: (u32, u32),
+) -> TileResult {
+    let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+    let mut rays = RayCounts::default();
+    let mut sums = Vec::with_capacity(((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize);
+    let mut bad = 0;
+    let mut first_bad = Vec::new();
+    for y in tile.y0..tile.y1 {
+        for x in tile.x0..tile.x1 {
+            let mut sum = [0f64; 3];
+            for index in samples.0..samples.1 {
+                sampler.start(x, y, index);
+                // The first two dimensions place the sample on the film.
+                let film_uv = sampler.next_2d();
+                let ray = camera.generate_ray(
+                    x as f32 + film_uv.x,
+                    y as f32 + film_uv.y,
+                    settings.width,
+                    settings.height,
+                );
+                let l: Vec3 = settings
+                    .integrator
+                    .li(scene, accel, &ray, &mut sampler, &mut rays);
+                if l.is_finite() {
+                    sum[0] += l.x as f64;
+                    sum[1] += l.y as f64;
+                    sum[2] += l.z as f64;
+                } else {
+                    bad += 1;
+                    if first_bad.len() < BAD_SAMPLES_KEPT {
+                        first_bad.push(BadSample {
+                            x,
+                            y,
+                            index,
+                            value: l,
+                        });
+                    }
+                }
+            }
+            sums.push(sum);
+        }
+    }
+    TileResult {
+        sums,
+        rays,
+        bad,
+        first_bad,
+    }
+}
+
+/// Renders `scene` as seen by `camera` on `pool`. The progress bar counts tile passes;
+/// `cancel` stops the render between tiles.
+pub fn render(
+    scene: &Scene,
+    camera: &Camera,
+    accel: &Accel,
+    settings: &RenderSettings,
+    pool: &rayon::ThreadPool,
+    progress: &ProgressBar,
+    cancel: &AtomicBool,
+) -> RenderResult {
+    let start = Instant::now();
+    let tiles = tiles(settings.width, settings.height, settings.tile_size);
+    let passes = passes(settings.spp);
+    progress.set_length((tiles.len() * passes.len()) as u64);
+    let mut film = Film::new(settings.width, settings.height);
+    let mut stats = RenderStats::default();
+    let mut interrupted = false;
+
+    for &pass in &passes {
+        if cancel.load(Ordering::Relaxed) {
+            interrupted = true;
+            break;
+        }
+        let results: Vec<Option<TileResult>> = pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|&tile| {
+                    if cancel.load(Ordering::Relaxed) {
+                        return None;
+                    }
+                    let r = render_tile(scene, camera, accel, settings, tile, pass);
+                    progress.inc(1);
+                    Some(r)
+                })
+                .collect()
+        });
+        // Merge in tile order: each pixel's sum grows pass by pass in sample order.
+        for (tile, result) in tiles.iter().zip(results) {
+            let Some(result) = result else {
+                interrupted = true;
+                continue;
+            };
+            let mut sums = result.sums.into_iter();
+            for y in tile.y0..tile.y1 {
+                for x in tile.x0..tile.x1 {
+                    let sum = sums.next().expect("one sum per tile pixel");
+                    film.add(x, y, sum, pass.1 - pass.0);
+                }
+            }
+            stats.rays.add(&result.rays);
+            stats.bad_samples += result.bad;
+            for b in result.first_bad {
+                if stats.first_bad.len() < BAD_SAMPLES_KEPT {
+                    stats.first_bad.push(b);
+                }
+            }
+        }
+        if interrupted {
+            break;
+        }
+    }
+    stats.seconds = start.elapsed().as_secs_f64();
+    RenderResult {
+        film,
+        stats,
+        interrupted,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_cover_every_sample_once() {
+        for spp in [1u32, 2, 7, 16, 17, 100, 1024] {
+            let p = passes(spp);
+            assert!(p.len() as u32 <= MAX_PASSES);
+            assert_eq!(p.first().unwrap().0, 0);
+            assert_eq!(p.last().unwrap().1, spp);
+            for w in p.windows(2) {
+                assert_eq!(w[0].1, w[1].0);
+            }
+        }
+    }
+
+    #[test]
+    fn tiles_cover_the_image_once() {
+        let (w, h) = (37, 21);
+        let mut seen = vec![0u32; (w * h) as usize];
+        for t in tiles(w, h, 8) {
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    seen[(y * w + x) as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1));
+    }
+}

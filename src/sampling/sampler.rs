@@ -1,0 +1,183 @@
+//! Per-pixel samplers, addressed by (pixel, sample index, dimension).
+//!
+//! A renderer calls [`PixelSampler::start`] for one sample of one pixel and then draws
+//! [`PixelSampler::next_1d`] / [`PixelSampler::next_2d`] in a fixed order; the i-th call is the
+//! sample's i-th *dimension slot*. Every value is a pure function of (seed, pixel, sample
+//! index, slot), so the image is the same whatever thread renders which pixel.
+//!
+//! | kind         | what it is                                                               |
+//! |--------------|--------------------------------------------------------------------------|
+//! | `random`     | independent uniform numbers from a counter-based hash (SplitMix64)       |
+//! | `stratified` | correlated multi-jittered sampling (Kensler 2013) in each 2D slot: one   |
+//! |              | sample per cell of an m×n grid, m·n ≥ spp, and one per 1/spp column and  |
+//! |              | row when spp = m·n; 1D slots are jittered 1/spp strata. Any spp works.   |
+//! |              | Each slot permutes its strata with its own key, so slots are decorrelated|
+//! | `sobol`      | Owen-scrambled Sobol (Burley 2020, the `sobol_burley` crate): every slot |
+//! |              | uses the first two Sobol dimensions, a (0,2)-sequence, with its own      |
+//! |              | scramble and index shuffle (Burley's padding); at most 65 536 spp.       |
+
+use glam::Vec2;
+use std::fmt;
+use std::str::FromStr;
+
+use super::hash::{hash_words, permute, u32_to_unit_f32, unit_f32};
+
+/// The most samples per pixel the `sobol` sampler supports (`sobol_burley`'s 2^16 limit).
+pub const SOBOL_MAX_SPP: u32 = 1 << 16;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    Random,
+    #[default]
+    Stratified,
+    Sobol,
+}
+
+impl FromStr for SamplerKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "random" => Ok(SamplerKind::Random),
+            "stratified" => Ok(SamplerKind::Stratified),
+            "sobol" => Ok(SamplerKind::Sobol),
+            other => Err(format!(
+                "unknown sampler '{other}' (random, stratified, sobol)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for SamplerKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SamplerKind::Random => "random",
+            SamplerKind::Stratified => "stratified",
+            SamplerKind::Sobol => "sobol",
+        })
+    }
+}
+
+/// The sample generator of one thread; cheap to create and to restart per pixel sample.
+#[derive(Clone, Debug)]
+pub struct PixelSampler {
+    kind: SamplerKind,
+    seed: u64,
+    spp: u32,
+    /// Grid of the 2D stratified pattern: m columns × n rows, m·n ≥ spp.
+    grid_m: u32,
+    grid_n: u32,
+    pixel_key: u64,
+    index: u32,
+    slot: u32,
+}
+
+impl PixelSampler {
+    /// A sampler for `spp` samples per pixel.
+    pub fn new(kind: SamplerKind, spp: u32, seed: u64) -> PixelSampler {
+        let spp = spp.max(1);
+        // Kensler's grid for a square pixel: m = ⌊√N⌋ columns, n = ⌈N/m⌉ rows.
+        let m = ((spp as f64).sqrt().floor() as u32).max(1);
+        let n = spp.div_ceil(m);
+        PixelSampler {
+            kind,
+            seed,
+            spp,
+            grid_m: m,
+            grid_n: n,
+            pixel_key: 0,
+            index: 0,
+            slot: 0,
+        }
+    }
+
+    pub fn kind(&self) -> SamplerKind {
+        self.kind
+    }
+
+    /// Begins sample `index` of pixel (x, y).
+    #[inline]
+    pub fn start(&mut self, x: u32, y: u32, index: u32) {
+        self.pixel_key = hash_words(&[self.seed, ((y as u64) << 32) | x as u64]);
+        self.index = index;
+        self.slot = 0;
+    }
+
+    /// The key of the current dimension slot, and advance to the next.
+    #[inline]
+    fn next_slot_key(&mut self) -> u64 {
+        let key = hash_words(&[self.pixel_key, self.slot as u64]);
+        self.slot += 1;
+        key
+    }
+
+    #[inline]
+    pub fn next_1d(&mut self) -> f32 {
+        let key = self.next_slot_key();
+        match self.kind {
+            SamplerKind::Random => unit_f32(hash_words(&[key, self.index as u64])),
+            SamplerKind::Stratified => {
+                if self.index >= self.spp {
+                    return unit_f32(hash_words(&[key, self.index as u64]));
+                }
+                let stratum = permute(self.index, self.spp, key as u32);
+                let jitter = unit_f32(hash_words(&[key ^ 0x5851_f42d, self.index as u64]));
+                ((stratum as f32 + jitter) / self.spp as f32).min(ONE_MINUS_EPSILON)
+            }
+            SamplerKind::Sobol => sobol_open(self.index, 0, (key >> 32) as u32),
+        }
+    }
+
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        let key = self.next_slot_key();
+        match self.kind {
+            SamplerKind::Random => {
+                let h = hash_words(&[key, self.index as u64]);
+                Vec2::new(u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32))
+            }
+            SamplerKind::Stratified => self.cmj_2d(key),
+            SamplerKind::Sobol => {
+                let seed = (key >> 32) as u32;
+                Vec2::new(
+                    sobol_open(self.index, 0, seed),
+                    sobol_open(self.index, 1, seed),
+                )
+            }
+        }
+    }
+
+    /// Correlated multi-jittered sample (Kensler 2013, §4–5): the sample's cell in the m×n
+    /// grid is a permutation of its index; within the cell, the sub-column and sub-row come
+    /// from permutations shared by each row and column, which gives the n-rooks property
+    /// over spp = m·n columns and rows.
+    #[inline]
+    fn cmj_2d(&self, key: u64) -> Vec2 {
+        let (m, n) = (self.grid_m, self.grid_n);
+        if self.index >= self.spp {
+            let h = hash_words(&[key, self.index as u64]);
+            return Vec2::new(u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
+        }
+        let k = key as u32;
+        let k2 = (key >> 32) as u32;
+        let s = permute(self.index, self.spp, k);
+        let (col, row) = (s % m, s / m);
+        let sub_x = permute(row, n, k2 ^ 0x68bc_21eb);
+        let sub_y = permute(col, m, k2 ^ 0x02e5_be93);
+        let h = hash_words(&[key ^ 0x967a_889b, s as u64]);
+        let (jx, jy) = (u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
+        let x = (col as f32 + (sub_x as f32 + jx) / n as f32) / m as f32;
+        let y = (row as f32 + (sub_y as f32 + jy) / m as f32) / n as f32;
+        Vec2::new(x.min(ONE_MINUS_EPSILON), y.min(ONE_MINUS_EPSILON))
+    }
+}
+
+/// `sobol_burley` returns multiples of 2^-23 in [0, 1); moving each to the centre of its
+/// 2^-23 cell keeps every elementary interval (all are coarser) and excludes 0 exactly, as
+/// the other samplers do.
+#[inline]
+fn sobol_open(index: u32, dimension: u32, seed: u32) -> f32 {
+    sobol_burley::sample(index, dimension, seed) + 0.5 / (1u32 << 23) as f32
+}
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;

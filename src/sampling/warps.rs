@@ -1,0 +1,228 @@
+//! Warps from the unit square [0, 1)² to directions and points, each with its pdf and, where
+//! it exists, its inverse. Local frames have z along the normal.
+//!
+//! References: Shirley & Chiu, "A Low Distortion Map Between Disk and Square" (1997) for the
+//! concentric disk; Malley's method (cosine hemisphere = disk lifted to the hemisphere);
+//! pbrt-v4 §A.5 for the pdfs.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+/// Uniform direction on the hemisphere z ≥ 0; pdf 1/(2π) per steradian.
+#[inline]
+pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (TAU * u.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+#[inline]
+pub fn uniform_hemisphere_pdf(v: Vec3) -> f32 {
+    if v.z >= 0.0 {
+        0.5 * FRAC_1_PI
+    } else {
+        0.0
+    }
+}
+
+pub fn uniform_hemisphere_to_square(v: Vec3) -> Vec2 {
+    Vec2::new(v.z, azimuth_fraction(v))
+}
+
+/// Concentric map of the square onto the unit disk (Shirley & Chiu 1997).
+#[inline]
+pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    let (s, c) = theta.sin_cos();
+    r * Vec2::new(c, s)
+}
+
+/// Inverse of [`square_to_concentric_disk`].
+pub fn concentric_disk_to_square(p: Vec2) -> Vec2 {
+    let r = p.length();
+    if r == 0.0 {
+        return Vec2::splat(0.5);
+    }
+    // φ in (−π/4, 7π/4]: the four wedges of the forward map.
+    let mut phi = p.y.atan2(p.x);
+    if phi < -FRAC_PI_4 {
+        phi += TAU;
+    }
+    let (a, b) = if phi < FRAC_PI_4 {
+        // Right wedge: o = (r, r·φ/(π/4)).
+        (r, r * phi / FRAC_PI_4)
+    } else if phi < 3.0 * FRAC_PI_4 {
+        // Top wedge: o.y = r, o.x = r·(π/2 − φ)/(π/4).
+        (r * (FRAC_PI_2 - phi) / FRAC_PI_4, r)
+    } else if phi < 5.0 * FRAC_PI_4 {
+        // Left wedge: o.x = −r, θ = φ − π.
+        (-r, -r * (phi - PI) / FRAC_PI_4)
+    } else {
+        // Bottom wedge: o.y = −r, θ = φ − π.
+        (-r * (FRAC_PI_2 - (phi - PI)) / FRAC_PI_4, -r)
+    };
+    (Vec2::new(a, b) + Vec2::ONE) * 0.5
+}
+
+/// Cosine-weighted direction on the hemisphere z ≥ 0 (Malley's method on the concentric
+/// disk); pdf cos θ / π.
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(v: Vec3) -> f32 {
+    v.z.max(0.0) * FRAC_1_PI
+}
+
+pub fn cosine_hemisphere_to_square(v: Vec3) -> Vec2 {
+    concentric_disk_to_square(Vec2::new(v.x, v.y))
+}
+
+/// Uniform direction on the unit sphere; pdf 1/(4π).
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (TAU * u.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+#[inline]
+pub fn uniform_sphere_pdf() -> f32 {
+    0.25 * FRAC_1_PI
+}
+
+pub fn uniform_sphere_to_square(v: Vec3) -> Vec2 {
+    Vec2::new((1.0 - v.z) * 0.5, azimuth_fraction(v))
+}
+
+/// Uniform direction in the cone of half-angle θmax around +z; pdf 1/(2π(1 − cos θmax)).
+#[inline]
+pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
+    let z = 1.0 - u.x * (1.0 - cos_theta_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (TAU * u.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(v: Vec3, cos_theta_max: f32) -> f32 {
+    if v.z >= cos_theta_max {
+        1.0 / (TAU * (1.0 - cos_theta_max))
+    } else {
+        0.0
+    }
+}
+
+pub fn uniform_cone_to_square(v: Vec3, cos_theta_max: f32) -> Vec2 {
+    Vec2::new((1.0 - v.z) / (1.0 - cos_theta_max), azimuth_fraction(v))
+}
+
+/// Uniform barycentrics (b0, b1) on a triangle, b2 = 1 − b0 − b1 (pbrt-v4 §A.5.5's
+/// square-root mapping); the pdf with respect to area is 1/area.
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let s = u.x.sqrt();
+    Vec2::new(1.0 - s, u.y * s)
+}
+
+pub fn uniform_triangle_to_square(b: Vec2) -> Vec2 {
+    let s = 1.0 - b.x;
+    Vec2::new(s * s, if s > 0.0 { b.y / s } else { 0.0 })
+}
+
+/// φ/(2π) in [0, 1) of a direction's azimuth.
+fn azimuth_fraction(v: Vec3) -> f32 {
+    let mut phi = v.y.atan2(v.x);
+    if phi < 0.0 {
+        phi += TAU;
+    }
+    (phi / TAU).min(1.0 - f32::EPSILON / 2.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> impl Iterator<Item = Vec2> {
+        (1..40).flat_map(|i| (1..40).map(move |j| Vec2::new(i as f32 / 40.0, j as f32 / 40.0)))
+    }
+
+    #[test]
+    fn warps_round_trip_through_their_inverses() {
+        for u in grid() {
+            let checks = [
+                (
+                    "uniform hemisphere",
+                    uniform_hemisphere_to_square(square_to_uniform_hemisphere(u)),
+                ),
+                (
+                    "cosine hemisphere",
+                    cosine_hemisphere_to_square(square_to_cosine_hemisphere(u)),
+                ),
+                (
+                    "uniform sphere",
+                    uniform_sphere_to_square(square_to_uniform_sphere(u)),
+                ),
+                (
+                    "uniform cone",
+                    uniform_cone_to_square(square_to_uniform_cone(u, 0.3), 0.3),
+                ),
+                (
+                    "uniform triangle",
+                    uniform_triangle_to_square(square_to_uniform_triangle(u)),
+                ),
+            ];
+            for (name, back) in checks {
+                assert!(
+                    (back - u).abs().max_element() < 2e-4,
+                    "{name}: {u} -> {back}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn directions_are_unit_and_in_their_domain() {
+        for u in grid().chain([
+            Vec2::ZERO,
+            Vec2::ONE,
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 1.0),
+        ]) {
+            for (name, v, pdf) in [
+                (
+                    "uniform hemisphere",
+                    square_to_uniform_hemisphere(u),
+                    uniform_hemisphere_pdf(square_to_uniform_hemisphere(u)),
+                ),
+                ("cosine hemisphere", square_to_cosine_hemisphere(u), 1.0),
+                (
+                    "uniform sphere",
+                    square_to_uniform_sphere(u),
+                    uniform_sphere_pdf(),
+                ),
+            ] {
+                assert!((v.length() - 1.0).abs() < 1e-5, "{name}({u}) = {v}");
+                assert!(v.is_finite() && pdf.is_finite() && pdf > 0.0, "{name}({u})");
+            }
+            assert!(square_to_uniform_hemisphere(u).z >= 0.0);
+            assert!(square_to_cosine_hemisphere(u).z >= 0.0);
+            let d = square_to_concentric_disk(u);
+            assert!(d.length() <= 1.0 + 1e-6);
+        }
+    }
+}

@@ -1,0 +1,73 @@
+//! Cameras: glTF perspective and orthographic projections, and the framing camera used when a
+//! file has none.
+
+use glam::{Mat4, Vec3};
+
+use crate::accel::Ray;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in radians.
+    Perspective { yfov: f32 },
+    /// Half-height of the view volume in scene units (glTF `ymag`).
+    Orthographic { ymag: f32 },
+}
+
+/// A camera in world space. It looks down its local −Z with +Y up (glTF convention); the
+/// image's aspect ratio comes from the output resolution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub name: Option<String>,
+    pub projection: Projection,
+    /// Camera-to-world transform (rotation and translation; any scale is divided out of
+    /// ray directions by normalisation).
+    pub to_world: Mat4,
+    /// glTF `aspectRatio`, if the file gives one (used for the default resolution).
+    pub aspect_ratio: Option<f32>,
+}
+
+impl Camera {
+    /// The camera that frames bounds `(lo, hi)` from +Z with a 45° vertical field of view,
+    /// for files without a camera (DESIGN.md): the bounding sphere fits in the smaller of the
+    /// vertical and horizontal fields of view.
+    pub fn framing(lo: Vec3, hi: Vec3, aspect: f32) -> Camera {
+        let yfov = 45f32.to_radians();
+        let center = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-6);
+        let half_vertical = 0.5 * yfov;
+        let half_horizontal = (half_vertical.tan() * aspect).atan();
+        let half = half_vertical.min(half_horizontal);
+        let distance = radius / half.sin();
+        Camera {
+            name: Some("framing camera".into()),
+            projection: Projection::Perspective { yfov },
+            to_world: Mat4::from_translation(center + Vec3::new(0.0, 0.0, distance)),
+            aspect_ratio: None,
+        }
+    }
+
+    /// The primary ray through film position (fx, fy), in pixels from the top-left corner of
+    /// a `width × height` image.
+    #[inline]
+    pub fn generate_ray(&self, fx: f32, fy: f32, width: u32, height: u32) -> Ray {
+        let aspect = width as f32 / height as f32;
+        // Film position → normalised device coordinates in [-1, 1], +y up.
+        let ndc_x = 2.0 * fx / width as f32 - 1.0;
+        let ndc_y = 1.0 - 2.0 * fy / height as f32;
+        match self.projection {
+            Projection::Perspective { yfov } => {
+                let tan_half = (0.5 * yfov).tan();
+                let d = Vec3::new(ndc_x * tan_half * aspect, ndc_y * tan_half, -1.0);
+                let org = self.to_world.transform_point3(Vec3::ZERO);
+                let dir = self.to_world.transform_vector3(d).normalize();
+                Ray::new(org, dir)
+            }
+            Projection::Orthographic { ymag } => {
+                let local = Vec3::new(ndc_x * ymag * aspect, ndc_y * ymag, 0.0);
+                let org = self.to_world.transform_point3(local);
+                let dir = self.to_world.transform_vector3(Vec3::NEG_Z).normalize();
+                Ray::new(org, dir)
+            }
+        }
+    }
+}
