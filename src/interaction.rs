@@ -137,7 +137,11 @@ mod tests {
             assert!(up.y > c && down.y < c, "c={c}: {up} {down}");
             assert_eq!((up.x, up.z), (c, c), "only the normal's axis moves");
             let scale = c.abs() + extent;
-            assert!((up.y - c) / scale < 1e-5, "offset too large at {c}: {}", up.y - c);
+            assert!(
+                (up.y - c) / scale < 1e-5,
+                "offset too large at {c}: {}",
+                up.y - c
+            );
         }
     }
 }

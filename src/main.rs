@@ -50,7 +50,7 @@ struct Cli {
     #[arg(long, default_value_t = 0)]
     seed: u64,
 
-    /// Worker threads [default: all cores].
+    /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
 

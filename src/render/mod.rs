@@ -2,9 +2,9 @@
 //! samples; a film accumulates each pixel's samples in sample-index order, so the image is
 //! bit-identical whatever the thread count.
 //!
-//! Passes split the samples per pixel into up to [`MAX_PASSES`] ranges. Between passes (and
-//! before each tile) the render checks its cancel flag, so an interrupted render still holds
-//! a usable image, with the number of samples each pixel received.
+//! Passes split the samples per pixel into ranges of doubling size ([`passes`]). Between
+//! passes (and before each tile) the render checks its cancel flag, so an interrupted render
+//! still holds a usable image, with the number of samples each pixel received.
 
 pub mod film;
 pub mod output;
@@ -22,8 +22,6 @@ use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::{Camera, Scene};
 pub use film::{BadSample, Film};
 
-/// Most passes a render is split into.
-pub const MAX_PASSES: u32 = 16;
 /// How many NaN/Inf samples are kept for the report.
 pub const BAD_SAMPLES_KEPT: usize = 8;
 
@@ -90,17 +88,22 @@ fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
     out
 }
 
-/// Sample-index ranges of the passes: `spp` split into at most [`MAX_PASSES`] near-equal parts.
+/// Sample-index ranges of the passes: 1, 1, 2, 4, 8, … samples, doubling until `spp` is
+/// covered (the last pass takes the remainder). An interrupted render thus has every pixel
+/// sampled after the first pass, and at least half of its samples when stopped in the last.
 pub fn passes(spp: u32) -> Vec<(u32, u32)> {
-    let n = spp.clamp(1, MAX_PASSES);
-    (0..n)
-        .map(|i| {
-            let a = (spp as u64 * i as u64 / n as u64) as u32;
-            let b = (spp as u64 * (i as u64 + 1) / n as u64) as u32;
-            (a, b)
-        })
-        .filter(|(a, b)| b > a)
-        .collect()
+    let mut out = Vec::new();
+    let mut start = 0u32;
+    let mut size = 1u32;
+    while start < spp {
+        let end = start.saturating_add(size).min(spp);
+        out.push((start, end));
+        if out.len() > 1 {
+            size = size.saturating_mul(2);
+        }
+        start = end;
+    }
+    out
 }
 
 struct TileResult {
@@ -242,9 +245,11 @@ mod tests {
 
     #[test]
     fn passes_cover_every_sample_once() {
-        for spp in [1u32, 2, 7, 16, 17, 100, 1024] {
+        for spp in [1u32, 2, 7, 16, 17, 100, 1024, 100_000, u32::MAX] {
             let p = passes(spp);
-            assert!(p.len() as u32 <= MAX_PASSES);
+            // Doubling sizes: about log2(spp) + 2 passes.
+            assert!(p.len() as u32 <= 34, "{spp}: {} passes", p.len());
+            assert_eq!(p[0], (0, 1));
             assert_eq!(p.first().unwrap().0, 0);
             assert_eq!(p.last().unwrap().1, spp);
             for w in p.windows(2) {

@@ -121,7 +121,7 @@ impl PixelSampler {
                 }
                 let stratum = permute(self.index, self.spp, key as u32);
                 let jitter = unit_f32(hash_words(&[key ^ 0x5851_f42d, self.index as u64]));
-                ((stratum as f32 + jitter) / self.spp as f32).min(ONE_MINUS_EPSILON)
+                in_stratum(stratum, jitter, self.spp)
             }
             SamplerKind::Sobol => sobol_open(self.index, 0, (key >> 32) as u32),
         }
@@ -165,9 +165,25 @@ impl PixelSampler {
         let sub_y = permute(col, m, k2 ^ 0x02e5_be93);
         let h = hash_words(&[key ^ 0x967a_889b, s as u64]);
         let (jx, jy) = (u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
-        let x = (col as f32 + (sub_x as f32 + jx) / n as f32) / m as f32;
-        let y = (row as f32 + (sub_y as f32 + jy) / m as f32) / n as f32;
-        Vec2::new(x.min(ONE_MINUS_EPSILON), y.min(ONE_MINUS_EPSILON))
+        // (col + (sub_x + jx)/n)/m = (col·n + sub_x + jx)/(m·n): the fine column is an integer.
+        let x = in_stratum(col * n + sub_x, jx, m * n);
+        let y = in_stratum(row * m + sub_y, jy, m * n);
+        Vec2::new(x, y)
+    }
+}
+
+/// (k + jitter)/count as an f32 that lies in stratum k, [k/count, (k+1)/count): computed in
+/// f64 and nudged by one ulp where rounding to f32 would cross a stratum edge.
+#[inline]
+fn in_stratum(k: u32, jitter: f32, count: u32) -> f32 {
+    let count = count as f64;
+    let v = ((k as f64 + jitter as f64) / count) as f32;
+    if v as f64 >= (k as f64 + 1.0) / count {
+        v.next_down()
+    } else if (v as f64) < k as f64 / count {
+        v.next_up()
+    } else {
+        v
     }
 }
 
@@ -178,6 +194,3 @@ impl PixelSampler {
 fn sobol_open(index: u32, dimension: u32, seed: u32) -> f32 {
     sobol_burley::sample(index, dimension, seed) + 0.5 / (1u32 << 23) as f32
 }
-
-/// The largest f32 below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;

@@ -1,0 +1,234 @@
+//! Embree through strata's FFI layer: known rays against known triangles, both through the
+//! raw wrapper (`strata::embree`) and the backend-neutral `Accel`.
+
+use glam::{Vec2, Vec3};
+use strata::accel::{Accel, AccelOptions, Ray};
+use strata::embree::{self, BuildQuality, Device, SceneBuilder, SceneOptions};
+use strata::scene::Scene;
+
+/// Triangle 0: (0,0,0) (1,0,0) (0,1,0), counter-clockwise seen from +z.
+/// Triangle 1: (0,0,−1) (2,0,−1) (0,2,−1), below it and larger.
+fn two_triangles() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    (
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, -1.0],
+            [2.0, 0.0, -1.0],
+            [0.0, 2.0, -1.0],
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    )
+}
+
+fn raw_scene(robust: bool) -> embree::Scene {
+    let device = Device::new("verbose=0").expect("Embree device");
+    let mut builder = SceneBuilder::new(
+        &device,
+        SceneOptions {
+            quality: BuildQuality::Medium,
+            robust,
+            compact: false,
+        },
+    )
+    .expect("scene");
+    let (p, i) = two_triangles();
+    let id = builder.attach_triangles(&p, &i).expect("attach");
+    assert_eq!(id, 0);
+    builder.commit().expect("commit")
+}
+
+fn scene_of(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Scene {
+    let mut s = Scene {
+        positions: positions.iter().map(|p| Vec3::from_array(*p)).collect(),
+        normals: vec![Vec3::ZERO; positions.len()],
+        uvs: vec![Vec2::ZERO; positions.len()],
+        triangles: triangles.to_vec(),
+        triangle_materials: vec![0; triangles.len()],
+        materials: vec![Default::default()],
+        ..Default::default()
+    };
+    s.update_summary();
+    s
+}
+
+fn close(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-6 * (1.0 + b.abs())
+}
+
+#[test]
+fn closest_hits_report_t_primitive_barycentrics_and_normal() {
+    for robust in [false, true] {
+        let scene = raw_scene(robust);
+        let down = [0.0, 0.0, -1.0];
+
+        let h = scene
+            .intersect([0.25, 0.25, 1.0], down, 0.0, f32::INFINITY)
+            .expect("hits triangle 0");
+        assert_eq!((h.geom_id, h.prim_id), (0, 0));
+        assert!(
+            close(h.t, 1.0) && close(h.u, 0.25) && close(h.v, 0.25),
+            "{h:?}"
+        );
+        // Counter-clockwise from +z: the geometric normal points to +z.
+        assert!(
+            h.ng[2] > 0.0 && h.ng[0].abs() < 1e-6 && h.ng[1].abs() < 1e-6,
+            "{h:?}"
+        );
+
+        // Outside triangle 0 (u + v > 1) but inside triangle 1: p = u·(2,0) + v·(0,2).
+        let h = scene
+            .intersect([0.8, 0.8, 1.0], down, 0.0, f32::INFINITY)
+            .expect("hits triangle 1");
+        assert_eq!(h.prim_id, 1);
+        assert!(
+            close(h.t, 2.0) && close(h.u, 0.4) && close(h.v, 0.4),
+            "{h:?}"
+        );
+
+        // From below, the normal still names the front side.
+        let h = scene
+            .intersect([0.25, 0.25, -0.5], [0.0, 0.0, 1.0], 0.0, f32::INFINITY)
+            .expect("hits triangle 0 from below");
+        assert_eq!(h.prim_id, 0);
+        assert!(close(h.t, 0.5) && h.ng[2] > 0.0, "{h:?}");
+
+        // Misses: beside both triangles, and pointing away.
+        assert!(scene
+            .intersect([5.0, 5.0, 1.0], down, 0.0, f32::INFINITY)
+            .is_none());
+        assert!(scene
+            .intersect([0.25, 0.25, 1.0], [0.0, 0.0, 1.0], 0.0, f32::INFINITY)
+            .is_none());
+        // t_min skips triangle 0 and finds triangle 1.
+        let h = scene
+            .intersect([0.25, 0.25, 1.0], down, 1.5, f32::INFINITY)
+            .expect("skips the first");
+        assert_eq!(h.prim_id, 1);
+        // t_max stops short of both.
+        assert!(scene
+            .intersect([0.25, 0.25, 1.0], down, 0.0, 0.99)
+            .is_none());
+    }
+}
+
+#[test]
+fn any_hit_respects_t_max_and_t_min() {
+    let scene = raw_scene(true);
+    let org = [0.25, 0.25, 1.0];
+    let down = [0.0, 0.0, -1.0];
+    assert!(
+        !scene.occluded(org, down, 0.0, 0.99),
+        "triangle 0 lies at t = 1"
+    );
+    assert!(scene.occluded(org, down, 0.0, 1.01));
+    assert!(scene.occluded(org, down, 1.5, 2.5), "triangle 1 at t = 2");
+    assert!(!scene.occluded(org, down, 1.5, 1.9));
+    assert!(!scene.occluded([5.0, 5.0, 1.0], down, 0.0, f32::INFINITY));
+}
+
+#[test]
+fn accel_follows_the_backend_neutral_contract() {
+    let (p, i) = two_triangles();
+    let scene = scene_of(&p, &i);
+    let accel = Accel::build(&scene, &AccelOptions::default()).expect("accel");
+    let ray = Ray::new(Vec3::new(0.2, 0.3, 2.0), Vec3::NEG_Z);
+    let h = accel.intersect(&ray).expect("hit");
+    assert_eq!(h.prim, 0);
+    assert!(
+        close(h.t, 2.0) && close(h.u, 0.2) && close(h.v, 0.3),
+        "{h:?}"
+    );
+    assert!((h.ng - Vec3::Z).length() < 1e-6, "unit front normal: {h:?}");
+    // The hit point rebuilt from barycentrics equals org + t·dir.
+    let [a, b, c] = scene.triangle_positions(h.prim);
+    let p = (1.0 - h.u - h.v) * a + h.u * b + h.v * c;
+    assert!((p - ray.at(h.t)).length() < 1e-6);
+
+    let mut shadow = Ray::new(Vec3::new(0.2, 0.3, 2.0), Vec3::NEG_Z);
+    shadow.t_max = 1.9;
+    assert!(!accel.occluded(&shadow));
+    shadow.t_max = 2.1;
+    assert!(accel.occluded(&shadow));
+}
+
+#[test]
+fn many_threads_see_the_same_hits() {
+    let scene = raw_scene(true);
+    let expected: Vec<_> = (0..200)
+        .map(|k| {
+            let x = (k % 20) as f32 * 0.1;
+            let y = (k / 20) as f32 * 0.2;
+            scene.intersect([x, y, 1.0], [0.0, 0.0, -1.0], 0.0, f32::INFINITY)
+        })
+        .collect();
+    assert!(expected.iter().any(Option::is_some) && expected.iter().any(Option::is_none));
+    std::thread::scope(|s| {
+        for _ in 0..4 {
+            s.spawn(|| {
+                for (k, e) in expected.iter().enumerate() {
+                    let x = (k % 20) as f32 * 0.1;
+                    let y = (k / 20) as f32 * 0.2;
+                    let h = scene.intersect([x, y, 1.0], [0.0, 0.0, -1.0], 0.0, f32::INFINITY);
+                    assert_eq!(&h, e);
+                }
+            });
+        }
+    });
+}
+
+#[test]
+fn device_errors_become_rust_errors() {
+    let err = Device::new("threads=not-a-number,no_such_option=1");
+    assert!(err.is_err(), "an invalid configuration must fail");
+    let message = err.err().unwrap().to_string();
+    assert!(message.contains("Embree error"), "{message}");
+
+    let device = Device::new("verbose=0").unwrap();
+    let mut builder = SceneBuilder::new(
+        &device,
+        SceneOptions {
+            quality: BuildQuality::Low,
+            robust: false,
+            compact: false,
+        },
+    )
+    .unwrap();
+    assert!(
+        builder
+            .attach_triangles(&[[0.0; 3]; 3], &[[0, 1, 3]])
+            .is_err(),
+        "index out of range"
+    );
+    assert!(builder.attach_triangles(&[], &[]).is_err(), "empty mesh");
+    assert!(device.check().is_ok(), "no error left pending");
+}
+
+#[test]
+fn accel_refuses_an_empty_scene() {
+    let scene = scene_of(&[], &[]);
+    assert!(Accel::build(&scene, &AccelOptions::default()).is_err());
+}
+
+#[test]
+fn runtime_library_matches_the_compiled_major_version() {
+    let device = Device::new("verbose=0").unwrap();
+    let version = device.version();
+    assert!(
+        version.starts_with(&format!("{}.", embree::MAJOR)),
+        "compiled for Embree {}, loaded {version}",
+        embree::MAJOR
+    );
+    eprintln!(
+        "Embree runtime {version}, headers {}",
+        env!("STRATA_EMBREE_HEADER_VERSION")
+    );
+}
+
+#[test]
+fn render_workers_flush_denormals() {
+    let pool = strata::render::thread_pool(2).unwrap();
+    let flags: Vec<bool> = pool.broadcast(|_| embree::ftz_daz_enabled());
+    assert_eq!(flags, vec![true, true]);
+}

@@ -1,0 +1,362 @@
+//! glTF loading: a hand-made node hierarchy lands where hand computation says
+//! (tests/data/hierarchy.expected.json, derived by tools/scenes/make_analytic.py without any
+//! renderer code), the same file as .glb and with external buffers, and the parts of the
+//! Scene later integrators use (lights, materials, cameras).
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use glam::Vec3;
+use serde_json::{json, Value};
+use strata::scene::{self, LoadOptions, Projection, Scene};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn load(path: &Path) -> Scene {
+    scene::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn vec3(v: &Value) -> Vec3 {
+    let a = v.as_array().expect("[x, y, z]");
+    Vec3::new(
+        a[0].as_f64().unwrap() as f32,
+        a[1].as_f64().unwrap() as f32,
+        a[2].as_f64().unwrap() as f32,
+    )
+}
+
+fn near(a: Vec3, b: Vec3, tol: f32) -> bool {
+    (a - b).abs().max_element() <= tol
+}
+
+/// True when `got` is `want` up to a cyclic rotation (same winding), never a swap.
+fn same_triangle(got: [Vec3; 3], want: [Vec3; 3], tol: f32) -> bool {
+    (0..3).any(|r| (0..3).all(|i| near(got[(i + r) % 3], want[i], tol)))
+}
+
+/// What hierarchy.expected.json says, per triangle in emission order.
+struct Expected {
+    triangles: Vec<[Vec3; 3]>,
+    /// Per-vertex normals, for triangles of primitives that have them.
+    normals: Vec<Option<[Vec3; 3]>>,
+    geometric_normals: Vec<Vec3>,
+    tolerance: f32,
+}
+
+fn expected() -> Expected {
+    let text = std::fs::read_to_string(data("hierarchy.expected.json")).unwrap();
+    let e: Value = serde_json::from_str(&text).unwrap();
+    let tol = e["tolerance"].as_f64().unwrap() as f32;
+    let (mut tris, mut normals, mut ngs) = (Vec::new(), Vec::new(), Vec::new());
+    for name in e["emission_order"].as_array().unwrap() {
+        let node = &e["nodes"][name.as_str().unwrap()];
+        for (k, t) in node["triangles"].as_array().unwrap().iter().enumerate() {
+            let t = t.as_array().unwrap();
+            tris.push([vec3(&t[0]), vec3(&t[1]), vec3(&t[2])]);
+            normals.push(node.get("vertex_normals").map(|vn| {
+                let vn = vn[k].as_array().unwrap();
+                [vec3(&vn[0]), vec3(&vn[1]), vec3(&vn[2])]
+            }));
+            ngs.push(vec3(&node["geometric_normals"][k]));
+        }
+    }
+    assert_eq!(tris.len() as u64, e["total_triangles"].as_u64().unwrap());
+    Expected {
+        triangles: tris,
+        normals,
+        geometric_normals: ngs,
+        tolerance: tol,
+    }
+}
+
+fn check_hierarchy(scene: &Scene) {
+    let Expected {
+        triangles: tris,
+        normals,
+        geometric_normals: ngs,
+        tolerance: tol,
+    } = expected();
+    assert_eq!(scene.triangles.len(), tris.len(), "triangle count");
+    for (i, want) in tris.iter().enumerate() {
+        let prim = i as u32;
+        let got = scene.triangle_positions(prim);
+        assert!(
+            same_triangle(got, *want, tol),
+            "triangle {i}: got {got:?}, want {want:?}"
+        );
+        let ng = (got[1] - got[0]).cross(got[2] - got[0]).normalize();
+        assert!(
+            near(ng, ngs[i], tol),
+            "triangle {i}: geometric normal {ng} vs {}",
+            ngs[i]
+        );
+        match normals[i] {
+            Some(vn) => {
+                // Shading normals, matched to the rotation the positions matched.
+                let idx = scene.triangles[i];
+                for (k, &v) in idx.iter().enumerate() {
+                    let n = scene.normals[v as usize];
+                    let want = vn
+                        .iter()
+                        .zip(want)
+                        .find(|(_, p)| near(got[k], **p, tol))
+                        .unwrap()
+                        .0;
+                    assert!(
+                        near(n, *want, tol),
+                        "triangle {i} vertex {k}: normal {n} vs {want}"
+                    );
+                }
+            }
+            None => {
+                // No NORMAL attribute: shaded flat with the geometric normal.
+                assert_eq!(
+                    scene.shading_normal(prim, 0.3, 0.3),
+                    None,
+                    "triangle {i} should be flat"
+                );
+            }
+        }
+    }
+    assert_eq!(scene.cameras.len(), 1);
+    let cam = &scene.cameras[0];
+    assert!(near(
+        cam.to_world.transform_point3(Vec3::ZERO),
+        Vec3::new(1.5, 7.0, 30.0),
+        1e-6
+    ));
+    assert!(
+        matches!(cam.projection, Projection::Perspective { yfov } if (yfov - 0.8).abs() < 1e-6)
+    );
+}
+
+#[test]
+fn node_hierarchy_lands_where_hand_computation_says() {
+    check_hierarchy(&load(&data("hierarchy.gltf")));
+}
+
+/// The hierarchy file's JSON and its embedded buffer.
+fn hierarchy_parts() -> (Value, Vec<u8>) {
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(data("hierarchy.gltf")).unwrap()).unwrap();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+    let payload = uri.split_once(";base64,").unwrap().1;
+    let bin = base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .unwrap();
+    (doc, bin)
+}
+
+#[test]
+fn binary_gltf_gives_the_same_scene() {
+    let (mut doc, mut bin) = hierarchy_parts();
+    doc["buffers"][0].as_object_mut().unwrap().remove("uri");
+    let mut json = serde_json::to_vec(&doc).unwrap();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    // GLB (glTF 2.0 §4.4): header, JSON chunk, BIN chunk, little-endian.
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(&json);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hierarchy.glb");
+    std::fs::write(&path, glb).unwrap();
+    check_hierarchy(&load(&path));
+}
+
+#[test]
+fn external_buffers_are_found_beside_the_file() {
+    let (mut doc, bin) = hierarchy_parts();
+    // A space in the name, percent-encoded in the URI as RFC 3986 asks.
+    doc["buffers"][0]["uri"] = json!("hierarchy%20data.bin");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("hierarchy data.bin"), bin).unwrap();
+    let path = dir.path().join("hierarchy.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    check_hierarchy(&load(&path));
+
+    std::fs::remove_file(dir.path().join("hierarchy data.bin")).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("hierarchy.gltf") && err.contains("hierarchy data.bin"),
+        "{err}"
+    );
+}
+
+#[test]
+fn lights_materials_and_cameras_reach_the_scene() {
+    let (mut doc, bin) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tex.png"), b"not decoded at load").unwrap();
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 4.0, "range": 10.0},
+        {"type": "spot", "intensity": 2.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+        {"type": "directional", "color": [0.0, 1.0, 0.0], "intensity": 3.0}
+    ]}});
+    // Light nodes: a point at (1, 2, 3) under R's transform is moved by it; a spot and a
+    // directional light pointing down −Y (rotated −90° about X).
+    let q = std::f64::consts::FRAC_1_SQRT_2;
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"name": "point", "translation": [0.0, 1.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    nodes.push(json!({"name": "spot", "translation": [0.0, 4.0, 0.0], "rotation": [-q, 0.0, 0.0, q], "extensions": {"KHR_lights_punctual": {"light": 1}}}));
+    nodes.push(json!({"name": "sun", "rotation": [-q, 0.0, 0.0, q], "extensions": {"KHR_lights_punctual": {"light": 2}}}));
+    doc["scenes"][0]["nodes"] = json!([0, 3, 4, 5, 6, 7]);
+    doc["materials"][0] = json!({
+        "name": "glow",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 1.0, 1.0], "baseColorTexture": {"index": 0}, "metallicFactor": 0.0},
+        "emissiveFactor": [1.0, 0.5, 0.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}},
+        "doubleSided": true
+    });
+    doc["textures"] = json!([{"source": 0, "sampler": 0}]);
+    doc["samplers"] = json!([{"wrapS": 33071, "wrapT": 33648}]);
+    doc["images"] = json!([{"uri": "tex.png"}]);
+    let path = dir.path().join("lit.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    std::fs::write(dir.path().join("unused.bin"), &bin).unwrap();
+    let s = load(&path);
+
+    assert_eq!(s.lights.len(), 3);
+    match &s.lights[0] {
+        scene::Light::Point {
+            position,
+            intensity,
+            range,
+        } => {
+            assert!(
+                near(*position, Vec3::new(0.0, 1.0, 0.0), 1e-6),
+                "{position}"
+            );
+            assert!(
+                near(*intensity, Vec3::new(4.0, 2.0, 1.0), 1e-6),
+                "colour × intensity: {intensity}"
+            );
+            assert_eq!(*range, Some(10.0));
+        }
+        other => panic!("expected a point light, got {other:?}"),
+    }
+    match &s.lights[1] {
+        scene::Light::Spot {
+            position,
+            direction,
+            inner_cone_angle,
+            outer_cone_angle,
+            ..
+        } => {
+            assert!(near(*position, Vec3::new(0.0, 4.0, 0.0), 1e-6));
+            assert!(
+                near(*direction, Vec3::NEG_Y, 1e-6),
+                "spot points down its −Z: {direction}"
+            );
+            assert_eq!((*inner_cone_angle, *outer_cone_angle), (0.2, 0.5));
+        }
+        other => panic!("expected a spot light, got {other:?}"),
+    }
+    match &s.lights[2] {
+        scene::Light::Directional {
+            direction,
+            irradiance,
+        } => {
+            assert!(near(*direction, Vec3::NEG_Y, 1e-6));
+            assert!(near(*irradiance, Vec3::new(0.0, 3.0, 0.0), 1e-6));
+        }
+        other => panic!("expected a directional light, got {other:?}"),
+    }
+    // Material 0 of the file is scene material 1 (0 is glTF's default material).
+    let m = &s.materials[1];
+    assert_eq!(m.name.as_deref(), Some("glow"));
+    assert!(
+        near(m.emissive, Vec3::new(8.0, 4.0, 0.0), 1e-6),
+        "emissive × strength: {}",
+        m.emissive
+    );
+    assert!(m.double_sided);
+    let tex = m.base_color_texture.as_ref().expect("base colour texture");
+    assert_eq!(
+        (tex.wrap_s, tex.wrap_t),
+        (scene::Wrap::ClampToEdge, scene::Wrap::MirroredRepeat)
+    );
+    assert_eq!(
+        s.images,
+        vec![scene::ImageSource::File(dir.path().join("tex.png"))]
+    );
+    assert!(s.triangle_materials.iter().all(|&m| m == 1));
+    assert_eq!(s.summary.emissive_triangles, s.triangles.len());
+    assert_eq!(s.summary.punctual_lights, 3);
+    assert_eq!(s.summary.textures, 1);
+}
+
+#[test]
+fn bad_files_name_the_file_and_the_problem() {
+    let cases = [
+        ("not_gltf.gltf", "not a glTF"),
+        ("no_triangles.gltf", "no triangles"),
+        ("required_extension.gltf", "KHR_draco_mesh_compression"),
+        ("truncated.glb", "binary glTF"),
+        ("missing_buffer.gltf", "does-not-exist.bin"),
+    ];
+    for (file, words) in cases {
+        let path = data("bad").join(file);
+        let err = scene::load(&path, &LoadOptions::default())
+            .expect_err(file)
+            .to_string();
+        assert!(err.contains(file) && err.contains(words), "{file}: {err}");
+        assert!(!err.contains('\n'), "one line: {err}");
+    }
+}
+
+#[test]
+fn accessor_past_its_buffer_is_an_error_not_a_panic() {
+    let (mut doc, _) = hierarchy_parts();
+    doc["accessors"][0]["count"] = json!(1_000_000_000_000u64);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("accessor 0") && err.contains("past the end"),
+        "{err}"
+    );
+
+    let (mut doc, _) = hierarchy_parts();
+    doc["bufferViews"][2]["byteOffset"] = json!(4000);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("bufferView 2"), "{err}");
+}
+
+#[test]
+fn cyclic_node_graph_is_refused() {
+    let (mut doc, _) = hierarchy_parts();
+    doc["nodes"][1]["children"] = json!([0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cycle.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("cycle"), "{err}");
+}

@@ -1,0 +1,1345 @@
+//! Statistical and structural tests of `strata::sampling`:
+//!
+//! 1. χ² goodness-of-fit tests of the direction warps against analytic pdfs written here
+//!    (the method of Mitsuba 3's `ChiSquareTest` and pbrt's `sampling_test`), with negative
+//!    controls showing that the test rejects a wrong pdf, plus checks of the warps' pdf
+//!    functions;
+//! 2. orthonormality and handedness of `Onb::from_normal` over the sphere and at the
+//!    numerically hard normals (n.z → −1, signed zeros, denormals);
+//! 3. stratification of the per-pixel samplers (correlated multi-jittered n-rooks cells,
+//!    (0, m, 2)-nets of Owen-scrambled Sobol), determinism and decorrelation, again with
+//!    negative controls for the checkers.
+//!
+//! Every random input below comes from `Pcg32`, a small generator implemented in this file,
+//! never from the renderer's own hashing, so the tests do not share code with what they test.
+
+use glam::{Vec2, Vec3};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use strata::sampling::onb::Onb;
+use strata::sampling::sampler::{PixelSampler, SamplerKind};
+use strata::sampling::warps;
+
+// ---------------------------------------------------------------------------------------------
+// A test-local PRNG: PCG32 (XSH-RR 64/32), M. E. O'Neill, "PCG: A Family of Simple Fast
+// Space-Efficient Statistically Good Algorithms for Random Number Generation" (2014).
+// ---------------------------------------------------------------------------------------------
+
+struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    fn new(seed: u64, stream: u64) -> Pcg32 {
+        let mut rng = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(seed);
+        rng.next_u32();
+        rng
+    }
+
+    fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        xorshifted.rotate_right((old >> 59) as u32)
+    }
+
+    /// Uniform in [0, 1) on the 2^-24 grid (exactly representable in f32).
+    fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    fn next_vec2(&mut self) -> Vec2 {
+        let x = self.next_f32();
+        Vec2::new(x, self.next_f32())
+    }
+
+    /// Uniform in [0, n).
+    fn below(&mut self, n: u32) -> u32 {
+        ((self.next_u32() as u64 * n as u64) >> 32) as u32
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The χ² distribution: the regularized upper incomplete gamma function Q(a, x) = Γ(a, x)/Γ(a),
+// after Numerical Recipes (Press, Teukolsky, Vetterling & Flannery, 3rd ed., §6.2): the series
+// for P(a, x) when x < a + 1, the continued fraction for Q(a, x) evaluated with the modified
+// Lentz method otherwise. ln Γ uses the Lanczos approximation (g = 7, n = 9, Godfrey's
+// coefficients; NR §6.1 describes the method).
+// ---------------------------------------------------------------------------------------------
+
+fn ln_gamma(x: f64) -> f64 {
+    const G: f64 = 7.0;
+    const COEF: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    assert!(
+        x >= 0.5,
+        "ln_gamma is only needed (and only valid here) for x ≥ 0.5"
+    );
+    let x = x - 1.0;
+    let mut a = COEF[0];
+    for (i, c) in COEF.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    let t = x + G + 0.5;
+    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+const GAMMA_EPS: f64 = 1e-15;
+const GAMMA_MAX_ITER: usize = 100_000;
+
+/// P(a, x) by its series (NR `gser`); converges quickly for x < a + 1.
+fn gamma_p_series(a: f64, x: f64) -> f64 {
+    let mut ap = a;
+    let mut del = 1.0 / a;
+    let mut sum = del;
+    for _ in 0..GAMMA_MAX_ITER {
+        ap += 1.0;
+        del *= x / ap;
+        sum += del;
+        if del.abs() < sum.abs() * GAMMA_EPS {
+            return sum * (-x + a * x.ln() - ln_gamma(a)).exp();
+        }
+    }
+    panic!("gamma_p_series({a}, {x}) did not converge");
+}
+
+/// Q(a, x) by its continued fraction, modified Lentz (NR `gcf`); for x ≥ a + 1.
+fn gamma_q_continued_fraction(a: f64, x: f64) -> f64 {
+    const FPMIN: f64 = 1e-300;
+    let mut b = x + 1.0 - a;
+    let mut c = 1.0 / FPMIN;
+    let mut d = 1.0 / b;
+    let mut h = d;
+    for i in 1..GAMMA_MAX_ITER {
+        let an = -(i as f64) * (i as f64 - a);
+        b += 2.0;
+        d = an * d + b;
+        if d.abs() < FPMIN {
+            d = FPMIN;
+        }
+        c = b + an / c;
+        if c.abs() < FPMIN {
+            c = FPMIN;
+        }
+        d = 1.0 / d;
+        let del = d * c;
+        h *= del;
+        if (del - 1.0).abs() < GAMMA_EPS {
+            return (-x + a * x.ln() - ln_gamma(a)).exp() * h;
+        }
+    }
+    panic!("gamma_q_continued_fraction({a}, {x}) did not converge");
+}
+
+/// The regularized upper incomplete gamma function Q(a, x).
+fn gamma_q(a: f64, x: f64) -> f64 {
+    assert!(a > 0.0 && x >= 0.0, "gamma_q({a}, {x})");
+    if x == 0.0 {
+        1.0
+    } else if x < a + 1.0 {
+        1.0 - gamma_p_series(a, x)
+    } else {
+        gamma_q_continued_fraction(a, x)
+    }
+}
+
+/// P(X ≥ x) for X ~ χ²(dof).
+fn chi2_survival(x: f64, dof: usize) -> f64 {
+    gamma_q(dof as f64 / 2.0, x / 2.0)
+}
+
+#[test]
+fn incomplete_gamma_matches_known_values() {
+    let close = |got: f64, want: f64, rel: f64, what: &str| {
+        assert!(
+            (got - want).abs() <= rel * want.abs(),
+            "{what}: got {got:e}, want {want:e}"
+        );
+    };
+    // ln Γ at integers (ln (n−1)!) and at 1/2 (ln √π).
+    let mut factorial = 1.0f64;
+    for n in 1..30 {
+        if n > 1 {
+            factorial *= (n - 1) as f64;
+        }
+        assert!(
+            (ln_gamma(n as f64) - factorial.ln()).abs() < 1e-12,
+            "lnΓ({n})"
+        );
+    }
+    assert!((ln_gamma(0.5) - PI.sqrt().ln()).abs() < 1e-13);
+
+    // Q(1, x) = e^{−x}.
+    for x in [1e-3, 0.1, 0.5, 1.0, 1.9, 2.0, 2.1, 5.0, 20.0, 100.0] {
+        close(gamma_q(1.0, x), (-x).exp(), 1e-12, &format!("Q(1, {x})"));
+    }
+    // Q(1/2, x) = erfc(√x); tabulated erfc(0.5), erfc(1), erfc(2), erfc(3). These exercise
+    // the series (x < 1.5) and the continued fraction (x ≥ 1.5).
+    for (x, erfc) in [
+        (0.25, 0.479_500_122_186_953_5),
+        (1.0, 0.157_299_207_050_285_13),
+        (4.0, 0.004_677_734_981_047_266),
+        (9.0, 2.209_049_699_858_544e-5),
+    ] {
+        close(gamma_q(0.5, x), erfc, 1e-10, &format!("Q(1/2, {x})"));
+    }
+    // Integer a: Q(n, x) = e^{−x} Σ_{k<n} x^k/k! (the Poisson CDF), an independent closed form
+    // that also covers large a as in the χ² tests below (hundreds of degrees of freedom).
+    for n in [1u32, 2, 5, 50, 400] {
+        for frac in [0.3, 0.8, 1.0, 1.2, 2.0] {
+            let x = frac * n as f64;
+            // Terms accumulated in log space: e^{−x} alone underflows for x = 800.
+            let mut ln_term = -x;
+            let mut sum = 0.0;
+            for k in 0..n {
+                if k > 0 {
+                    ln_term += (x / k as f64).ln();
+                }
+                sum += ln_term.exp();
+            }
+            close(gamma_q(n as f64, x), sum, 1e-9, &format!("Q({n}, {x})"));
+        }
+    }
+    // χ² critical values from standard tables: P(χ²₁ ≥ 3.841459) = 0.05,
+    // P(χ²₁₀ ≥ 18.307038) = 0.05, P(χ²₂ ≥ 9.210340) = 0.01.
+    close(chi2_survival(3.841_458_820_694_124, 1), 0.05, 1e-8, "χ²₁");
+    close(
+        chi2_survival(18.307_038_053_275_146, 10),
+        0.05,
+        1e-8,
+        "χ²₁₀",
+    );
+    close(chi2_survival(9.210_340_371_976_184, 2), 0.01, 1e-8, "χ²₂");
+}
+
+// ---------------------------------------------------------------------------------------------
+// χ² goodness of fit of the warps.
+// ---------------------------------------------------------------------------------------------
+
+/// Number of χ² tests of correct warps, for the Bonferroni correction (as Mitsuba 3 does).
+const CHI2_TEST_COUNT: f64 = 4.0;
+/// Significance level of each χ² test.
+const CHI2_ALPHA: f64 = 0.01 / CHI2_TEST_COUNT;
+const CHI2_SAMPLES: usize = 1_000_000;
+const CHI2_THETA_BINS: usize = 20;
+const CHI2_PHI_BINS: usize = 40;
+/// Cells expected to hold fewer samples than this are pooled.
+const CHI2_MIN_EXPECTED: f64 = 5.0;
+
+#[derive(Debug)]
+struct Chi2Outcome {
+    statistic: f64,
+    dof: usize,
+    p_value: f64,
+}
+
+/// Pearson's χ² test of observed against expected counts. Cells with expected count below
+/// [`CHI2_MIN_EXPECTED`] are pooled (smallest first, as Mitsuba 3 does) until the pool reaches
+/// it. A sample in a cell of expected count 0 is an error: the pdf says it cannot happen.
+fn chi2_test(observed: &[f64], expected: &[f64]) -> Result<Chi2Outcome, String> {
+    assert_eq!(observed.len(), expected.len());
+    let mut order: Vec<usize> = (0..expected.len()).collect();
+    order.sort_by(|&a, &b| expected[a].total_cmp(&expected[b]));
+    let (mut pooled_obs, mut pooled_exp, mut pooled_cells) = (0.0, 0.0, 0usize);
+    let (mut statistic, mut cells) = (0.0, 0usize);
+    for &i in &order {
+        let (obs, exp) = (observed[i], expected[i]);
+        if exp == 0.0 {
+            if obs > 0.0 {
+                return Err(format!(
+                    "{obs} samples in cell {i}, whose expected count is 0"
+                ));
+            }
+            continue;
+        }
+        if exp < CHI2_MIN_EXPECTED || (pooled_cells > 0 && pooled_exp < CHI2_MIN_EXPECTED) {
+            pooled_obs += obs;
+            pooled_exp += exp;
+            pooled_cells += 1;
+        } else {
+            statistic += (obs - exp) * (obs - exp) / exp;
+            cells += 1;
+        }
+    }
+    if pooled_cells > 0 {
+        statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
+        cells += 1;
+    }
+    if cells < 2 {
+        return Err("fewer than two cells: no degrees of freedom".into());
+    }
+    let dof = cells - 1;
+    Ok(Chi2Outcome {
+        statistic,
+        dof,
+        p_value: chi2_survival(statistic, dof),
+    })
+}
+
+fn rejected(result: &Result<Chi2Outcome, String>) -> bool {
+    println!("negative control: {result:?}");
+    match result {
+        Err(_) => true,
+        Ok(outcome) => outcome.p_value < CHI2_ALPHA,
+    }
+}
+
+#[test]
+fn chi2_test_pools_small_cells_and_counts_degrees_of_freedom() {
+    // Five cells; the three with expected < 5 (1, 2, 3 → pool of 6) are merged.
+    let expected = [1.0, 10.0, 2.0, 20.0, 3.0];
+    let observed = [2.0, 12.0, 0.0, 17.0, 5.0];
+    let outcome = chi2_test(&observed, &expected).unwrap();
+    let want = (7.0f64 - 6.0).powi(2) / 6.0 + 4.0 / 10.0 + 9.0 / 20.0;
+    assert_eq!(outcome.dof, 2);
+    assert!((outcome.statistic - want).abs() < 1e-12, "{outcome:?}");
+    assert!((outcome.p_value - (-want / 2.0).exp()).abs() < 1e-12); // Q(1, x/2) = e^{−x/2}
+                                                                    // A sample where the pdf is zero is a failure, not a large χ².
+    assert!(chi2_test(&[1.0, 5.0, 5.0], &[0.0, 5.5, 5.5]).is_err());
+    // Perfect agreement: χ² = 0, p = 1.
+    let perfect = chi2_test(&[10.0, 20.0, 30.0], &[10.0, 20.0, 30.0]).unwrap();
+    assert_eq!(
+        (perfect.statistic, perfect.dof, perfect.p_value),
+        (0.0, 2, 1.0)
+    );
+}
+
+/// A (θ, φ) grid over the spherical cap θ ∈ [0, θmax], φ ∈ [0, 2π).
+struct ThetaPhiGrid {
+    theta_max: f64,
+}
+
+impl ThetaPhiGrid {
+    const CELLS: usize = CHI2_THETA_BINS * CHI2_PHI_BINS;
+
+    /// The cell of direction `v`, or None outside the cap (or for a non-finite direction).
+    fn cell_of(&self, v: Vec3) -> Option<usize> {
+        if !v.is_finite() || v.length_squared() == 0.0 {
+            return None;
+        }
+        let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+        let theta = x.hypot(y).atan2(z);
+        // Tolerate f32 rounding right at the cap's edge.
+        if theta > self.theta_max * (1.0 + 1e-6) {
+            return None;
+        }
+        let mut phi = y.atan2(x);
+        if phi < 0.0 {
+            phi += TAU;
+        }
+        let it =
+            ((theta / self.theta_max * CHI2_THETA_BINS as f64) as usize).min(CHI2_THETA_BINS - 1);
+        let ip = ((phi / TAU * CHI2_PHI_BINS as f64) as usize).min(CHI2_PHI_BINS - 1);
+        Some(it * CHI2_PHI_BINS + ip)
+    }
+
+    /// ∫cell pdf dω for every cell, by the composite Simpson rule in (θ, φ) with the sin θ
+    /// Jacobian (16 × 16 panels per cell).
+    fn cell_probabilities(&self, pdf: &dyn Fn(f64, f64) -> f64) -> Vec<f64> {
+        let dtheta = self.theta_max / CHI2_THETA_BINS as f64;
+        let dphi = TAU / CHI2_PHI_BINS as f64;
+        let mut out = Vec::with_capacity(Self::CELLS);
+        for it in 0..CHI2_THETA_BINS {
+            for ip in 0..CHI2_PHI_BINS {
+                let (t0, p0) = (it as f64 * dtheta, ip as f64 * dphi);
+                out.push(simpson_2d(
+                    &|t, p| pdf(t, p) * t.sin(),
+                    (t0, t0 + dtheta),
+                    (p0, p0 + dphi),
+                    16,
+                ));
+            }
+        }
+        out
+    }
+}
+
+/// Composite Simpson rule over a rectangle with `panels` (even) subintervals per axis.
+fn simpson_2d(f: &dyn Fn(f64, f64) -> f64, x: (f64, f64), y: (f64, f64), panels: usize) -> f64 {
+    assert!(panels % 2 == 0);
+    let hx = (x.1 - x.0) / panels as f64;
+    let hy = (y.1 - y.0) / panels as f64;
+    let w = |i: usize| {
+        if i == 0 || i == panels {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        }
+    };
+    let mut sum = 0.0;
+    for i in 0..=panels {
+        for j in 0..=panels {
+            sum += w(i) * w(j) * f(x.0 + i as f64 * hx, y.0 + j as f64 * hy);
+        }
+    }
+    sum * hx * hy / 9.0
+}
+
+// The analytic pdfs (per steradian) as functions of (θ, φ), written independently of warps.rs.
+
+fn pdf_uniform_hemisphere(theta: f64, _phi: f64) -> f64 {
+    if theta <= FRAC_PI_2 {
+        1.0 / (2.0 * PI)
+    } else {
+        0.0
+    }
+}
+
+fn pdf_cosine_hemisphere(theta: f64, _phi: f64) -> f64 {
+    if theta <= FRAC_PI_2 {
+        theta.cos().max(0.0) / PI
+    } else {
+        0.0
+    }
+}
+
+fn pdf_uniform_sphere(_theta: f64, _phi: f64) -> f64 {
+    1.0 / (4.0 * PI)
+}
+
+/// The cone's cos θmax as the warp sees it: the f32 0.3.
+const CONE_COS_MAX_F32: f32 = 0.3;
+
+fn cone_cos_max() -> f64 {
+    CONE_COS_MAX_F32 as f64
+}
+
+fn pdf_uniform_cone(theta: f64, _phi: f64) -> f64 {
+    let c = cone_cos_max();
+    // The tolerance keeps the Simpson node at exactly θmax inside the cone.
+    if theta.cos() >= c - 1e-12 {
+        1.0 / (2.0 * PI * (1.0 - c))
+    } else {
+        0.0
+    }
+}
+
+/// Draws [`CHI2_SAMPLES`] directions from `warp` with PCG32 inputs, bins them on the
+/// (θ, φ) grid of the cap θ ≤ θmax, and runs the χ² test against `pdf`. Samples outside the
+/// cap land in an extra cell whose expected count is 0.
+fn warp_chi2(
+    warp: &dyn Fn(Vec2) -> Vec3,
+    theta_max: f64,
+    pdf: &dyn Fn(f64, f64) -> f64,
+    seed: u64,
+) -> Result<Chi2Outcome, String> {
+    let grid = ThetaPhiGrid { theta_max };
+    let mut observed = vec![0.0; ThetaPhiGrid::CELLS + 1];
+    let mut rng = Pcg32::new(seed, 0x5eed);
+    for _ in 0..CHI2_SAMPLES {
+        let v = warp(rng.next_vec2());
+        match grid.cell_of(v) {
+            Some(cell) => observed[cell] += 1.0,
+            None => observed[ThetaPhiGrid::CELLS] += 1.0,
+        }
+    }
+    let probabilities = grid.cell_probabilities(pdf);
+    let total: f64 = probabilities.iter().sum();
+    assert!(
+        (total - 1.0).abs() < 1e-6,
+        "the pdf integrates to {total} over the binned domain, not 1"
+    );
+    let mut expected: Vec<f64> = probabilities
+        .iter()
+        .map(|p| p * CHI2_SAMPLES as f64)
+        .collect();
+    expected.push(0.0);
+    chi2_test(&observed, &expected)
+}
+
+fn assert_accepted(name: &str, result: Result<Chi2Outcome, String>) {
+    println!("{name}: {result:?}");
+    match result {
+        Ok(outcome) => assert!(
+            outcome.p_value >= CHI2_ALPHA,
+            "{name}: χ² = {:.1} with {} dof, p = {:e} < α = {CHI2_ALPHA}",
+            outcome.statistic,
+            outcome.dof,
+            outcome.p_value
+        ),
+        Err(e) => panic!("{name}: {e}"),
+    }
+}
+
+#[test]
+fn chi2_uniform_hemisphere_matches_its_pdf() {
+    assert_accepted(
+        "uniform hemisphere",
+        warp_chi2(
+            &warps::square_to_uniform_hemisphere,
+            FRAC_PI_2,
+            &pdf_uniform_hemisphere,
+            1,
+        ),
+    );
+}
+
+#[test]
+fn chi2_cosine_hemisphere_matches_its_pdf() {
+    assert_accepted(
+        "cosine hemisphere",
+        warp_chi2(
+            &warps::square_to_cosine_hemisphere,
+            FRAC_PI_2,
+            &pdf_cosine_hemisphere,
+            2,
+        ),
+    );
+}
+
+#[test]
+fn chi2_uniform_sphere_matches_its_pdf() {
+    assert_accepted(
+        "uniform sphere",
+        warp_chi2(&warps::square_to_uniform_sphere, PI, &pdf_uniform_sphere, 3),
+    );
+}
+
+#[test]
+fn chi2_uniform_cone_matches_its_pdf() {
+    assert_accepted(
+        "uniform cone (cos θmax = 0.3)",
+        warp_chi2(
+            &|u| warps::square_to_uniform_cone(u, CONE_COS_MAX_F32),
+            cone_cos_max().acos(),
+            &pdf_uniform_cone,
+            4,
+        ),
+    );
+}
+
+/// Negative controls: the same machinery must reject a sampler tested against the wrong pdf,
+/// otherwise the acceptances above would mean nothing.
+#[test]
+fn chi2_rejects_uniform_hemisphere_samples_against_the_cosine_pdf() {
+    let result = warp_chi2(
+        &warps::square_to_uniform_hemisphere,
+        FRAC_PI_2,
+        &pdf_cosine_hemisphere,
+        5,
+    );
+    assert!(rejected(&result), "not rejected: {result:?}");
+}
+
+#[test]
+fn chi2_rejects_cosine_hemisphere_samples_against_the_uniform_pdf() {
+    let result = warp_chi2(
+        &warps::square_to_cosine_hemisphere,
+        FRAC_PI_2,
+        &pdf_uniform_hemisphere,
+        6,
+    );
+    assert!(rejected(&result), "not rejected: {result:?}");
+}
+
+/// A subtler negative control: slightly distorted warps (a 3% power on one input, an azimuth
+/// squeezed by 1%) must also be rejected, showing the test's power at N = 10⁶; and samples
+/// leaking out of the domain (a hemisphere test fed the whole sphere) are caught.
+#[test]
+fn chi2_rejects_slightly_distorted_warps() {
+    let bent_z = warp_chi2(
+        &|u: Vec2| warps::square_to_uniform_hemisphere(Vec2::new(u.x.powf(1.03), u.y)),
+        FRAC_PI_2,
+        &pdf_uniform_hemisphere,
+        7,
+    );
+    assert!(rejected(&bent_z), "z distortion not rejected: {bent_z:?}");
+    let squeezed_phi = warp_chi2(
+        &|u: Vec2| warps::square_to_cosine_hemisphere(Vec2::new(u.x, u.y * 0.99)),
+        FRAC_PI_2,
+        &pdf_cosine_hemisphere,
+        8,
+    );
+    assert!(
+        rejected(&squeezed_phi),
+        "φ distortion not rejected: {squeezed_phi:?}"
+    );
+    let leaking = warp_chi2(
+        &warps::square_to_uniform_sphere,
+        FRAC_PI_2,
+        &pdf_uniform_hemisphere,
+        9,
+    );
+    assert!(leaking.is_err(), "out-of-domain samples not caught");
+}
+
+/// Unit directions spread evenly over the sphere (a Fibonacci lattice).
+fn fibonacci_sphere(count: usize) -> impl Iterator<Item = Vec3> {
+    let golden_angle = PI * (3.0 - 5f64.sqrt());
+    (0..count).map(move |i| {
+        let z = 1.0 - (2 * i + 1) as f64 / count as f64;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = golden_angle * i as f64;
+        Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32).normalize()
+    })
+}
+
+#[test]
+fn warp_pdf_functions_match_the_analytic_pdfs() {
+    let c = CONE_COS_MAX_F32;
+    for v in fibonacci_sphere(20_000) {
+        let z = v.z as f64;
+        let theta = (v.x as f64).hypot(v.y as f64).atan2(z);
+        let checks = [
+            (
+                "uniform hemisphere",
+                warps::uniform_hemisphere_pdf(v),
+                pdf_uniform_hemisphere(theta, 0.0),
+            ),
+            (
+                "cosine hemisphere",
+                warps::cosine_hemisphere_pdf(v),
+                pdf_cosine_hemisphere(theta, 0.0),
+            ),
+            (
+                "uniform sphere",
+                warps::uniform_sphere_pdf(),
+                pdf_uniform_sphere(theta, 0.0),
+            ),
+        ];
+        for (name, got, want) in checks {
+            assert!(
+                (got as f64 - want).abs() <= 1e-6 * want.max(1e-3),
+                "{name} pdf at {v}: {got} vs {want}"
+            );
+        }
+        // The cone's boundary is ambiguous to within f32 rounding; skip directions at it.
+        if (z - c as f64).abs() > 1e-6 {
+            let got = warps::uniform_cone_pdf(v, c) as f64;
+            let want = if z > c as f64 {
+                1.0 / (2.0 * PI * (1.0 - c as f64))
+            } else {
+                0.0
+            };
+            assert!(
+                (got - want).abs() <= 1e-6 * want.max(1e-3),
+                "cone pdf at {v}: {got} vs {want}"
+            );
+        }
+    }
+    // The documented boundary conventions: z = 0 belongs to the hemisphere, z = cos θmax to
+    // the cone.
+    assert!(warps::uniform_hemisphere_pdf(Vec3::X) > 0.0);
+    assert_eq!(warps::cosine_hemisphere_pdf(Vec3::NEG_Z), 0.0);
+    assert_eq!(warps::uniform_hemisphere_pdf(Vec3::NEG_Z), 0.0);
+}
+
+#[test]
+fn warp_pdf_functions_integrate_to_one_over_the_sphere() {
+    // Midpoint rule in (z = cos θ, φ), where dω = dz dφ. The z grid has an edge at 0 and at
+    // 0.3 (2000 panels of 0.001), so the pdfs' discontinuities fall on panel edges.
+    const NZ: usize = 2000;
+    const NPHI: usize = 64;
+    let c = CONE_COS_MAX_F32;
+    let mut integrals = [0.0f64; 4];
+    for iz in 0..NZ {
+        let z = -1.0 + (iz as f64 + 0.5) * 2.0 / NZ as f64;
+        let r = (1.0 - z * z).sqrt();
+        for ip in 0..NPHI {
+            let phi = (ip as f64 + 0.5) * TAU / NPHI as f64;
+            let v = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+            let weight = (2.0 / NZ as f64) * (TAU / NPHI as f64);
+            integrals[0] += weight * warps::uniform_hemisphere_pdf(v) as f64;
+            integrals[1] += weight * warps::cosine_hemisphere_pdf(v) as f64;
+            integrals[2] += weight * warps::uniform_sphere_pdf() as f64;
+            integrals[3] += weight * warps::uniform_cone_pdf(v, c) as f64;
+        }
+    }
+    for (name, integral) in ["uniform hemisphere", "cosine hemisphere", "sphere", "cone"]
+        .iter()
+        .zip(integrals)
+    {
+        assert!(
+            (integral - 1.0).abs() < 1e-4,
+            "{name} pdf integrates to {integral}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Orthonormal bases.
+// ---------------------------------------------------------------------------------------------
+
+/// Normals where branchy or naive constructions break: the axes, n.z within 1e-7 of −1,
+/// signed zeros, denormal components, n.z one ulp from ±1.
+fn hard_normals() -> Vec<Vec3> {
+    let z_near_minus_one = -(1.0 - f32::EPSILON / 2.0);
+    let mut normals = vec![
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+        Vec3::new(1e-7, 0.0, -1.0).normalize(),
+        Vec3::new(0.0, 1e-8, -1.0).normalize(),
+        Vec3::new(3e-8, -2e-8, -1.0).normalize(),
+        Vec3::new(-1e-7, -1e-7, -1.0).normalize(),
+        Vec3::new(1e-4, 0.0, -1.0).normalize(),
+        Vec3::new(-1e-3, 2e-3, -1.0).normalize(),
+        Vec3::new(1e-7, 1e-7, 1.0).normalize(),
+        Vec3::new(-0.0, -0.0, -1.0),
+        Vec3::new(0.0, -0.0, -1.0),
+        Vec3::new(-0.0, 0.0, -1.0),
+        Vec3::new(-0.0, -0.0, 1.0),
+        Vec3::new(1.0, 0.0, -0.0),
+        Vec3::new(0.0, 1.0, -0.0),
+        Vec3::new(-1.0, -0.0, -0.0),
+        Vec3::new(0.6, 0.8, -0.0),
+        Vec3::new(-0.6, 0.8, 0.0),
+        Vec3::new(1e-40, 0.0, 1.0).normalize(),
+        Vec3::new(0.0, 1e-39, -1.0).normalize(),
+        Vec3::new(1e-45, -1e-45, -1.0),
+        Vec3::new(f32::MIN_POSITIVE, 0.0, -1.0),
+        Vec3::new(1.0, 1e-40, 0.0).normalize(),
+        Vec3::new(1e-40, 1.0, -1e-40).normalize(),
+        Vec3::new(
+            (1.0 - z_near_minus_one * z_near_minus_one).sqrt(),
+            0.0,
+            z_near_minus_one,
+        ),
+        Vec3::new(
+            0.0,
+            (1.0 - z_near_minus_one * z_near_minus_one).sqrt(),
+            z_near_minus_one,
+        ),
+    ];
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    for (x, y) in [(s, s), (-s, s), (s, -s), (-s, -s)] {
+        normals.push(Vec3::new(x, y, 0.0));
+    }
+    normals
+}
+
+fn check_onb(n: Vec3) -> Result<(), String> {
+    check_frame(&Onb::from_normal(n), n)
+}
+
+/// The frame `f` built around unit normal `n` is orthonormal, right-handed (t × b = n),
+/// finite, keeps n, and its to_world / to_local are inverse to each other.
+fn check_frame(f: &Onb, n: Vec3) -> Result<(), String> {
+    let tol = 1e-6;
+    if f.n != n {
+        return Err(format!("n changed: {} → {}", n, f.n));
+    }
+    if !(f.t.is_finite() && f.b.is_finite() && f.n.is_finite()) {
+        return Err(format!("non-finite frame {f:?}"));
+    }
+    for (name, v) in [("t", f.t), ("b", f.b), ("n", f.n)] {
+        if (v.length() - 1.0).abs() > tol {
+            return Err(format!("|{name}| = {} in {f:?}", v.length()));
+        }
+    }
+    for (name, d) in [
+        ("t·b", f.t.dot(f.b)),
+        ("t·n", f.t.dot(f.n)),
+        ("b·n", f.b.dot(f.n)),
+    ] {
+        if d.abs() > tol {
+            return Err(format!("{name} = {d} in {f:?}"));
+        }
+    }
+    let cross = f.t.cross(f.b);
+    if (cross - f.n).abs().max_element() > tol {
+        return Err(format!("t × b = {cross} ≠ n in {f:?}"));
+    }
+    // Round trips for unit and non-unit vectors.
+    for v in [
+        Vec3::new(0.3, -0.5, 0.81).normalize(),
+        Vec3::new(-2.0, 3.0, 0.5),
+        Vec3::new(1e-3, 0.0, -7.0),
+        n,
+        f.t,
+    ] {
+        let tol_v = 2e-6 * v.length().max(1.0);
+        let back = f.to_world(f.to_local(v));
+        if (back - v).abs().max_element() > tol_v {
+            return Err(format!("to_world(to_local({v})) = {back}"));
+        }
+        let back = f.to_local(f.to_world(v));
+        if (back - v).abs().max_element() > tol_v {
+            return Err(format!("to_local(to_world({v})) = {back}"));
+        }
+    }
+    let local_n = f.to_local(n);
+    if (local_n - Vec3::Z).abs().max_element() > tol {
+        return Err(format!("to_local(n) = {local_n}"));
+    }
+    Ok(())
+}
+
+#[test]
+fn onb_is_orthonormal_and_right_handed_over_the_sphere() {
+    let mut rng = Pcg32::new(42, 7);
+    let random = (0..20_000).map(|_| {
+        let u = rng.next_vec2();
+        let z = 1.0 - 2.0 * u.x as f64;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = TAU * u.y as f64;
+        Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32).normalize()
+    });
+    let mut failures = Vec::new();
+    let mut count = 0;
+    for n in fibonacci_sphere(100_000).chain(random) {
+        count += 1;
+        if let Err(e) = check_onb(n) {
+            failures.push(format!("{n}: {e}"));
+        }
+    }
+    assert_eq!(count, 120_000);
+    assert!(
+        failures.is_empty(),
+        "{} bad frames, first: {:?}",
+        failures.len(),
+        &failures[..failures.len().min(5)]
+    );
+}
+
+#[test]
+fn onb_handles_axes_signed_zeros_denormals_and_near_minus_z() {
+    for n in hard_normals() {
+        assert!(
+            (n.length() - 1.0).abs() < 1e-6,
+            "test input {n} is not unit"
+        );
+        check_onb(n).unwrap_or_else(|e| panic!("normal {n:?}: {e}"));
+    }
+}
+
+#[test]
+fn onb_checker_rejects_broken_frames() {
+    // Negative control for `check_frame`: hand-built frames that are left-handed, skewed,
+    // not unit, or do not keep n must all be rejected; the canonical frame is accepted.
+    let good = Onb {
+        t: Vec3::X,
+        b: Vec3::Y,
+        n: Vec3::Z,
+    };
+    assert!(check_frame(&good, Vec3::Z).is_ok());
+    let broken = [
+        Onb {
+            t: Vec3::Y,
+            b: Vec3::X,
+            n: Vec3::Z,
+        },
+        Onb {
+            t: Vec3::new(1.0, 0.01, 0.0).normalize(),
+            b: Vec3::Y,
+            n: Vec3::Z,
+        },
+        Onb {
+            t: Vec3::X * 1.001,
+            b: Vec3::Y,
+            n: Vec3::Z,
+        },
+        Onb {
+            t: Vec3::X,
+            b: Vec3::Z,
+            n: Vec3::Y,
+        },
+        Onb {
+            t: Vec3::new(f32::NAN, 0.0, 0.0),
+            b: Vec3::Y,
+            n: Vec3::Z,
+        },
+    ];
+    for f in broken {
+        assert!(check_frame(&f, f.n).is_err(), "{f:?} accepted");
+    }
+    assert!(
+        check_frame(&good, Vec3::NEG_Z).is_err(),
+        "a frame around the wrong n accepted"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampler stratification.
+// ---------------------------------------------------------------------------------------------
+
+const KINDS: [SamplerKind; 3] = [
+    SamplerKind::Random,
+    SamplerKind::Stratified,
+    SamplerKind::Sobol,
+];
+const PIXELS: [(u32, u32); 4] = [(0, 0), (3, 7), (1919, 1079), (65_535, 2)];
+const SEEDS: [u64; 3] = [0, 1, 0x5eed_cafe_f00d];
+/// Sample counts for the stratified sampler: rectangular Kensler grids (m·n = spp) and
+/// non-rectangular ones (5 → 2×3, 7 → 2×4, 10 → 3×4, 32 → 5×7, 50 → 7×8).
+const STRATIFIED_SPP: [u32; 17] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 16, 32, 50, 64, 100, 256];
+
+/// The 2D points of dimension slot `slot` (reached by `slot` earlier `next_2d` calls) of all
+/// `spp` samples of one pixel.
+fn slot_points_2d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: u32) -> Vec<Vec2> {
+    let mut s = PixelSampler::new(kind, spp, seed);
+    (0..spp)
+        .map(|i| {
+            s.start(px.0, px.1, i);
+            for _ in 0..slot {
+                s.next_2d();
+            }
+            s.next_2d()
+        })
+        .collect()
+}
+
+/// The 1D values of dimension slot `slot` (reached by `slot` earlier `next_1d` calls).
+fn slot_values_1d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: u32) -> Vec<f32> {
+    let mut s = PixelSampler::new(kind, spp, seed);
+    (0..spp)
+        .map(|i| {
+            s.start(px.0, px.1, i);
+            for _ in 0..slot {
+                s.next_1d();
+            }
+            s.next_1d()
+        })
+        .collect()
+}
+
+/// Kensler's grid for `spp` samples: m = ⌊√spp⌋ columns, n = ⌈spp/m⌉ rows.
+fn kensler_grid(spp: u32) -> (u32, u32) {
+    let mut m = 1;
+    while (m + 1) * (m + 1) <= spp {
+        m += 1;
+    }
+    (m, spp.div_ceil(m))
+}
+
+/// Counts of points in each box of a `cols × rows` grid over [0, 1)². The box index is exact:
+/// an f32 times an integer below 2^24 is exact in f64.
+fn box_counts(points: &[Vec2], cols: u32, rows: u32) -> Result<Vec<u32>, String> {
+    let mut counts = vec![0u32; (cols * rows) as usize];
+    for p in points {
+        if !(p.x >= 0.0 && p.x < 1.0 && p.y >= 0.0 && p.y < 1.0) {
+            return Err(format!("point {p} outside [0, 1)²"));
+        }
+        let i = (p.x as f64 * cols as f64).floor() as u32;
+        let j = (p.y as f64 * rows as f64).floor() as u32;
+        counts[(j * cols + i) as usize] += 1;
+    }
+    Ok(counts)
+}
+
+fn at_most_one_per_box(points: &[Vec2], cols: u32, rows: u32) -> Result<(), String> {
+    let counts = box_counts(points, cols, rows)?;
+    match counts.iter().position(|&c| c > 1) {
+        Some(b) => Err(format!(
+            "{cols}×{rows} grid: box ({}, {}) holds {} points",
+            b as u32 % cols,
+            b as u32 / cols,
+            counts[b]
+        )),
+        None => Ok(()),
+    }
+}
+
+fn exactly_one_per_box(points: &[Vec2], cols: u32, rows: u32) -> Result<(), String> {
+    if points.len() != (cols * rows) as usize {
+        return Err(format!("{} points for {cols}×{rows} boxes", points.len()));
+    }
+    at_most_one_per_box(points, cols, rows)
+}
+
+/// The correlated multi-jittered (Kensler 2013) structure: with m·n = spp, one point per cell
+/// of the m×n grid and one per each of the spp columns and rows (n-rooks); otherwise at most
+/// one per cell, column and row of the m·n-fold refinement.
+fn check_multi_jittered(points: &[Vec2], m: u32, n: u32) -> Result<(), String> {
+    let spp = points.len() as u32;
+    if m * n == spp {
+        exactly_one_per_box(points, m, n)?;
+        exactly_one_per_box(points, spp, 1)?;
+        exactly_one_per_box(points, 1, spp)
+    } else {
+        at_most_one_per_box(points, m, n)?;
+        at_most_one_per_box(points, m * n, 1)?;
+        at_most_one_per_box(points, 1, m * n)
+    }
+}
+
+/// A (0, m, 2)-net in base 2: for every split a + b = m, each of the 2^a × 2^b elementary
+/// boxes holds exactly one of the 2^m points.
+fn check_02_net(points: &[Vec2], log2: u32) -> Result<(), String> {
+    for a in 0..=log2 {
+        exactly_one_per_box(points, 1 << a, 1 << (log2 - a))?;
+    }
+    Ok(())
+}
+
+/// Each of the `strata` intervals [k/strata, (k+1)/strata) holds exactly one value.
+fn check_1d_strata(values: &[f32], strata: u32) -> Result<(), String> {
+    let points: Vec<Vec2> = values.iter().map(|&v| Vec2::new(v, 0.5)).collect();
+    exactly_one_per_box(&points, strata, 1)
+}
+
+#[test]
+fn stratified_sampler_is_multi_jittered_in_2d_and_stratified_in_1d() {
+    for spp in STRATIFIED_SPP {
+        let (m, n) = kensler_grid(spp);
+        for seed in SEEDS {
+            for px in PIXELS {
+                for slot in 0..4 {
+                    let points = slot_points_2d(SamplerKind::Stratified, spp, seed, px, slot);
+                    check_multi_jittered(&points, m, n).unwrap_or_else(|e| {
+                        panic!("2D spp={spp} ({m}×{n}) seed={seed} pixel={px:?} slot={slot}: {e}")
+                    });
+                    let values = slot_values_1d(SamplerKind::Stratified, spp, seed, px, slot);
+                    check_1d_strata(&values, spp).unwrap_or_else(|e| {
+                        panic!("1D spp={spp} seed={seed} pixel={px:?} slot={slot}: {e}")
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// The same n-rooks / 1D-strata properties at high sample counts over many pixels. A
+/// regression test: sums of stratum index and jitter done in f32 used to round onto the next
+/// stratum's lower edge (e.g. spp = 1024, seed 0, pixel (65535, 2), slot 1 put a sample at
+/// y = 562/1024 exactly, leaving row 561 empty), in 4% of pixel-slots at 1024 spp and 50%
+/// at 4096.
+#[test]
+fn stratified_sampler_keeps_its_strata_at_high_spp() {
+    let mut failures = Vec::new();
+    for spp in [1024u32, 4096] {
+        let (m, n) = kensler_grid(spp);
+        for seed in 0..4u64 {
+            for px in 0..16u32 {
+                for slot in 0..4 {
+                    let pixel = (px, 2 * px + 1);
+                    let points = slot_points_2d(SamplerKind::Stratified, spp, seed, pixel, slot);
+                    if let Err(e) = check_multi_jittered(&points, m, n) {
+                        failures.push(format!(
+                            "2D spp={spp} seed={seed} {pixel:?} slot={slot}: {e}"
+                        ));
+                    }
+                    let values = slot_values_1d(SamplerKind::Stratified, spp, seed, pixel, slot);
+                    if let Err(e) = check_1d_strata(&values, spp) {
+                        failures.push(format!(
+                            "1D spp={spp} seed={seed} {pixel:?} slot={slot}: {e}"
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of 1024 checks failed, e.g. {:?}",
+        failures.len(),
+        &failures[..failures.len().min(4)]
+    );
+}
+
+#[test]
+fn sobol_sampler_slots_are_02_nets_and_stratified_in_1d() {
+    for log2 in 0..=10 {
+        let spp = 1u32 << log2;
+        for seed in SEEDS {
+            for px in PIXELS {
+                for slot in 0..4 {
+                    let points = slot_points_2d(SamplerKind::Sobol, spp, seed, px, slot);
+                    check_02_net(&points, log2).unwrap_or_else(|e| {
+                        panic!("2D spp={spp} seed={seed} pixel={px:?} slot={slot}: {e}")
+                    });
+                    let values = slot_values_1d(SamplerKind::Sobol, spp, seed, px, slot);
+                    check_1d_strata(&values, spp).unwrap_or_else(|e| {
+                        panic!("1D spp={spp} seed={seed} pixel={px:?} slot={slot}: {e}")
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Negative controls: the checkers must reject unstratified (PRNG) points, and a plain
+/// jittered grid (one point per cell but no n-rooks) must fail the multi-jittered and net
+/// criteria while passing the per-cell one.
+#[test]
+fn stratification_checkers_reject_unstratified_points() {
+    let mut rng = Pcg32::new(2024, 3);
+    let random: Vec<Vec2> = (0..64).map(|_| rng.next_vec2()).collect();
+    assert!(check_multi_jittered(&random, 8, 8).is_err());
+    assert!(check_02_net(&random, 6).is_err());
+    let random_1d: Vec<f32> = (0..64).map(|_| rng.next_f32()).collect();
+    assert!(check_1d_strata(&random_1d, 64).is_err());
+
+    let jittered: Vec<Vec2> = (0..64)
+        .map(|k| {
+            let (i, j) = ((k % 8) as f32, (k / 8) as f32);
+            Vec2::new((i + rng.next_f32()) / 8.0, (j + rng.next_f32()) / 8.0)
+        })
+        .collect();
+    assert!(exactly_one_per_box(&jittered, 8, 8).is_ok());
+    assert!(check_multi_jittered(&jittered, 8, 8).is_err());
+    assert!(check_02_net(&jittered, 6).is_err());
+
+    // A non-rectangular count: two points in one cell is caught.
+    let mut crowded: Vec<Vec2> = (0..5)
+        .map(|k| Vec2::new(0.1 + 0.2 * k as f32, 0.1 + 0.2 * k as f32))
+        .collect();
+    assert!(check_multi_jittered(&crowded, 2, 3).is_err()); // points 0 and 1 share cell (0, 0)
+    crowded.truncate(1);
+    assert!(check_multi_jittered(&crowded, 1, 1).is_ok());
+}
+
+#[test]
+fn random_sampler_is_uniform_in_mean_and_variance() {
+    // Mean 1/2 and variance 1/12, each to 5 standard errors: σ_mean = √(1/(12N)) and
+    // σ_var = √(Var((U − 1/2)²)/N) = √((1/80 − 1/144)/N) = √(1/(180N)).
+    let mut values = Vec::new();
+    for seed in SEEDS {
+        let mut s = PixelSampler::new(SamplerKind::Random, 64, seed);
+        for y in 0..16 {
+            for x in 0..16 {
+                for i in 0..64 {
+                    s.start(x, y, i);
+                    values.push(s.next_1d() as f64);
+                    let p = s.next_2d();
+                    values.push(p.x as f64);
+                    values.push(p.y as f64);
+                }
+            }
+        }
+    }
+    let count = values.len() as f64;
+    assert!(values.iter().all(|&v| v > 0.0 && v < 1.0));
+    let mean = values.iter().sum::<f64>() / count;
+    let var = values.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f64>() / count;
+    let sigma_mean = (1.0 / (12.0 * count)).sqrt();
+    let sigma_var = (1.0 / (180.0 * count)).sqrt();
+    assert!(
+        (mean - 0.5).abs() < 5.0 * sigma_mean,
+        "mean {mean} (σ {sigma_mean:e})"
+    );
+    assert!(
+        (var - 1.0 / 12.0).abs() < 5.0 * sigma_var,
+        "variance {var} (σ {sigma_var:e})"
+    );
+}
+
+/// One sample's values for a fixed pattern of draws: 1D, 2D, 2D, 1D, 2D, 1D.
+fn draw_pattern(s: &mut PixelSampler, x: u32, y: u32, index: u32) -> Vec<f32> {
+    s.start(x, y, index);
+    let mut out = vec![s.next_1d()];
+    for _ in 0..2 {
+        let p = s.next_2d();
+        out.extend([p.x, p.y]);
+    }
+    out.push(s.next_1d());
+    let p = s.next_2d();
+    out.extend([p.x, p.y]);
+    out.push(s.next_1d());
+    out
+}
+
+#[test]
+fn all_samplers_stay_strictly_inside_the_unit_interval() {
+    for kind in KINDS {
+        for spp in [1u32, 3, 16, 50, 256] {
+            for seed in SEEDS {
+                let mut s = PixelSampler::new(kind, spp, seed);
+                for px in PIXELS {
+                    // Indices past spp too: the stratified sampler falls back to random there.
+                    for i in 0..spp + 4 {
+                        for v in draw_pattern(&mut s, px.0, px.1, i) {
+                            assert!(
+                                v > 0.0 && v < 1.0,
+                                "{kind} spp={spp} seed={seed} {px:?} #{i}: {v}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn samplers_are_deterministic_whatever_was_drawn_before() {
+    let spp = 16;
+    let seed = 99;
+    let keys: Vec<(u32, u32, u32)> = PIXELS
+        .iter()
+        .flat_map(|&(x, y)| (0..spp).map(move |i| (x, y, i)))
+        .collect();
+    for kind in KINDS {
+        // Reference: a fresh sampler for every (pixel, index).
+        let reference: Vec<Vec<u32>> = keys
+            .iter()
+            .map(|&(x, y, i)| {
+                let mut s = PixelSampler::new(kind, spp, seed);
+                bits(&draw_pattern(&mut s, x, y, i))
+            })
+            .collect();
+        // One reused sampler, keys in a shuffled order, with abandoned partial samples of other
+        // pixels and indices between them.
+        let mut rng = Pcg32::new(kind as u64, 11);
+        let mut order: Vec<usize> = (0..keys.len()).collect();
+        for k in (1..order.len()).rev() {
+            order.swap(k, rng.below(k as u32 + 1) as usize);
+        }
+        let mut s = PixelSampler::new(kind, spp, seed);
+        for &k in &order {
+            s.start(rng.below(4000), rng.below(4000), rng.below(spp));
+            for _ in 0..rng.below(5) {
+                s.next_2d();
+                s.next_1d();
+            }
+            let (x, y, i) = keys[k];
+            assert_eq!(
+                bits(&draw_pattern(&mut s, x, y, i)),
+                reference[k],
+                "{kind}: pixel ({x}, {y}) sample {i} depends on earlier draws"
+            );
+            // A clone continues identically.
+            let mut a = s.clone();
+            assert_eq!(a.next_2d().to_array(), s.next_2d().to_array());
+        }
+    }
+}
+
+fn bits(values: &[f32]) -> Vec<u32> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn a_slot_depends_on_its_position_not_on_the_kind_of_earlier_draws() {
+    // "The i-th call is the sample's i-th dimension slot": slot 2 must be the same whether the
+    // two earlier calls were 1D or 2D.
+    for kind in KINDS {
+        let mut a = PixelSampler::new(kind, 16, 5);
+        let mut b = PixelSampler::new(kind, 16, 5);
+        for i in 0..16 {
+            a.start(4, 9, i);
+            a.next_1d();
+            a.next_1d();
+            b.start(4, 9, i);
+            b.next_2d();
+            b.next_1d();
+            assert_eq!(
+                a.next_2d().to_array(),
+                b.next_2d().to_array(),
+                "{kind} #{i}"
+            );
+        }
+    }
+}
+
+/// All values of one pixel's spp samples under the fixed draw pattern.
+fn pixel_signature(kind: SamplerKind, spp: u32, seed: u64, x: u32, y: u32) -> Vec<f32> {
+    let mut s = PixelSampler::new(kind, spp, seed);
+    (0..spp)
+        .flat_map(|i| draw_pattern(&mut s, x, y, i))
+        .collect()
+}
+
+fn fraction_equal(a: &[f32], b: &[f32]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).filter(|(p, q)| p == q).count() as f64 / a.len() as f64
+}
+
+#[test]
+fn different_pixels_seeds_and_slots_give_different_values() {
+    let spp = 16;
+    for kind in KINDS {
+        let base = pixel_signature(kind, spp, 1, 10, 20);
+        for (what, other) in [
+            ("pixel x+1", pixel_signature(kind, spp, 1, 11, 20)),
+            ("pixel y+1", pixel_signature(kind, spp, 1, 10, 21)),
+            (
+                "pixel (x, y) swapped",
+                pixel_signature(kind, spp, 1, 20, 10),
+            ),
+            ("seed", pixel_signature(kind, spp, 2, 10, 20)),
+        ] {
+            let f = fraction_equal(&base, &other);
+            assert!(f < 0.02, "{kind}: {what} shares {f} of its values");
+        }
+        // Slots 0..6 of the same pixel, as 1D draws: no two slots may coincide.
+        let slots: Vec<Vec<f32>> = (0..6)
+            .map(|slot| slot_values_1d(kind, spp, 1, (10, 20), slot))
+            .collect();
+        for a in 0..slots.len() {
+            for b in a + 1..slots.len() {
+                let f = fraction_equal(&slots[a], &slots[b]);
+                assert!(
+                    f < 0.2,
+                    "{kind}: slots {a} and {b} share {f} of their values"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn dimension_slots_are_decorrelated() {
+    // Pearson correlation of slot 0 and slot 1 (x of the 2D draws, and 1D draws) across many
+    // pixels; for independent slots it is ≈ N(0, 1/N), so |r| < 5/√N.
+    let spp = 64;
+    for kind in KINDS {
+        let (mut a2, mut b2, mut a1, mut b1) = (vec![], vec![], vec![], vec![]);
+        for y in 0..8 {
+            for x in 0..8 {
+                let p0 = slot_points_2d(kind, spp, 3, (x, y), 0);
+                let p1 = slot_points_2d(kind, spp, 3, (x, y), 1);
+                a2.extend(p0.iter().map(|p| p.x as f64));
+                b2.extend(p1.iter().map(|p| p.x as f64));
+                a1.extend(
+                    slot_values_1d(kind, spp, 3, (x, y), 0)
+                        .iter()
+                        .map(|&v| v as f64),
+                );
+                b1.extend(
+                    slot_values_1d(kind, spp, 3, (x, y), 1)
+                        .iter()
+                        .map(|&v| v as f64),
+                );
+            }
+        }
+        let bound = 5.0 / (a2.len() as f64).sqrt();
+        for (what, r) in [
+            ("2D x", correlation(&a2, &b2)),
+            ("1D", correlation(&a1, &b1)),
+        ] {
+            assert!(r.abs() < bound, "{kind} {what}: r = {r} (bound {bound})");
+        }
+    }
+    // Negative control: a slot is perfectly correlated with itself.
+    let v: Vec<f64> = slot_values_1d(SamplerKind::Stratified, 64, 3, (1, 1), 0)
+        .iter()
+        .map(|&v| v as f64)
+        .collect();
+    assert!((correlation(&v, &v) - 1.0).abs() < 1e-12);
+}
+
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let mut sab = 0.0;
+    let mut saa = 0.0;
+    let mut sbb = 0.0;
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    sab / (saa * sbb).sqrt()
+}
