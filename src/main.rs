@@ -74,6 +74,10 @@ struct Cli {
     #[arg(long, default_value = "medium", value_name = "low|medium|high")]
     bvh_quality: BuildQuality,
 
+    /// Turn off Embree's watertight (robust) traversal, for measurements only.
+    #[arg(long, hide = true)]
+    no_robust: bool,
+
     /// Do not write the PNG preview beside the EXR.
     #[arg(long)]
     no_png: bool,
@@ -217,6 +221,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             backend: cli.backend,
             quality: cli.bvh_quality,
             threads,
+            robust: !cli.no_robust,
         },
     )
     .with_context(|| format!("{}: building the {} BVH", cli.scene.display(), cli.backend))?;

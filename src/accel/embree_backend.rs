@@ -25,14 +25,14 @@ impl EmbreeAccel {
             BuildQuality::Medium => embree::BuildQuality::Medium,
             BuildQuality::High => embree::BuildQuality::High,
         };
-        // Robust mode: Embree's default traversal may miss rays through shared edges and
-        // vertices of closed meshes; ROBUST keeps the watertight test (small cost, see
-        // BENCHMARKS.md) so AO and shadow rays never leak through a mesh.
+        // Robust mode (the default): Embree's fast path may let rays slip through shared edges
+        // and vertices of closed meshes; ROBUST keeps the watertight test so AO and shadow
+        // rays never leak through a mesh. Its cost is measured in BENCHMARKS.md.
         let mut builder = SceneBuilder::new(
             &device,
             SceneOptions {
                 quality,
-                robust: true,
+                robust: options.robust,
                 compact: false,
             },
         )?;

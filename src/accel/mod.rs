@@ -108,6 +108,8 @@ pub struct AccelOptions {
     pub quality: BuildQuality,
     /// Worker threads for the BVH build (0: all cores).
     pub threads: usize,
+    /// Watertight traversal (Embree's `RTC_SCENE_FLAG_ROBUST`); on by default.
+    pub robust: bool,
 }
 
 impl Default for AccelOptions {
@@ -116,6 +118,7 @@ impl Default for AccelOptions {
             backend: Backend::Embree,
             quality: BuildQuality::default(),
             threads: 0,
+            robust: true,
         }
     }
 }

@@ -1,0 +1,106 @@
+//! Criterion benchmarks of the AO path on the bundled flight helmet (95k triangles):
+//! closest-hit camera rays, any-hit AO rays, and a whole small AO render, each on one thread
+//! so the numbers compare across machines with different core counts.
+//!
+//!     cargo bench --bench ao
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec2;
+use indicatif::ProgressBar;
+use strata::accel::{Accel, AccelOptions, Ray};
+use strata::integrators::{AoSettings, Integrator};
+use strata::interaction::SurfaceInteraction;
+use strata::render::{self, RenderSettings};
+use strata::sampling::warps::square_to_cosine_hemisphere;
+use strata::sampling::{Onb, PixelSampler, SamplerKind};
+use strata::scene::{self, LoadOptions, Scene};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+fn load() -> (Scene, Accel) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/flight-helmet.gltf");
+    let scene = scene::load(&path, &LoadOptions::default()).expect("bundled scene");
+    let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
+    (scene, accel)
+}
+
+/// One camera ray per pixel centre, and the AO rays of the pixels whose camera ray hits.
+fn ray_batches(scene: &Scene, accel: &Accel) -> (Vec<Ray>, Vec<Ray>) {
+    let camera = &scene.cameras[0];
+    let mut sampler = PixelSampler::new(SamplerKind::Sobol, 1, 0);
+    let mut camera_rays = Vec::new();
+    let mut ao_rays = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            let ray = camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, W, H);
+            camera_rays.push(ray);
+            if let Some(hit) = accel.intersect(&ray) {
+                let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
+                sampler.start(x, y, 0);
+                let u: Vec2 = sampler.next_2d();
+                let wi = Onb::from_normal(si.ns).to_world(square_to_cosine_hemisphere(u));
+                if wi.dot(si.ng) > 0.0 {
+                    ao_rays.push(si.spawn_ray(wi, f32::INFINITY));
+                }
+            }
+        }
+    }
+    (camera_rays, ao_rays)
+}
+
+fn bench(c: &mut Criterion) {
+    strata::embree::enable_ftz_daz();
+    let (scene, accel) = load();
+    let (camera_rays, ao_rays) = ray_batches(&scene, &accel);
+
+    let mut g = c.benchmark_group("flight-helmet");
+    g.throughput(Throughput::Elements(camera_rays.len() as u64));
+    g.bench_function("closest hit, camera rays", |b| {
+        b.iter(|| {
+            camera_rays
+                .iter()
+                .filter(|r| accel.intersect(r).is_some())
+                .count()
+        })
+    });
+    g.throughput(Throughput::Elements(ao_rays.len() as u64));
+    g.bench_function("any hit, AO rays", |b| {
+        b.iter(|| ao_rays.iter().filter(|r| accel.occluded(r)).count())
+    });
+
+    let pool = render::thread_pool(1).unwrap();
+    let settings = RenderSettings {
+        width: W,
+        height: H,
+        spp: 4,
+        seed: 0,
+        sampler: SamplerKind::Sobol,
+        integrator: Integrator::Ao(AoSettings::default()),
+        tile_size: 16,
+    };
+    g.throughput(Throughput::Elements((W * H * settings.spp) as u64));
+    g.sample_size(10);
+    g.bench_function("AO render 320x240 4 spp, 1 thread (samples)", |b| {
+        b.iter(|| {
+            render::render(
+                &scene,
+                &scene.cameras[0],
+                &accel,
+                &settings,
+                &pool,
+                &ProgressBar::hidden(),
+                &AtomicBool::new(false),
+            )
+            .stats
+            .rays
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
