@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs what strata needs to build and test on Debian 12 (or Ubuntu/Debian 13):
+# Embree (headers and library), libclang for bindgen, pkg-config, and OpenImageIO's
+# command-line tools (idiff, oiiotool) used by the image tests. Idempotent: packages that
+# are already installed are not touched, and apt is not called at all when none is missing.
+set -euo pipefail
+
+packages=(libembree-dev libclang-dev pkg-config openimageio-tools)
+
+if ! command -v dpkg >/dev/null 2>&1; then
+    echo "setup: not a Debian-based system; install Embree 4 (or 3.13), libclang, pkg-config and" >&2
+    echo "       OpenImageIO's tools with your package manager (Homebrew: embree llvm pkg-config openimageio)." >&2
+    exit 1
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if ((${#missing[@]})); then
+    sudo=""
+    if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+    echo "setup: installing ${missing[*]}" >&2
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+    echo "setup: system packages already installed (${packages[*]})" >&2
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+    echo "setup: cargo not found: install a Rust toolchain (rustup), Rust 1.86 or newer" >&2
+    exit 1
+fi
