@@ -151,73 +151,53 @@ fn error_missing_scene_file() {
     );
 }
 
-#[test]
-fn error_not_gltf() {
+/// A bad scene file from tests/data/bad: the error names the file and says what is wrong.
+fn expect_bad_scene(file: &str, words: &[&str]) {
     let tmp = tempfile::tempdir().unwrap();
-    let scene = bad("not_gltf.gltf");
+    let scene = bad(file);
     let out = tmp.path().join("out.exr");
+    let mut all = vec![s(&scene)];
+    all.extend_from_slice(words);
     expect_error(
         tmp.path(),
         &with_small(&[s(&scene), "-o", s(&out)]),
-        &[s(&scene), "not a glTF"],
+        &all,
         &[],
     );
+}
+
+#[test]
+fn error_not_gltf() {
+    expect_bad_scene("not_gltf.gltf", &["not a glTF"]);
 }
 
 #[test]
 fn error_no_triangles() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = bad("no_triangles.gltf");
-    let out = tmp.path().join("out.exr");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
-        &[s(&scene), "no triangles"],
-        &[],
-    );
+    expect_bad_scene("no_triangles.gltf", &["no triangles"]);
 }
 
 #[test]
 fn error_required_extension() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = bad("required_extension.gltf");
-    let out = tmp.path().join("out.exr");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
+    expect_bad_scene(
+        "required_extension.gltf",
         &[
-            s(&scene),
             "requires the extension KHR_draco_mesh_compression",
             "not support",
         ],
-        &[],
     );
 }
 
 #[test]
 fn error_truncated_glb() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = bad("truncated.glb");
-    let out = tmp.path().join("out.exr");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
-        &[s(&scene), "invalid", "glTF"],
-        &[],
-    );
+    expect_bad_scene("truncated.glb", &["invalid", "glTF"]);
 }
 
 #[test]
 fn error_missing_buffer() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = bad("missing_buffer.gltf");
-    let out = tmp.path().join("out.exr");
     // The message names the scene, the buffer and the file that could not be read.
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
-        &[s(&scene), "buffer 0", "does-not-exist.bin", "no such file"],
-        &[],
+    expect_bad_scene(
+        "missing_buffer.gltf",
+        &["buffer 0", "does-not-exist.bin", "no such file"],
     );
 }
 
