@@ -11,7 +11,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec2;
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Ray};
-use strata::integrators::{AoSettings, Integrator};
+use strata::integrators::{AoSettings, Integrator, Prepared};
 use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderSettings};
 use strata::sampling::warps::square_to_cosine_hemisphere;
@@ -72,8 +72,12 @@ fn bench(c: &mut Criterion) {
         b.iter(|| ao_rays.iter().filter(|r| accel.occluded(r)).count())
     });
 
+    let prepared = Prepared::default();
+    let ctx = prepared.context(&scene, &accel);
     let pool = render::thread_pool(1).unwrap();
     let settings = RenderSettings {
+        camera: scene.cameras[0].clone(),
+        crop: None,
         width: W,
         height: H,
         spp: 4,
@@ -87,9 +91,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("AO render 320x240 4 spp, 1 thread (samples)", |b| {
         b.iter(|| {
             render::render(
-                &scene,
-                &scene.cameras[0],
-                &accel,
+                &ctx,
                 &settings,
                 &pool,
                 &ProgressBar::hidden(),

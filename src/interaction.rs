@@ -80,6 +80,19 @@ impl SurfaceInteraction {
         }
     }
 
+    /// A shadow ray from the surface toward the point `target` (already offset off its own
+    /// surface, if it has one): `dir` spans the whole segment, `t_max` stops just short.
+    #[inline]
+    pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
+        let org = offset_ray_origin(self.p, self.p_error, self.ng, target - self.p);
+        Ray {
+            org,
+            dir: target - org,
+            t_min: 0.0,
+            t_max: 1.0 - SHADOW_EPSILON,
+        }
+    }
+
     /// A ray leaving the surface in direction `dir`, reaching up to `t_max`.
     #[inline]
     pub fn spawn_ray(&self, dir: Vec3, t_max: f32) -> Ray {
@@ -91,6 +104,10 @@ impl SurfaceInteraction {
         }
     }
 }
+
+/// Shadow rays toward a point stop this fraction short of it (pbrt-v4's `ShadowEpsilon`),
+/// relative to the ray's length, so the target surface itself is not reported.
+pub const SHADOW_EPSILON: f32 = 1e-4;
 
 /// Moves `p` along `n` past its error bound, to the side of `w`, and rounds the result away
 /// from `p` so the offset survives rounding (pbrt-v4 §6.8.6).

@@ -12,7 +12,9 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use strata::accel::{Accel, AccelOptions, Backend, BuildQuality};
-use strata::integrators::{AoSettings, Hemisphere, Integrator, IntegratorKind};
+use strata::integrators::{
+    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, Prepared, Strategy,
+};
 use strata::render::output::{self, Attr};
 use strata::render::{self, RenderSettings};
 use strata::sampling::sampler::SOBOL_MAX_SPP;
@@ -34,9 +36,29 @@ struct Cli {
     #[arg(long, default_value = "embree", value_name = "embree")]
     backend: Backend,
 
-    /// Light transport algorithm.
-    #[arg(long, default_value = "ao", value_name = "ao")]
+    /// Light transport algorithm: ambient occlusion, direct lighting, or path tracing.
+    #[arg(long, default_value = "ao", value_name = "ao|direct|path")]
     integrator: IntegratorKind,
+
+    /// Path tracing: the most bounces (1 = direct lighting; Mitsuba's max_depth is this + 1).
+    #[arg(long, default_value_t = 8, value_name = "BOUNCES")]
+    max_depth: u32,
+
+    /// Direct and path: how direct light is sampled: MIS of light and BSDF sampling, or one alone.
+    #[arg(long, default_value = "mis", value_name = "mis|light|bsdf")]
+    strategy: Strategy,
+
+    /// Path tracing: Russian roulette from this bounce on.
+    #[arg(long, default_value_t = 5, value_name = "BOUNCES")]
+    rr_depth: u32,
+
+    /// Constant environment radiance, linear RGB [default: black].
+    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
+    background: Option<[f32; 3]>,
+
+    /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pixel: Option<(u32, u32)>,
 
     /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
     #[arg(long, default_value = "sobol", value_name = "random|stratified|sobol")]
@@ -106,6 +128,29 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
         _ => Err(format!(
             "'{s}': width and height must be integers in 1..=65536"
         )),
+    }
+}
+
+fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}': expected R,G,B"))?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
+        [c] if c.is_finite() && c >= 0.0 => Ok([c, c, c]),
+        _ => Err(format!("'{s}': expected three non-negative numbers R,G,B")),
+    }
+}
+
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let (x, y) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}': expected X,Y"))?;
+    match (x.trim().parse(), y.trim().parse()) {
+        (Ok(x), Ok(y)) => Ok((x, y)),
+        _ => Err(format!("'{s}': expected two pixel coordinates X,Y")),
     }
 }
 
@@ -227,14 +272,45 @@ fn run(cli: Cli) -> Result<Outcome> {
     .with_context(|| format!("{}: building the {} BVH", cli.scene.display(), cli.backend))?;
     let build_time = t_build.elapsed();
 
-    // Render.
+    // Materials and lights: only what the integrator reads.
+    let path_settings = PathSettings {
+        max_depth: cli.max_depth,
+        rr_depth: cli.rr_depth,
+        strategy: cli.strategy,
+    };
     let integrator = match cli.integrator {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {
             max_distance: ao_distance,
             hemisphere: cli.hemisphere,
         }),
+        IntegratorKind::Direct => Integrator::Direct(PathSettings {
+            max_depth: 1,
+            ..path_settings
+        }),
+        IntegratorKind::Path => Integrator::Path(path_settings),
     };
+    let t_prepare = Instant::now();
+    let background = glam::Vec3::from_array(cli.background.unwrap_or([0.0; 3]));
+    let prepared =
+        Prepared::new(&scene, &cli.scene, &integrator, background).map_err(|e| anyhow!(e))?;
+    if integrator.needs_lights() && prepared.lights.is_empty() {
+        eprintln!(
+            "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
+            cli.scene.display()
+        );
+    }
+    let prepare_time = t_prepare.elapsed();
+    if let Some((x, y)) = cli.pixel {
+        if x >= width || y >= height {
+            bail!("--pixel {x},{y} lies outside the {width}x{height} image");
+        }
+    }
+
+    // Render.
+    let ctx = prepared.context(&scene, &accel);
     let settings = RenderSettings {
+        camera,
+        crop: cli.pixel.map(|(x, y)| (x, y, x + 1, y + 1)),
         width,
         height,
         spp: cli.spp,
@@ -256,9 +332,7 @@ fn run(cli: Cli) -> Result<Outcome> {
     } else {
         ProgressBar::hidden()
     };
-    let result = render::render(
-        &scene, &camera, &accel, &settings, &pool, &progress, &cancel,
-    );
+    let result = render::render(&ctx, &settings, &pool, &progress, &cancel);
     progress.finish_and_clear();
 
     // Write.
@@ -295,6 +369,18 @@ fn run(cli: Cli) -> Result<Outcome> {
                 Attr::Text(ao.hemisphere.to_string()),
             ));
             attrs.push(("strata:ao_distance".into(), Attr::Float(ao.max_distance)));
+        }
+        Integrator::Direct(p) | Integrator::Path(p) => {
+            attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
+            attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
+            attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
+            attrs.push((
+                "strata:background".into(),
+                Attr::Text(format!(
+                    "{},{},{}",
+                    background.x, background.y, background.z
+                )),
+            ));
         }
     }
     output::write_exr(&output, &result.film, &attrs)?;
@@ -347,18 +433,35 @@ fn run(cli: Cli) -> Result<Outcome> {
         );
         println!("backend: {}, {threads} threads", accel.describe());
         println!(
-            "time: load {:.3} s, BVH build {:.3} s, render {:.3} s, write {:.3} s",
+            "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.3} s, write {:.3} s",
             load_time.as_secs_f64(),
             build_time.as_secs_f64(),
+            prepare_time.as_secs_f64(),
             stats.seconds,
             write_time.as_secs_f64()
         );
         println!(
-            "rays: {} camera, {} occlusion, {} total, {:.3} Mrays/s",
+            "shading: {} textures decoded, {} emitters",
+            prepared.materials.decoded_images(),
+            prepared.lights.emitters.len()
+        );
+        println!(
+            "rays: {} camera, {} extension, {} shadow, {} total, {:.3} Mrays/s",
             stats.rays.camera,
-            stats.rays.occlusion,
+            stats.rays.extension,
+            stats.rays.shadow,
             rays,
             rays_per_s * 1e-6
+        );
+    }
+    if let Some((x, y)) = cli.pixel {
+        let v = result.film.pixel(x, y);
+        println!(
+            "pixel ({x}, {y}): {} {} {} ({} samples)",
+            v.x,
+            v.y,
+            v.z,
+            result.film.count(x, y)
         );
     }
     Ok(if result.interrupted {

@@ -17,7 +17,7 @@ use std::sync::atomic::AtomicBool;
 
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
-use strata::integrators::{AoSettings, Hemisphere, Integrator};
+use strata::integrators::{AoSettings, Hemisphere, Integrator, Prepared};
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
@@ -38,6 +38,8 @@ fn render_ao(
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let settings = RenderSettings {
+        camera: scene.cameras[0].clone(),
+        crop: None,
         width: SIZE,
         height: SIZE,
         spp: SPP,
@@ -49,11 +51,11 @@ fn render_ao(
         }),
         tile_size: 16,
     };
+    let prepared = Prepared::default();
+    let ctx = prepared.context(&scene, &accel);
     let pool = render::thread_pool(0).unwrap();
     let result = render::render(
-        &scene,
-        &scene.cameras[0],
-        &accel,
+        &ctx,
         &settings,
         &pool,
         &ProgressBar::hidden(),

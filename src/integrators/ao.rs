@@ -101,7 +101,7 @@ pub fn li(
     if wi.dot(si.ng) <= 0.0 || weight == 0.0 {
         return 0.0;
     }
-    rays.occlusion += 1;
+    rays.shadow += 1;
     if accel.occluded(&si.spawn_ray(wi, settings.max_distance)) {
         0.0
     } else {

@@ -4,33 +4,87 @@
 //! [`PixelSampler`], draws its dimensions in a fixed order, and returns one estimate.
 
 pub mod ao;
+pub mod path;
 
 use glam::Vec3;
 use std::fmt;
 use std::str::FromStr;
 
 use crate::accel::{Accel, Ray};
+use crate::lights::LightSet;
+use crate::material::{Materials, Need};
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 
 pub use ao::{AoSettings, Hemisphere};
+pub use path::{PathSettings, Strategy};
+
+/// Everything an integrator reads: geometry, its acceleration structure, the prepared
+/// materials and the light set.
+#[derive(Clone, Copy)]
+pub struct Context<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a Accel,
+    pub materials: &'a Materials,
+    pub lights: &'a LightSet,
+}
+
+/// The materials and lights an integrator needs, prepared once per render: nothing for AO;
+/// decoded textures and the light set for direct lighting and path tracing.
+#[derive(Clone, Debug, Default)]
+pub struct Prepared {
+    pub materials: Materials,
+    pub lights: LightSet,
+}
+
+impl Prepared {
+    /// Prepares what `integrator` reads of `scene` (loaded from `scene_path`, for messages),
+    /// with a constant `background` radiance.
+    pub fn new(
+        scene: &Scene,
+        scene_path: &std::path::Path,
+        integrator: &Integrator,
+        background: Vec3,
+    ) -> Result<Prepared, String> {
+        let materials = Materials::prepare(scene, scene_path, integrator.material_need())?;
+        let lights = if integrator.needs_lights() {
+            LightSet::build(scene, &materials, background)
+        } else {
+            LightSet::default()
+        };
+        Ok(Prepared { materials, lights })
+    }
+
+    /// The integrator context for `scene` traced through `accel`.
+    pub fn context<'a>(&'a self, scene: &'a Scene, accel: &'a Accel) -> Context<'a> {
+        Context {
+            scene,
+            accel,
+            materials: &self.materials,
+            lights: &self.lights,
+        }
+    }
+}
 
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounts {
     pub camera: u64,
-    /// Shadow and ambient-occlusion rays (any-hit queries).
-    pub occlusion: u64,
+    /// Closest-hit rays that continue a path after a bounce.
+    pub extension: u64,
+    /// Any-hit rays: shadow rays toward lights, and ambient-occlusion rays.
+    pub shadow: u64,
 }
 
 impl RayCounts {
     pub fn total(&self) -> u64 {
-        self.camera + self.occlusion
+        self.camera + self.extension + self.shadow
     }
 
     pub fn add(&mut self, other: &RayCounts) {
         self.camera += other.camera;
-        self.occlusion += other.occlusion;
+        self.extension += other.extension;
+        self.shadow += other.shadow;
     }
 }
 
@@ -39,6 +93,8 @@ impl RayCounts {
 pub enum IntegratorKind {
     #[default]
     Ao,
+    Direct,
+    Path,
 }
 
 impl FromStr for IntegratorKind {
@@ -46,10 +102,9 @@ impl FromStr for IntegratorKind {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "ao" => Ok(IntegratorKind::Ao),
-            "direct" | "path" => Err(format!(
-                "integrator '{s}' is not implemented yet (available: ao)"
-            )),
-            other => Err(format!("unknown integrator '{other}' (available: ao)")),
+            "direct" => Ok(IntegratorKind::Direct),
+            "path" => Ok(IntegratorKind::Path),
+            other => Err(format!("unknown integrator '{other}' (ao, direct, path)")),
         }
     }
 }
@@ -58,6 +113,8 @@ impl fmt::Display for IntegratorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             IntegratorKind::Ao => "ao",
+            IntegratorKind::Direct => "direct",
+            IntegratorKind::Path => "path",
         })
     }
 }
@@ -66,28 +123,52 @@ impl fmt::Display for IntegratorKind {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Integrator {
     Ao(AoSettings),
+    /// Direct lighting: the path tracer stopped after one bounce.
+    Direct(PathSettings),
+    Path(PathSettings),
 }
 
 impl Integrator {
     pub fn kind(&self) -> IntegratorKind {
         match self {
             Integrator::Ao(_) => IntegratorKind::Ao,
+            Integrator::Direct(_) => IntegratorKind::Direct,
+            Integrator::Path(_) => IntegratorKind::Path,
         }
+    }
+
+    /// What the integrator reads from materials (AO reads none).
+    pub fn material_need(&self) -> Need {
+        match self {
+            Integrator::Ao(_) => Need::Nothing,
+            Integrator::Direct(_) | Integrator::Path(_) => Need::Shading,
+        }
+    }
+
+    /// True when the integrator needs light sources to produce anything but black.
+    pub fn needs_lights(&self) -> bool {
+        !matches!(self, Integrator::Ao(_))
     }
 
     /// One estimate of the radiance along the camera ray `ray`.
     #[inline]
     pub fn li(
         &self,
-        scene: &Scene,
-        accel: &Accel,
+        ctx: &Context,
         ray: &Ray,
         sampler: &mut PixelSampler,
         rays: &mut RayCounts,
     ) -> Vec3 {
         match self {
             Integrator::Ao(settings) => {
-                Vec3::splat(ao::li(scene, accel, ray, sampler, settings, rays))
+                Vec3::splat(ao::li(ctx.scene, ctx.accel, ray, sampler, settings, rays))
+            }
+            Integrator::Direct(settings) | Integrator::Path(settings) => {
+                if ctx.lights.is_empty() {
+                    // Nothing emits: the image is black; skip the work.
+                    return Vec3::ZERO;
+                }
+                path::li(ctx, ray, sampler, settings, rays)
             }
         }
     }

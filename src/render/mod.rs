@@ -16,10 +16,9 @@ use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use crate::accel::Accel;
-use crate::integrators::{Integrator, RayCounts};
+use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
-use crate::scene::{Camera, Scene};
+use crate::scene::Camera;
 pub use film::{BadSample, Film};
 
 /// How many NaN/Inf samples are kept for the report.
@@ -27,6 +26,7 @@ pub const BAD_SAMPLES_KEPT: usize = 8;
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
+    pub camera: Camera,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -34,6 +34,8 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     pub integrator: Integrator,
     pub tile_size: u32,
+    /// Render only pixels x0 ≤ x < x1, y0 ≤ y < y1 (the rest of the film stays empty).
+    pub crop: Option<(u32, u32, u32, u32)>,
 }
 
 /// What a render did, besides the image.
@@ -72,16 +74,17 @@ struct Tile {
     y1: u32,
 }
 
-fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
+/// Tiles covering the window [x0, x1) × [y0, y1), in scanline order.
+fn tiles((x0, y0, x1, y1): (u32, u32, u32, u32), size: u32) -> Vec<Tile> {
     let size = size.max(1);
     let mut out = Vec::new();
-    for y0 in (0..height).step_by(size as usize) {
-        for x0 in (0..width).step_by(size as usize) {
+    for ty in (y0..y1).step_by(size as usize) {
+        for tx in (x0..x1).step_by(size as usize) {
             out.push(Tile {
-                x0,
-                y0,
-                x1: (x0 + size).min(width),
-                y1: (y0 + size).min(height),
+                x0: tx,
+                y0: ty,
+                x1: (tx + size).min(x1),
+                y1: (ty + size).min(y1),
             });
         }
     }
@@ -114,9 +117,7 @@ struct TileResult {
 }
 
 fn render_tile(
-    scene: &Scene,
-    camera: &Camera,
-    accel: &Accel,
+    ctx: &Context,
     settings: &RenderSettings,
     tile: Tile,
     samples: (u32, u32),
@@ -133,15 +134,13 @@ fn render_tile(
                 sampler.start(x, y, index);
                 // The first two dimensions place the sample on the film.
                 let film_uv = sampler.next_2d();
-                let ray = camera.generate_ray(
+                let ray = settings.camera.generate_ray(
                     x as f32 + film_uv.x,
                     y as f32 + film_uv.y,
                     settings.width,
                     settings.height,
                 );
-                let l: Vec3 = settings
-                    .integrator
-                    .li(scene, accel, &ray, &mut sampler, &mut rays);
+                let l: Vec3 = settings.integrator.li(ctx, &ray, &mut sampler, &mut rays);
                 if l.is_finite() {
                     sum[0] += l.x as f64;
                     sum[1] += l.y as f64;
@@ -169,19 +168,28 @@ fn render_tile(
     }
 }
 
-/// Renders `scene` as seen by `camera` on `pool`. The progress bar counts tile passes;
-/// `cancel` stops the render between tiles.
+/// Renders the scene of `ctx` as `settings` say, on `pool`. The progress bar counts tile
+/// passes; `cancel` stops the render between tiles.
 pub fn render(
-    scene: &Scene,
-    camera: &Camera,
-    accel: &Accel,
+    ctx: &Context,
     settings: &RenderSettings,
     pool: &rayon::ThreadPool,
     progress: &ProgressBar,
     cancel: &AtomicBool,
 ) -> RenderResult {
     let start = Instant::now();
-    let tiles = tiles(settings.width, settings.height, settings.tile_size);
+    let window = settings.crop.map_or(
+        (0, 0, settings.width, settings.height),
+        |(x0, y0, x1, y1)| {
+            (
+                x0.min(settings.width),
+                y0.min(settings.height),
+                x1.min(settings.width),
+                y1.min(settings.height),
+            )
+        },
+    );
+    let tiles = tiles(window, settings.tile_size);
     let passes = passes(settings.spp);
     progress.set_length((tiles.len() * passes.len()) as u64);
     let mut film = Film::new(settings.width, settings.height);
@@ -200,7 +208,7 @@ pub fn render(
                     if cancel.load(Ordering::Relaxed) {
                         return None;
                     }
-                    let r = render_tile(scene, camera, accel, settings, tile, pass);
+                    let r = render_tile(ctx, settings, tile, pass);
                     progress.inc(1);
                     Some(r)
                 })
@@ -262,7 +270,7 @@ mod tests {
     fn tiles_cover_the_image_once() {
         let (w, h) = (37, 21);
         let mut seen = vec![0u32; (w * h) as usize];
-        for t in tiles(w, h, 8) {
+        for t in tiles((0, 0, w, h), 8) {
             for y in t.y0..t.y1 {
                 for x in t.x0..t.x1 {
                     seen[(y * w + x) as usize] += 1;

@@ -4,7 +4,7 @@
 #
 #   tools/bench/ao_throughput.sh [RENDER_BINARY] [RUNS]
 #
-# Prints a Markdown table row per configuration: total and occlusion (AO) rays/s.
+# Prints a Markdown table row per configuration: total and AO (shadow, any-hit) rays/s.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin="${1:-target/release/render}"
@@ -22,8 +22,8 @@ measure() {
         log="$("$bin" "$scene" -o "$out/b.exr" --no-png --spp 64 --resolution 640x480 --stats "$@")"
         local s total ao
         s=$(sed -n 's/^time: .* render \([0-9.]*\) s.*/\1/p' <<<"$log")
-        total=$(sed -n 's/^rays: \([0-9]*\) camera, \([0-9]*\) occlusion, \([0-9]*\) total.*/\3/p' <<<"$log")
-        ao=$(sed -n 's/^rays: \([0-9]*\) camera, \([0-9]*\) occlusion.*/\2/p' <<<"$log")
+        total=$(sed -n 's/^rays: .* \([0-9]*\) total.*/\1/p' <<<"$log")
+        ao=$(sed -n 's/^rays: .* \([0-9]*\) shadow.*/\1/p' <<<"$log")
         secs+=("$s")
         totals+=("$(python3 -c "print($total / $s / 1e6)")")
         aos+=("$(python3 -c "print($ao / $s / 1e6)")")

@@ -1,0 +1,198 @@
+//! Unidirectional path tracing with next-event estimation and multiple importance sampling;
+//! with `max_depth = 1` it is the `direct` integrator.
+//!
+//! At every surface vertex one light is sampled (next-event estimation) and one direction is
+//! drawn from the BSDF; an emitter reached by the BSDF direction is weighted against the
+//! light-sampling pdf with the power heuristic (Veach 1995, §9.2), and delta lights are
+//! reached by light sampling only. Emitters seen directly by the camera count in full.
+//!
+//! | parameter   | default | meaning                                                           |
+//! |-------------|---------|-------------------------------------------------------------------|
+//! | `max_depth` | 8       | bounces: 1 is direct lighting (Mitsuba `max_depth` = this + 1)    |
+//! | `rr_depth`  | 5       | Russian roulette on the path throughput from this bounce on       |
+//! | `strategy`  | mis     | `mis`, `light` (NEE only) or `bsdf` (BSDF sampling only, delta     |
+//! |             |         | lights still by NEE): all three are unbiased; for comparisons     |
+//!
+//! Sample dimensions per bounce, in order: light choice (1D), light point (2D), BSDF
+//! direction (2D), Russian roulette (1D); all are drawn whether used or not, so a pixel's
+//! dimensions do not shift between strategies.
+
+use std::fmt;
+use std::str::FromStr;
+
+use glam::Vec3;
+
+use super::{Context, RayCounts};
+use crate::accel::Ray;
+use crate::interaction::SurfaceInteraction;
+use crate::material::Lambertian;
+use crate::sampling::PixelSampler;
+
+/// Which sampling techniques contribute direct light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Strategy {
+    #[default]
+    Mis,
+    Light,
+    Bsdf,
+}
+
+impl FromStr for Strategy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "mis" => Ok(Strategy::Mis),
+            "light" => Ok(Strategy::Light),
+            "bsdf" => Ok(Strategy::Bsdf),
+            other => Err(format!("unknown strategy '{other}' (mis, light, bsdf)")),
+        }
+    }
+}
+
+impl fmt::Display for Strategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Strategy::Mis => "mis",
+            Strategy::Light => "light",
+            Strategy::Bsdf => "bsdf",
+        })
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub strategy: Strategy,
+}
+
+impl Default for PathSettings {
+    fn default() -> Self {
+        PathSettings {
+            max_depth: 8,
+            rr_depth: 5,
+            strategy: Strategy::Mis,
+        }
+    }
+}
+
+/// The power heuristic with β = 2 (Veach 1995).
+#[inline]
+fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
+    let (f, g) = (pdf_f * pdf_f, pdf_g * pdf_g);
+    if f + g == 0.0 {
+        0.0
+    } else {
+        f / (f + g)
+    }
+}
+
+/// One estimate of the radiance along the camera ray.
+pub fn li(
+    ctx: &Context,
+    ray: &Ray,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+    rays: &mut RayCounts,
+) -> Vec3 {
+    let (scene, lights, materials) = (ctx.scene, ctx.lights, ctx.materials);
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut ray = *ray;
+    // The previous vertex's BSDF pdf and position, for MIS of emitters the path reaches; None
+    // for the camera vertex.
+    let mut prev: Option<(f32, Vec3)> = None;
+    let mut depth = 0;
+    rays.camera += 1;
+    loop {
+        let Some(hit) = ctx.accel.intersect(&ray) else {
+            // Possibly add the background, weighted against sampling it as a light.
+            let bg = lights.background();
+            if bg.max_element() > 0.0 {
+                let w = match prev {
+                    None => 1.0,
+                    Some((pdf_bsdf, _)) => match settings.strategy {
+                        Strategy::Mis => power_heuristic(pdf_bsdf, lights.background_pdf()),
+                        Strategy::Bsdf => 1.0,
+                        Strategy::Light => 0.0,
+                    },
+                };
+                l += beta * bg * w;
+            }
+            break;
+        };
+        let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
+        let uv = materials.uv(scene, &si);
+
+        // Emission of the surface the path reached, MIS-weighted unless the camera sees it.
+        let le = materials.emitted(scene, &si, uv);
+        if le.max_element() > 0.0 {
+            let w = match prev {
+                None => 1.0,
+                Some((pdf_bsdf, p_prev)) => match settings.strategy {
+                    Strategy::Mis => {
+                        let pdf_light = lights.triangle_pdf(scene, si.prim, p_prev, si.p, hit.ng);
+                        power_heuristic(pdf_bsdf, pdf_light)
+                    }
+                    Strategy::Bsdf => 1.0,
+                    Strategy::Light => 0.0,
+                },
+            };
+            l += beta * le * w;
+        }
+        if depth == settings.max_depth {
+            break;
+        }
+        depth += 1;
+
+        let bsdf = Lambertian::new(materials.albedo(scene, &si, uv), &si);
+        let u_light_select = sampler.next_1d();
+        let u_light = sampler.next_2d();
+        let u_bsdf = sampler.next_2d();
+        let u_rr = sampler.next_1d();
+
+        // Next-event estimation: sample a light, test visibility, weight against the BSDF.
+        if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light_select, u_light) {
+            let use_it = ls.is_delta || settings.strategy != Strategy::Bsdf;
+            let f = bsdf.f_cos(ls.wi);
+            if use_it && ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
+                let pdf_light = pmf * ls.pdf;
+                let w = if ls.is_delta || settings.strategy == Strategy::Light {
+                    1.0
+                } else {
+                    power_heuristic(pdf_light, bsdf.pdf(ls.wi))
+                };
+                let shadow = if ls.infinite {
+                    si.spawn_ray(ls.wi, f32::INFINITY)
+                } else {
+                    si.spawn_ray_to(ls.p_light)
+                };
+                rays.shadow += 1;
+                if !ctx.accel.occluded(&shadow) {
+                    l += beta * f * ls.li * (w / pdf_light);
+                }
+            }
+        }
+
+        // Sample the BSDF for the next direction.
+        let Some((wi, pdf)) = bsdf.sample(u_bsdf) else {
+            break;
+        };
+        beta *= bsdf.f_cos(wi) / pdf;
+        if beta.max_element() <= 0.0 {
+            break;
+        }
+        // Possibly terminate the path with Russian roulette.
+        if depth >= settings.rr_depth {
+            let q = beta.max_element().min(0.95);
+            if u_rr >= q {
+                break;
+            }
+            beta /= q;
+        }
+        prev = Some((pdf, si.p));
+        ray = si.spawn_ray(wi, f32::INFINITY);
+        rays.extension += 1;
+    }
+    l
+}

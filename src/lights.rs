@@ -1,0 +1,453 @@
+//! Light sources at render time and their sampling.
+//!
+//! | emitter        | from                                   | sampled by                         |
+//! |----------------|----------------------------------------|------------------------------------|
+//! | point          | `KHR_lights_punctual` point            | delta: its position; I/d²          |
+//! | spot           | `KHR_lights_punctual` spot             | delta; the extension's cone falloff |
+//! | directional    | `KHR_lights_punctual` directional      | delta: its direction; irradiance E |
+//! | triangle       | each triangle of an emissive material  | uniform area, pdf → solid angle    |
+//! | background     | `--background R,G,B` (constant)        | uniform sphere                     |
+//!
+//! One emitter is chosen per sample in proportion to its power through an alias table
+//! (Walker 1977, Vose 1991). Punctual `range` is ignored (it is optional in the extension
+//! and has no physical counterpart).
+
+use glam::{Vec2, Vec3};
+
+use crate::interaction::{gamma, SurfaceInteraction};
+use crate::material::Materials;
+use crate::sampling::warps::{square_to_uniform_sphere, square_to_uniform_triangle};
+use crate::scene::{Light, Scene};
+
+/// Relative luminance of linear Rec.709 RGB.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Emitter {
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    Directional {
+        /// Direction the light travels in.
+        direction: Vec3,
+        irradiance: Vec3,
+    },
+    Triangle {
+        prim: u32,
+    },
+    Background {
+        radiance: Vec3,
+    },
+}
+
+impl Emitter {
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Emitter::Point { .. } | Emitter::Spot { .. } | Emitter::Directional { .. }
+        )
+    }
+}
+
+/// Angular attenuation of a `KHR_lights_punctual` spot light for `cos_angle` between the
+/// spot axis and the direction to the lit point: the extension's smooth falloff,
+/// clamp((cos − cos_outer)/(cos_inner − cos_outer), 0, 1)².
+#[inline]
+pub fn spot_falloff(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(0.001);
+    let t = ((cos_angle - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// A sampled light direction as seen from a surface point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the surface toward the light.
+    pub wi: Vec3,
+    /// Radiance (area lights, background) or the delta light's incident irradiance term
+    /// (I/d² or E), to be multiplied by f·|cos| and divided by `pdf`.
+    pub li: Vec3,
+    /// Solid-angle pdf of `wi` (1 for delta lights), not including the selection pmf.
+    pub pdf: f32,
+    pub is_delta: bool,
+    /// The point on the light, offset off its surface (ignored when `infinite`).
+    pub p_light: Vec3,
+    /// True for directions to infinity (directional light, background).
+    pub infinite: bool,
+}
+
+/// Walker's alias method (Vose's construction): O(1) sampling of a discrete distribution.
+#[derive(Clone, Debug, Default)]
+pub struct AliasTable {
+    prob: Vec<f32>,
+    alias: Vec<u32>,
+    pmf: Vec<f32>,
+}
+
+impl AliasTable {
+    /// A table over `weights` (non-negative, not all zero).
+    pub fn new(weights: &[f64]) -> AliasTable {
+        let n = weights.len();
+        let total: f64 = weights.iter().sum();
+        let pmf: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
+        let mut scaled: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
+        let mut prob = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            prob[s] = scaled[s] as f32;
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // Leftovers (from rounding) keep probability 1.
+        AliasTable { prob, alias, pmf }
+    }
+
+    /// An index drawn with probability `pmf(index)` from one uniform number in [0, 1).
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        let n = self.prob.len();
+        let x = u * n as f32;
+        let i = (x as usize).min(n - 1);
+        let coin = x - i as f32;
+        let k = if coin < self.prob[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        };
+        (k, self.pmf[k])
+    }
+
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+}
+
+/// All emitters of a scene, with power-proportional selection.
+#[derive(Clone, Debug, Default)]
+pub struct LightSet {
+    pub emitters: Vec<Emitter>,
+    table: AliasTable,
+    /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
+    triangle_light: Vec<u32>,
+    background: Option<(usize, Vec3)>,
+}
+
+impl LightSet {
+    /// Collects the scene's punctual lights, emissive triangles and the constant background.
+    pub fn build(scene: &Scene, materials: &Materials, background: Vec3) -> LightSet {
+        let (lo, hi) = scene.bounds;
+        let radius = 0.5 * (hi - lo).length();
+        let mut emitters = Vec::new();
+        let mut weights = Vec::new();
+        let pi = std::f64::consts::PI;
+        for light in &scene.lights {
+            let (e, power) = match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                    ..
+                } => (
+                    Emitter::Point {
+                        position,
+                        intensity,
+                    },
+                    4.0 * pi * luminance(intensity) as f64,
+                ),
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    inner_cone_angle,
+                    outer_cone_angle,
+                    ..
+                } => {
+                    let (ci, co) = (inner_cone_angle.cos(), outer_cone_angle.cos());
+                    (
+                        Emitter::Spot {
+                            position,
+                            direction,
+                            intensity,
+                            cos_inner: ci,
+                            cos_outer: co,
+                        },
+                        2.0 * pi * luminance(intensity) as f64 * (1.0 - 0.5 * (ci + co) as f64),
+                    )
+                }
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => (
+                    Emitter::Directional {
+                        direction,
+                        irradiance,
+                    },
+                    pi * (radius as f64).powi(2) * luminance(irradiance) as f64,
+                ),
+            };
+            if power > 0.0 {
+                emitters.push(e);
+                weights.push(power);
+            }
+        }
+        let mut triangle_light = Vec::new();
+        if scene.summary.emissive_triangles > 0 {
+            for (prim, &m) in scene.triangle_materials.iter().enumerate() {
+                if !materials.is_emissive_triangle(scene, prim as u32) {
+                    continue;
+                }
+                let (le, two_sided) = materials.emission_power_factor(m);
+                let [a, b, c] = scene.triangle_positions(prim as u32);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                let power =
+                    pi * area as f64 * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 };
+                if power > 0.0 {
+                    if triangle_light.is_empty() {
+                        triangle_light = vec![u32::MAX; scene.triangles.len()];
+                    }
+                    triangle_light[prim] = emitters.len() as u32;
+                    emitters.push(Emitter::Triangle { prim: prim as u32 });
+                    weights.push(power);
+                }
+            }
+        }
+        let mut bg = None;
+        if background.max_element() > 0.0 {
+            bg = Some((emitters.len(), background));
+            emitters.push(Emitter::Background {
+                radiance: background,
+            });
+            weights.push(
+                4.0 * pi
+                    * pi
+                    * (radius.max(1e-3) as f64).powi(2)
+                    * luminance(background).max(1e-6) as f64,
+            );
+        }
+        let table = if weights.is_empty() {
+            AliasTable::default()
+        } else {
+            AliasTable::new(&weights)
+        };
+        LightSet {
+            emitters,
+            table,
+            triangle_light,
+            background: bg,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.emitters.is_empty()
+    }
+
+    /// The background radiance (black without one).
+    #[inline]
+    pub fn background(&self) -> Vec3 {
+        self.background.map_or(Vec3::ZERO, |(_, l)| l)
+    }
+
+    /// Selection probability × solid-angle pdf of reaching the background in a direction.
+    #[inline]
+    pub fn background_pdf(&self) -> f32 {
+        self.background.map_or(0.0, |(i, _)| {
+            self.table.pmf(i) * 0.25 * std::f32::consts::FRAC_1_PI
+        })
+    }
+
+    /// Selection probability × solid-angle pdf with which light sampling from `p_ref` would
+    /// have produced the point `p` on emissive triangle `prim` (unit normal `n`).
+    #[inline]
+    pub fn triangle_pdf(&self, scene: &Scene, prim: u32, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
+        let Some(&i) = self.triangle_light.get(prim as usize) else {
+            return 0.0;
+        };
+        if i == u32::MAX {
+            return 0.0;
+        }
+        let [a, b, c] = scene.triangle_positions(prim);
+        let area = 0.5 * (b - a).cross(c - a).length();
+        let d = p - p_ref;
+        let dist2 = d.length_squared();
+        let cos = (n.dot(d) / dist2.sqrt()).abs();
+        if cos <= 0.0 || area <= 0.0 {
+            return 0.0;
+        }
+        self.table.pmf(i as usize) * dist2 / (cos * area)
+    }
+
+    /// Chooses an emitter with `u_select` and samples a direction to it from `si`. Returns the
+    /// sample and the selection probability.
+    #[inline]
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        materials: &Materials,
+        si: &SurfaceInteraction,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<(LightSample, f32)> {
+        if self.table.is_empty() {
+            return None;
+        }
+        let (i, pmf) = self.table.sample(u_select);
+        let p = si.p;
+        let s = match self.emitters[i] {
+            Emitter::Point {
+                position,
+                intensity,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                LightSample {
+                    wi: d / dist2.sqrt(),
+                    li: intensity / dist2,
+                    pdf: 1.0,
+                    is_delta: true,
+                    p_light: position,
+                    infinite: false,
+                }
+            }
+            Emitter::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                let wi = d / dist2.sqrt();
+                let falloff = spot_falloff(direction.dot(-wi), cos_inner, cos_outer);
+                LightSample {
+                    wi,
+                    li: intensity * (falloff / dist2),
+                    pdf: 1.0,
+                    is_delta: true,
+                    p_light: position,
+                    infinite: false,
+                }
+            }
+            Emitter::Directional {
+                direction,
+                irradiance,
+            } => LightSample {
+                wi: -direction,
+                li: irradiance,
+                pdf: 1.0,
+                is_delta: true,
+                p_light: Vec3::ZERO,
+                infinite: true,
+            },
+            Emitter::Background { radiance } => LightSample {
+                wi: square_to_uniform_sphere(u),
+                li: radiance,
+                pdf: 0.25 * std::f32::consts::FRAC_1_PI,
+                is_delta: false,
+                p_light: Vec3::ZERO,
+                infinite: true,
+            },
+            Emitter::Triangle { prim } => {
+                let [a, b, c] = scene.triangle_positions(prim);
+                let bary = square_to_uniform_triangle(u);
+                let (b1, b2) = (bary.y, 1.0 - bary.x - bary.y);
+                let b0 = bary.x;
+                let q = b0 * a + b1 * b + b2 * c;
+                let cross = (b - a).cross(c - a);
+                let area = 0.5 * cross.length();
+                let n = cross / (2.0 * area);
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && area > 0.0) {
+                    return None;
+                }
+                let wi = d / dist;
+                let cos_l = n.dot(-wi);
+                if cos_l == 0.0 {
+                    return None;
+                }
+                let li = materials.emitted_at(scene, prim, Vec2::new(b1, b2), cos_l > 0.0);
+                // Offset the light point off its triangle toward the receiver.
+                let err = gamma(7) * ((b0 * a).abs() + (b1 * b).abs() + (b2 * c).abs())
+                    + Vec3::splat(
+                        gamma(7)
+                            * (a - q)
+                                .abs()
+                                .max((b - q).abs())
+                                .max((c - q).abs())
+                                .max_element(),
+                    );
+                let p_light = crate::interaction::offset_ray_origin(q, err, n, -wi);
+                LightSample {
+                    wi,
+                    li,
+                    pdf: dist2 / (cos_l.abs() * area),
+                    is_delta: false,
+                    p_light,
+                    infinite: false,
+                }
+            }
+        };
+        Some((s, pmf))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alias_table_reproduces_its_weights() {
+        let weights = [1.0, 0.0, 3.0, 6.0, 0.5];
+        let table = AliasTable::new(&weights);
+        let total: f64 = weights.iter().sum();
+        let n = 200_000;
+        let mut counts = [0usize; 5];
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, pmf) = table.sample(u);
+            counts[i] += 1;
+            assert!((pmf as f64 - weights[i] / total).abs() < 1e-6);
+        }
+        for i in 0..5 {
+            let p = counts[i] as f64 / n as f64;
+            assert!((p - weights[i] / total).abs() < 1e-3, "{i}: {p}");
+        }
+        assert_eq!(counts[1], 0, "zero weight never drawn");
+    }
+
+    #[test]
+    fn spot_falloff_follows_the_extension() {
+        let (ci, co) = (0.9f32, 0.5f32);
+        assert_eq!(spot_falloff(0.95, ci, co), 1.0);
+        assert_eq!(spot_falloff(0.4, ci, co), 0.0);
+        // Halfway in cosine: (0.5)² = 0.25.
+        assert!((spot_falloff(0.7, ci, co) - 0.25).abs() < 1e-6);
+    }
+}

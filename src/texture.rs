@@ -1,0 +1,180 @@
+//! Decoded textures and their lookup: glTF UVs (origin at the image's top-left), the
+//! `KHR_texture_transform` affine map, glTF wrap modes and bilinear filtering. Colour textures
+//! (base colour, emission) are sRGB-encoded in glTF and decoded to linear once, at load.
+
+use std::path::Path;
+
+use glam::{Vec2, Vec4};
+
+use crate::scene::{ImageSource, TextureRef, Wrap};
+
+/// A decoded image in linear RGBA, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec4>,
+}
+
+/// sRGB transfer function, decoding (IEC 61966-2-1).
+#[inline]
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Image {
+    /// Decodes PNG or JPEG bytes; colour channels are sRGB-decoded, alpha kept linear.
+    pub fn decode(source: &ImageSource, scene_path: &Path) -> Result<Image, String> {
+        let decoded = match source {
+            ImageSource::File(path) => image::open(path).map_err(|e| {
+                format!(
+                    "{}: cannot decode image '{}': {e}",
+                    scene_path.display(),
+                    path.display()
+                )
+            })?,
+            ImageSource::Bytes { data, .. } => image::load_from_memory(data).map_err(|e| {
+                format!(
+                    "{}: cannot decode an embedded image: {e}",
+                    scene_path.display()
+                )
+            })?,
+        };
+        let rgba = decoded.to_rgba32f();
+        let (width, height) = rgba.dimensions();
+        if width == 0 || height == 0 {
+            return Err(format!("{}: an image has no pixels", scene_path.display()));
+        }
+        let texels = rgba
+            .pixels()
+            .map(|p| {
+                Vec4::new(
+                    srgb_to_linear(p[0]),
+                    srgb_to_linear(p[1]),
+                    srgb_to_linear(p[2]),
+                    p[3],
+                )
+            })
+            .collect();
+        Ok(Image {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// The mean of all texels (for light power estimates).
+    pub fn average(&self) -> Vec4 {
+        let sum: Vec4 = self.texels.iter().copied().sum();
+        sum / self.texels.len() as f32
+    }
+
+    #[inline]
+    fn texel(&self, x: i64, y: i64, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
+        let x = wrap_index(x, self.width as i64, wrap_s);
+        let y = wrap_index(y, self.height as i64, wrap_t);
+        self.texels[(y * self.width as i64 + x) as usize]
+    }
+
+    /// Bilinear lookup at texture coordinates `uv` (already transformed), with texel centres
+    /// at half-integer positions.
+    #[inline]
+    pub fn bilinear(&self, uv: Vec2, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return self.texels[0];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = self.texel(x0, y0, wrap_s, wrap_t);
+        let b = self.texel(x0 + 1, y0, wrap_s, wrap_t);
+        let c = self.texel(x0, y0 + 1, wrap_s, wrap_t);
+        let d = self.texel(x0 + 1, y0 + 1, wrap_s, wrap_t);
+        (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
+    }
+}
+
+/// Maps a texel index into `[0, n)` by the glTF wrap mode.
+#[inline]
+fn wrap_index(i: i64, n: i64, wrap: Wrap) -> i64 {
+    match wrap {
+        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::ClampToEdge => i.clamp(0, n - 1),
+        Wrap::MirroredRepeat => {
+            let period = 2 * n;
+            let m = i.rem_euclid(period);
+            if m < n {
+                m
+            } else {
+                period - 1 - m
+            }
+        }
+    }
+}
+
+/// Applies a texture binding's `KHR_texture_transform` to `uv`.
+#[inline]
+pub fn transform_uv(t: &TextureRef, uv: Vec2) -> Vec2 {
+    t.transform[0] * uv.x + t.transform[1] * uv.y + t.transform[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image_2x2() -> Image {
+        Image {
+            width: 2,
+            height: 2,
+            texels: vec![
+                Vec4::new(0.0, 0.0, 0.0, 1.0),
+                Vec4::new(1.0, 0.0, 0.0, 1.0),
+                Vec4::new(0.0, 1.0, 0.0, 1.0),
+                Vec4::new(0.0, 0.0, 1.0, 1.0),
+            ],
+        }
+    }
+
+    #[test]
+    fn texel_centres_return_texels_and_midpoints_average() {
+        let img = image_2x2();
+        // Texel (1, 0) is the top-right texel: u = 0.75, v = 0.25.
+        let v = img.bilinear(Vec2::new(0.75, 0.25), Wrap::ClampToEdge, Wrap::ClampToEdge);
+        assert!(
+            (v - Vec4::new(1.0, 0.0, 0.0, 1.0)).abs().max_element() < 1e-6,
+            "{v}"
+        );
+        let mid = img.bilinear(Vec2::new(0.5, 0.5), Wrap::ClampToEdge, Wrap::ClampToEdge);
+        assert!(
+            (mid - Vec4::new(0.25, 0.25, 0.25, 1.0)).abs().max_element() < 1e-6,
+            "{mid}"
+        );
+    }
+
+    #[test]
+    fn wrap_modes_follow_gltf() {
+        assert_eq!(wrap_index(-1, 4, Wrap::Repeat), 3);
+        assert_eq!(wrap_index(5, 4, Wrap::Repeat), 1);
+        assert_eq!(wrap_index(-3, 4, Wrap::ClampToEdge), 0);
+        assert_eq!(wrap_index(9, 4, Wrap::ClampToEdge), 3);
+        // Mirrored: 0 1 2 3 | 3 2 1 0 | 0 1 ...
+        let m: Vec<i64> = (-2..10)
+            .map(|i| wrap_index(i, 4, Wrap::MirroredRepeat))
+            .collect();
+        assert_eq!(m, vec![1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0, 1]);
+    }
+
+    #[test]
+    fn srgb_decoding_matches_the_standard() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        // sRGB 0.5 is linear 0.214 (IEC 61966-2-1).
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
+    }
+}

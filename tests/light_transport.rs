@@ -1,0 +1,379 @@
+//! Direct lighting and path tracing against closed-form answers:
+//! - the furnace: inside a closed surface of albedo ρ whose every triangle emits Le, the
+//!   radiance is Le/(1 − ρ) everywhere, and Le·(1 − ρ^(B+1))/(1 − ρ) with B bounces;
+//! - a point light of intensity I at height h above a Lambertian plane of albedo ρ: the
+//!   radiance at the foot point is ρ/π · I/h²;
+//! - a spot light: inside its inner cone, in the penumbra and outside, the radiance follows
+//!   the KHR_lights_punctual falloff.
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use indicatif::ProgressBar;
+use strata::accel::{Accel, AccelOptions};
+use strata::integrators::{Integrator, PathSettings, Prepared, Strategy};
+use strata::render::{self, RenderSettings};
+use strata::sampling::SamplerKind;
+use strata::scene::{Camera, Light, Material, Projection, Scene};
+
+fn scene_from(
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    material: Material,
+    lights: Vec<Light>,
+) -> Scene {
+    let n = positions.len();
+    let t = triangles.len();
+    let mut s = Scene {
+        positions,
+        normals: vec![Vec3::ZERO; n],
+        uvs: vec![Vec2::ZERO; n],
+        triangles,
+        triangle_materials: vec![1; t],
+        materials: vec![Material::default(), material],
+        lights,
+        ..Default::default()
+    };
+    s.update_summary();
+    s
+}
+
+fn diffuse(albedo: f32, emission: f32) -> Material {
+    Material {
+        base_color: Vec4::new(albedo, albedo, albedo, 1.0),
+        emissive: Vec3::splat(emission),
+        metallic: 0.0,
+        ..Default::default()
+    }
+}
+
+/// A camera at `eye` looking at `target` (+Y up unless looking along Y).
+fn camera(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
+    let up = if (target - eye).normalize().y.abs() > 0.99 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    // Camera-to-world columns: right, up, back (the camera looks down its −Z), position.
+    let back = (eye - target).normalize();
+    let right = up.cross(back).normalize();
+    let true_up = back.cross(right);
+    Camera {
+        name: None,
+        projection: Projection::Perspective { yfov },
+        to_world: Mat4::from_cols(
+            right.extend(0.0),
+            true_up.extend(0.0),
+            back.extend(0.0),
+            eye.extend(1.0),
+        ),
+        aspect_ratio: None,
+    }
+}
+
+/// Renders and returns the mean of every pixel (grey channel average) and the pixels.
+fn render(
+    scene: &Scene,
+    camera: Camera,
+    integrator: Integrator,
+    size: u32,
+    spp: u32,
+    seed: u64,
+) -> Vec<Vec3> {
+    let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
+    let prepared = Prepared::new(scene, Path::new("test"), &integrator, Vec3::ZERO).unwrap();
+    let ctx = prepared.context(scene, &accel);
+    let settings = RenderSettings {
+        camera,
+        crop: None,
+        width: size,
+        height: size,
+        spp,
+        seed,
+        sampler: SamplerKind::Random,
+        integrator,
+        tile_size: 8,
+    };
+    let pool = render::thread_pool(0).unwrap();
+    let result = render::render(
+        &ctx,
+        &settings,
+        &pool,
+        &ProgressBar::hidden(),
+        &AtomicBool::new(false),
+    );
+    assert_eq!(
+        result.stats.bad_samples, 0,
+        "NaN/Inf samples: {:?}",
+        result.stats.first_bad
+    );
+    result.film.pixels()
+}
+
+fn path(max_depth: u32) -> Integrator {
+    Integrator::Path(PathSettings {
+        max_depth,
+        ..Default::default()
+    })
+}
+
+fn direct() -> Integrator {
+    Integrator::Direct(PathSettings {
+        max_depth: 1,
+        ..Default::default()
+    })
+}
+
+/// A geodesic sphere of radius `r` (subdivided octahedron projected to the sphere), wound so
+/// the counter-clockwise front faces point INTO the sphere, without vertex normals (flat).
+fn inward_sphere(r: f32, subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut tris: Vec<[Vec3; 3]> = Vec::new();
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    for (a, b, c) in [
+        (x, y, z),
+        (y, -x, z),
+        (-x, -y, z),
+        (-y, x, z),
+        (y, x, -z),
+        (-x, y, -z),
+        (-y, -x, -z),
+        (x, -y, -z),
+    ] {
+        tris.push([a, b, c]);
+    }
+    for _ in 0..subdivisions {
+        let mut next = Vec::new();
+        for [a, b, c] in tris {
+            let (ab, bc, ca) = (
+                (a + b).normalize(),
+                (b + c).normalize(),
+                (c + a).normalize(),
+            );
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    // Share vertices exactly (the mesh must be watertight), then flip to face inward.
+    let mut positions: Vec<Vec3> = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut triangles = Vec::new();
+    for t in tris {
+        let ids = t.map(|p| {
+            let key = (p * r).to_array().map(f32::to_bits);
+            *index.entry(key).or_insert_with(|| {
+                positions.push(p * r);
+                positions.len() as u32 - 1
+            })
+        });
+        let [a, b, c] = ids;
+        let (pa, pb, pc) = (
+            positions[a as usize],
+            positions[b as usize],
+            positions[c as usize],
+        );
+        let outward = (pb - pa).cross(pc - pa).dot(pa) > 0.0;
+        triangles.push(if outward { [a, c, b] } else { [a, b, c] });
+    }
+    (positions, triangles)
+}
+
+fn mean_and_sem(pixels: &[Vec3]) -> (f64, f64) {
+    let v: Vec<f64> = pixels.iter().map(|p| p.x as f64).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn furnace_converges_to_le_over_one_minus_albedo() {
+    let (rho, le) = (0.8f32, 1.0f32);
+    let (p, t) = inward_sphere(1.0, 4);
+    let scene = scene_from(p, t, diffuse(rho, le), vec![]);
+    let cam = camera(Vec3::new(0.1, 0.05, 0.0), Vec3::new(1.0, 0.2, 0.3), 1.2);
+    // Deep enough that the truncation ρ^(B+1)/(1 − ρ) is below 1e-5.
+    let pixels = render(&scene, cam.clone(), path(64), 16, 64, 1);
+    let (mean, sem) = mean_and_sem(&pixels);
+    let expected = (le / (1.0 - rho)) as f64;
+    assert!(
+        (mean - expected).abs() < 5.0 * sem + 1e-4,
+        "furnace: mean {mean} ± {sem}, expected {expected}"
+    );
+    // Each pixel, too (independent samples; 5.5σ over 256 pixels).
+    let per_pixel_sigma = sem * (pixels.len() as f64).sqrt();
+    for (i, p) in pixels.iter().enumerate() {
+        assert!(
+            ((p.x as f64) - expected).abs() < 5.5 * per_pixel_sigma,
+            "pixel {i}: {p}"
+        );
+    }
+
+    // With B bounces the answer is the truncated series Le·(1 + ρ + … + ρ^B); every
+    // strategy for direct light must reach it.
+    for (bounces, strategy) in [
+        (1, Strategy::Mis),
+        (1, Strategy::Light),
+        (1, Strategy::Bsdf),
+        (2, Strategy::Mis),
+    ] {
+        let integrator = Integrator::Path(PathSettings {
+            max_depth: bounces,
+            strategy,
+            ..Default::default()
+        });
+        let pixels = render(&scene, cam.clone(), integrator, 16, 64, 2);
+        let (mean, sem) = mean_and_sem(&pixels);
+        let expected = (le * (1.0 - rho.powi(bounces as i32 + 1)) / (1.0 - rho)) as f64;
+        assert!(
+            (mean - expected).abs() < 5.0 * sem + 1e-4,
+            "{bounces} bounce(s), {strategy}: mean {mean} ± {sem}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn furnace_check_detects_a_wrong_albedo() {
+    // Negative control: an albedo of 0.79 instead of 0.8 moves the answer from 5 to 4.76.
+    let (p, t) = inward_sphere(1.0, 4);
+    let scene = scene_from(p, t, diffuse(0.79, 1.0), vec![]);
+    let cam = camera(Vec3::ZERO, Vec3::X, 1.0);
+    let (mean, sem) = mean_and_sem(&render(&scene, cam, path(64), 16, 64, 3));
+    assert!(
+        (mean - 5.0).abs() > 5.0 * sem + 1e-4,
+        "mean {mean} ± {sem} should not pass for 5"
+    );
+}
+
+/// A large plane y = 0, front face up.
+fn floor(albedo: f32, lights: Vec<Light>) -> Scene {
+    let s = 100.0;
+    scene_from(
+        vec![
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(-s, 0.0, s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(s, 0.0, -s),
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+        diffuse(albedo, 0.0),
+        lights,
+    )
+}
+
+/// The radiance seen along a very narrow view from `eye` toward `target` (a 1×1 image).
+fn radiance_toward(scene: &Scene, integrator: Integrator, eye: Vec3, target: Vec3) -> f64 {
+    let pixels = render(scene, camera(eye, target, 1e-4), integrator, 1, 16, 4);
+    pixels[0].x as f64
+}
+
+#[test]
+fn point_light_above_a_plane_matches_the_inverse_square_law() {
+    let (rho, i, h) = (0.6f32, 5.0f32, 2.0f32);
+    let light = Vec3::new(0.3, h, -0.2);
+    let scene = floor(
+        rho,
+        vec![Light::Point {
+            position: light,
+            intensity: Vec3::splat(i),
+            range: None,
+        }],
+    );
+    let foot = Vec3::new(light.x, 0.0, light.z);
+    let expected = (rho / std::f32::consts::PI * i / (h * h)) as f64;
+    for integrator in [direct(), path(8)] {
+        // Seen from the light itself, so the view ray meets the plane at the foot point.
+        let got = radiance_toward(&scene, integrator, light, foot);
+        assert!(
+            (got - expected).abs() < 1e-4 * expected,
+            "{integrator:?}: {got} vs {expected}"
+        );
+        // And at an angle: L = ρ/π · I cos θ / d².
+        let p = Vec3::new(1.5, 0.0, 0.7);
+        let d = light - p;
+        let cos = d.y / d.length();
+        let want = (rho / std::f32::consts::PI * i * cos / d.length_squared()) as f64;
+        let got = radiance_toward(&scene, integrator, light, p);
+        assert!(
+            (got - want).abs() < 1e-4 * want,
+            "{integrator:?} oblique: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn spot_light_cone_inside_penumbra_and_outside() {
+    let (rho, i, h) = (0.5f32, 8.0f32, 3.0f32);
+    let (inner, outer) = (0.3f32, 0.6f32);
+    let light = Vec3::new(0.0, h, 0.0);
+    let scene = floor(
+        rho,
+        vec![Light::Spot {
+            position: light,
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::splat(i),
+            range: None,
+            inner_cone_angle: inner,
+            outer_cone_angle: outer,
+        }],
+    );
+    // The extension's falloff, written out here: clamp((cos φ − cos outer)/(cos inner − cos outer))².
+    let falloff = |phi: f32| {
+        let t = ((phi.cos() - outer.cos()) / (inner.cos() - outer.cos())).clamp(0.0, 1.0);
+        t * t
+    };
+    for (name, phi) in [("inside", 0.15f32), ("penumbra", 0.45), ("outside", 0.75)] {
+        let p = Vec3::new(h * phi.tan(), 0.0, 0.0);
+        let d = light - p;
+        let cos = d.y / d.length();
+        let want =
+            (rho / std::f32::consts::PI * i * falloff(phi) * cos / d.length_squared()) as f64;
+        for integrator in [direct(), path(4)] {
+            let got = radiance_toward(&scene, integrator, light, p);
+            assert!(
+                (got - want).abs() <= 1e-4 * want.max(1e-6),
+                "{name}: {got} vs {want}"
+            );
+        }
+        match name {
+            "inside" => assert!(want > 0.0 && (falloff(phi) - 1.0).abs() < 1e-6),
+            "penumbra" => assert!(falloff(phi) > 0.1 && falloff(phi) < 0.9),
+            _ => assert_eq!(want, 0.0),
+        }
+    }
+}
+
+#[test]
+fn no_light_means_no_work_and_a_warning_free_black_image() {
+    let scene = floor(0.5, vec![]);
+    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
+    let integrator = path(8);
+    let prepared = Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ZERO).unwrap();
+    assert!(prepared.lights.is_empty());
+    let ctx = prepared.context(&scene, &accel);
+    let settings = RenderSettings {
+        camera: camera(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5),
+        crop: None,
+        width: 8,
+        height: 8,
+        spp: 4,
+        seed: 0,
+        sampler: SamplerKind::Sobol,
+        integrator,
+        tile_size: 8,
+    };
+    let pool = render::thread_pool(1).unwrap();
+    let result = render::render(
+        &ctx,
+        &settings,
+        &pool,
+        &ProgressBar::hidden(),
+        &AtomicBool::new(false),
+    );
+    assert_eq!(
+        result.stats.rays.total(),
+        0,
+        "nothing emits: no ray is traced"
+    );
+    assert!(result.film.pixels().iter().all(|p| *p == Vec3::ZERO));
+}
