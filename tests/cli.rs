@@ -723,3 +723,127 @@ fn interrupt_saves_the_image() {
     );
     assert_entries(tmp.path(), &["long.exr", "long.png"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// 6. Light transport options.
+
+#[test]
+fn pixel_replay_renders_one_pixel_and_prints_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("one.exr");
+    let run = render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&out),
+            "--resolution",
+            "16x16",
+            "--spp",
+            "8",
+            "--pixel",
+            "5,9",
+        ],
+    );
+    run.assert_success();
+    assert!(run.stdout.contains("pixel (5, 9)"), "{}", run.stdout);
+    assert!(run.stdout.contains("(8 samples)"), "{}", run.stdout);
+    let (w, _, px) = strata::render::output::read_exr_rgb(&out).unwrap();
+    for (i, p) in px.iter().enumerate() {
+        let (x, y) = (i % w, i / w);
+        if (x, y) == (5, 9) {
+            assert!(p[0] > 0.0, "the replayed pixel was rendered");
+        } else {
+            assert_eq!(*p, [0.0; 3], "pixel ({x}, {y}) should not be rendered");
+        }
+    }
+    // The same pixel of a full render, same seed: bit-identical.
+    let full = tmp.path().join("full.exr");
+    render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&full),
+            "--resolution",
+            "16x16",
+            "--spp",
+            "8",
+        ],
+    )
+    .assert_success();
+    let (_, _, all) = strata::render::output::read_exr_rgb(&full).unwrap();
+    assert_eq!(all[9 * w + 5], px[9 * w + 5]);
+
+    let bad = render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&out),
+            "--resolution",
+            "16x16",
+            "--pixel",
+            "16,0",
+        ],
+    );
+    assert!(!bad.status.success());
+    assert_one_error_line(&bad.stderr, &["--pixel", "outside"]);
+}
+
+#[test]
+fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("dark.exr");
+    let wall = ao_wall();
+    let args = [
+        s(&wall),
+        "-o",
+        s(&out),
+        "--integrator",
+        "path",
+        "--resolution",
+        "16x16",
+        "--spp",
+        "4",
+        "--stats",
+    ];
+    let run = render(tmp.path(), &args);
+    run.assert_success();
+    assert!(run.stderr.contains("no light source"), "{}", run.stderr);
+    assert!(
+        run.stdout.contains("rays: 0 camera, 0 extension, 0 shadow"),
+        "{}",
+        run.stdout
+    );
+    let (_, _, px) = strata::render::output::read_exr_rgb(&out).unwrap();
+    assert!(px.iter().all(|p| *p == [0.0; 3]));
+
+    // Under a white background of radiance 1, the floor beside the wall sees half the sky
+    // directly: with one bounce, radiance ρ·(1/2)·1 for the white (ρ = 1) floor.
+    let lit = tmp.path().join("lit.exr");
+    let run = render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&lit),
+            "--integrator",
+            "direct",
+            "--background",
+            "1,1,1",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "256",
+        ],
+    );
+    run.assert_success();
+    assert!(!run.stderr.contains("no light source"), "{}", run.stderr);
+    let (_, _, px) = strata::render::output::read_exr_rgb(&lit).unwrap();
+    let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+    assert!(
+        (mean - 0.5).abs() < 0.01,
+        "direct light under a white sky beside a wall: {mean}"
+    );
+}

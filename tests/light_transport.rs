@@ -377,3 +377,213 @@ fn no_light_means_no_work_and_a_warning_free_black_image() {
     );
     assert!(result.film.pixels().iter().all(|p| *p == Vec3::ZERO));
 }
+
+/// A unit quad in the plane z = 0, x and y in [−1, 1], facing +z, with UVs that put the
+/// image's top-left corner (glTF UV (0, 0)) at (−1, 1).
+fn textured_quad(image_png: Vec<u8>, background_lit: bool) -> Scene {
+    let positions = vec![
+        Vec3::new(-1.0, 1.0, 0.0),
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+    ];
+    let uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(0.0, 1.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(1.0, 0.0),
+    ];
+    let material = Material {
+        base_color: Vec4::ONE,
+        base_color_texture: Some(strata::scene::TextureRef {
+            image: 0,
+            tex_coord: 0,
+            wrap_s: strata::scene::Wrap::ClampToEdge,
+            wrap_t: strata::scene::Wrap::ClampToEdge,
+            transform: [Vec2::X, Vec2::Y, Vec2::ZERO],
+        }),
+        metallic: 0.0,
+        ..Default::default()
+    };
+    let mut s = scene_from(positions, vec![[0, 1, 2], [0, 2, 3]], material, vec![]);
+    s.uvs = uvs;
+    s.images = vec![strata::scene::ImageSource::Bytes {
+        data: image_png.into(),
+        mime: Some("image/png".into()),
+    }];
+    assert!(background_lit);
+    s.update_summary();
+    s
+}
+
+#[test]
+fn textures_are_upright_and_srgb_decoded() {
+    // A 2×2 sRGB PNG: top-left red, top-right green, bottom-left blue, bottom-right grey 128.
+    let texels: [[u8; 3]; 4] = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [128, 128, 128]];
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &texels.concat(),
+        2,
+        2,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
+    let scene = textured_quad(png, true);
+    // An orthographic camera looking down −z at the quad, which fills the 8×8 image.
+    let cam = Camera {
+        name: None,
+        projection: Projection::Orthographic { ymag: 1.0 },
+        to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
+        aspect_ratio: None,
+    };
+    // Under a constant environment L = 1, an unoccluded Lambertian plane shows ρ·L.
+    let integrator = direct();
+    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
+    let prepared = Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ONE).unwrap();
+    assert_eq!(prepared.materials.decoded_images(), 1);
+    let ctx = prepared.context(&scene, &accel);
+    let settings = RenderSettings {
+        camera: cam,
+        crop: None,
+        width: 8,
+        height: 8,
+        spp: 256,
+        seed: 0,
+        sampler: SamplerKind::Stratified,
+        integrator,
+        tile_size: 8,
+    };
+    let pool = render::thread_pool(0).unwrap();
+    let film = render::render(
+        &ctx,
+        &settings,
+        &pool,
+        &ProgressBar::hidden(),
+        &AtomicBool::new(false),
+    )
+    .film;
+    // sRGB 128 decodes to 0.2158 (IEC 61966-2-1); 255 to 1.
+    let grey = ((128.0f32 / 255.0 + 0.055) / 1.055).powf(2.4);
+    // Pixels (1, 1), (6, 1), (1, 6), (6, 6) lie inside the four texels' constant regions
+    // (bilinear filtering with clamping only blends within half a texel of the centre line).
+    for ((x, y), want) in [
+        ((1, 1), Vec3::new(1.0, 0.0, 0.0)),
+        ((6, 1), Vec3::new(0.0, 1.0, 0.0)),
+        ((1, 6), Vec3::new(0.0, 0.0, 1.0)),
+        ((6, 6), Vec3::splat(grey)),
+    ] {
+        let got = film.pixel(x, y);
+        assert!(
+            (got - want).abs().max_element() < 0.03,
+            "pixel ({x}, {y}): {got}, expected {want}"
+        );
+    }
+}
+
+/// A floor lit by a large, dim, close emitter and a tiny, bright, distant one: light
+/// sampling suffers from the large light, BSDF sampling from the tiny one (Veach 1995, §9).
+fn two_lights_scene() -> Scene {
+    let mut positions = vec![
+        Vec3::new(-3.0, 0.0, -3.0),
+        Vec3::new(-3.0, 0.0, 3.0),
+        Vec3::new(3.0, 0.0, 3.0),
+        Vec3::new(3.0, 0.0, -3.0),
+    ];
+    let mut triangles = vec![[0u32, 1, 2], [0, 2, 3]];
+    let mut materials_of = vec![1u32, 1];
+    // Emitters face down (−y): counter-clockwise seen from below.
+    let mut quad = |c: Vec3, half: f32, m: u32| {
+        let b = positions.len() as u32;
+        positions.extend([
+            c + Vec3::new(-half, 0.0, -half),
+            c + Vec3::new(half, 0.0, -half),
+            c + Vec3::new(half, 0.0, half),
+            c + Vec3::new(-half, 0.0, half),
+        ]);
+        triangles.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+        materials_of.extend([m, m]);
+    };
+    quad(Vec3::new(-1.0, 0.4, 0.0), 1.2, 2);
+    quad(Vec3::new(1.5, 2.0, 0.0), 0.15, 3);
+    let n = positions.len();
+    let mut s = Scene {
+        positions,
+        normals: vec![Vec3::ZERO; n],
+        uvs: vec![Vec2::ZERO; n],
+        triangle_materials: materials_of,
+        triangles,
+        materials: vec![
+            Material::default(),
+            diffuse(0.7, 0.0),
+            diffuse(0.0, 0.5),
+            diffuse(0.0, 40.0),
+        ],
+        ..Default::default()
+    };
+    s.update_summary();
+    s
+}
+
+#[test]
+fn light_bsdf_and_mis_agree_and_mis_has_the_lowest_error() {
+    let scene = two_lights_scene();
+    let cam = camera(Vec3::new(0.0, 3.0, 4.0), Vec3::new(0.0, 0.0, 0.0), 0.9);
+    let size = 32;
+    let strat = |strategy| {
+        Integrator::Direct(PathSettings {
+            max_depth: 1,
+            strategy,
+            ..Default::default()
+        })
+    };
+    // A converged reference (MIS, many samples) and each strategy at equal, modest spp.
+    const SPP: u32 = 256;
+    let reference = render(&scene, cam.clone(), strat(Strategy::Mis), size, 4096, 100);
+    let mut rmse = Vec::new();
+    for (name, strategy) in [
+        ("mis", Strategy::Mis),
+        ("light", Strategy::Light),
+        ("bsdf", Strategy::Bsdf),
+    ] {
+        let img = render(&scene, cam.clone(), strat(strategy), size, SPP, 7);
+        // Agreement in expectation: 8×8 block means within 5σ of the reference's, σ from the
+        // spread of the block's pixels (plus 1% and 1e-3 absolute for blocks where BSDF
+        // sampling finds the small light only a few times).
+        for by in 0..size / 8 {
+            for bx in 0..size / 8 {
+                let (mut a, mut r, mut a2) = (0.0f64, 0.0f64, 0.0f64);
+                for y in by * 8..by * 8 + 8 {
+                    for x in bx * 8..bx * 8 + 8 {
+                        let i = (y * size + x) as usize;
+                        let v = img[i].x as f64;
+                        a += v;
+                        a2 += v * v;
+                        r += reference[i].x as f64;
+                    }
+                }
+                let (a, r) = (a / 64.0, r / 64.0);
+                // σ of the block mean, from the spread of its 64 pixel means.
+                let sigma = ((a2 / 64.0 - a * a).max(0.0) / 63.0).sqrt();
+                assert!(
+                    (a - r).abs() <= 5.0 * sigma + 0.01 * r + 1e-3,
+                    "{name}: block ({bx}, {by}) mean {a} vs reference {r} (σ {sigma})"
+                );
+            }
+        }
+        let err = (img
+            .iter()
+            .zip(&reference)
+            .map(|(a, b)| ((a.x - b.x) as f64).powi(2))
+            .sum::<f64>()
+            / img.len() as f64)
+            .sqrt();
+        rmse.push((name, err));
+    }
+    let (mis, light, bsdf) = (rmse[0].1, rmse[1].1, rmse[2].1);
+    eprintln!("RMSE at {SPP} spp: mis {mis:.4}, light {light:.4}, bsdf {bsdf:.4}");
+    assert!(
+        mis < 0.9 * light && mis < 0.9 * bsdf,
+        "MIS should beat both with margin: {rmse:?}"
+    );
+}
