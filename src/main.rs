@@ -100,6 +100,11 @@ struct Cli {
     #[arg(long, hide = true)]
     no_robust: bool,
 
+    /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
+    /// an RGB EXR, for statistical comparisons.
+    #[arg(long, value_name = "FILE.exr")]
+    variance: Option<PathBuf>,
+
     /// Do not write the PNG preview beside the EXR.
     #[arg(long)]
     no_png: bool,
@@ -204,6 +209,9 @@ fn run(cli: Cli) -> Result<Outcome> {
         .clone()
         .unwrap_or_else(|| default_output(&cli.scene));
     output::check_output_path(&output)?;
+    if let Some(v) = &cli.variance {
+        output::check_output_path(v)?;
+    }
     if cli.spp == 0 {
         bail!("--spp must be at least 1");
     }
@@ -384,6 +392,10 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
     }
     output::write_exr(&output, &result.film, &attrs)?;
+    if let Some(v) = &cli.variance {
+        let film = &result.film;
+        output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
+    }
     if !cli.no_png {
         output::write_png(&output.with_extension("png"), &result.film)?;
     }

@@ -31,6 +31,10 @@ pub enum Hemisphere {
     #[default]
     Cosine,
     Uniform,
+    /// Uniform directions WITHOUT the cos θ/pdf weight: a deliberately wrong estimator (it
+    /// computes unweighted visibility), kept so reference tests can show they catch it.
+    /// Not listed in the CLI's help.
+    UniformUnweighted,
 }
 
 impl FromStr for Hemisphere {
@@ -39,6 +43,7 @@ impl FromStr for Hemisphere {
         match s {
             "cosine" => Ok(Hemisphere::Cosine),
             "uniform" => Ok(Hemisphere::Uniform),
+            "uniform-unweighted" => Ok(Hemisphere::UniformUnweighted),
             other => Err(format!(
                 "unknown hemisphere sampling '{other}' (cosine, uniform)"
             )),
@@ -51,6 +56,7 @@ impl fmt::Display for Hemisphere {
         f.write_str(match self {
             Hemisphere::Cosine => "cosine",
             Hemisphere::Uniform => "uniform",
+            Hemisphere::UniformUnweighted => "uniform-unweighted",
         })
     }
 }
@@ -95,6 +101,7 @@ pub fn li(
             // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
             (w, 2.0 * w.z)
         }
+        Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
     };
     let wi = Onb::from_normal(si.ns).to_world(local);
     // A direction below the geometric surface enters the object: occluded.

@@ -19,6 +19,8 @@ pub struct Film {
     /// Sum of sample values per pixel, row 0 at the top; f64 so long renders do not lose
     /// precision.
     sums: Vec<[f64; 3]>,
+    /// Sum of squared sample values per pixel, for the variance estimate.
+    sq_sums: Vec<[f64; 3]>,
     /// Samples taken per pixel (rejected NaN/Inf samples count as taken).
     counts: Vec<u32>,
 }
@@ -30,6 +32,7 @@ impl Film {
             width,
             height,
             sums: vec![[0.0; 3]; n],
+            sq_sums: vec![[0.0; 3]; n],
             counts: vec![0; n],
         }
     }
@@ -39,14 +42,39 @@ impl Film {
         y as usize * self.width as usize + x as usize
     }
 
-    /// Adds `count` samples whose values sum to `sum` to pixel (x, y).
+    /// Adds `count` samples whose values sum to `sum` (and whose squares sum to `sq_sum`) to
+    /// pixel (x, y).
     #[inline]
-    pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], count: u32) {
+    pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
         let i = self.index(x, y);
-        for (acc, s) in self.sums[i].iter_mut().zip(sum) {
-            *acc += s;
+        for c in 0..3 {
+            self.sums[i][c] += sum[c];
+            self.sq_sums[i][c] += sq_sum[c];
         }
         self.counts[i] += count;
+    }
+
+    /// The estimated variance of pixel (x, y)'s mean: the unbiased sample variance of its
+    /// samples divided by their number (0 with fewer than two samples).
+    pub fn variance_of_mean(&self, x: u32, y: u32) -> Vec3 {
+        let i = self.index(x, y);
+        let n = self.counts[i] as f64;
+        if n < 2.0 {
+            return Vec3::ZERO;
+        }
+        let v = |c: usize| {
+            let mean = self.sums[i][c] / n;
+            (((self.sq_sums[i][c] - mean * self.sums[i][c]) / (n - 1.0)).max(0.0) / n) as f32
+        };
+        Vec3::new(v(0), v(1), v(2))
+    }
+
+    /// [`Film::variance_of_mean`] of every pixel, row-major from the top row.
+    pub fn variances(&self) -> Vec<Vec3> {
+        (0..self.height)
+            .flat_map(|y| (0..self.width).map(move |x| (x, y)))
+            .map(|(x, y)| self.variance_of_mean(x, y))
+            .collect()
     }
 
     /// Samples taken by pixel (x, y).
@@ -83,5 +111,28 @@ impl Film {
             .flat_map(|y| (0..self.width).map(move |x| (x, y)))
             .map(|(x, y)| self.pixel(x, y))
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variance_of_the_mean_matches_the_textbook_formula() {
+        let samples = [0.0f64, 1.0, 1.0, 3.0, 5.0];
+        let mut film = Film::new(1, 1);
+        // Added in two passes, as the renderer does.
+        for part in [&samples[..2], &samples[2..]] {
+            let sum = part.iter().sum::<f64>();
+            let sq = part.iter().map(|v| v * v).sum::<f64>();
+            film.add(0, 0, [sum; 3], [sq; 3], part.len() as u32);
+        }
+        let n = samples.len() as f64;
+        let mean = samples.iter().sum::<f64>() / n;
+        let var = samples.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        assert!((film.pixel(0, 0).x as f64 - mean).abs() < 1e-6);
+        assert!((film.variance_of_mean(0, 0).x as f64 - var / n).abs() < 1e-6);
+        assert_eq!(Film::new(1, 1).variance_of_mean(0, 0), Vec3::ZERO);
     }
 }

@@ -110,7 +110,8 @@ pub fn passes(spp: u32) -> Vec<(u32, u32)> {
 }
 
 struct TileResult {
-    sums: Vec<[f64; 3]>,
+    /// Per pixel: (sum, sum of squares) of the pass's samples.
+    sums: Vec<([f64; 3], [f64; 3])>,
     rays: RayCounts,
     bad: u64,
     first_bad: Vec<BadSample>,
@@ -130,6 +131,7 @@ fn render_tile(
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let mut sum = [0f64; 3];
+            let mut sq = [0f64; 3];
             for index in samples.0..samples.1 {
                 sampler.start(x, y, index);
                 // The first two dimensions place the sample on the film.
@@ -142,9 +144,10 @@ fn render_tile(
                 );
                 let l: Vec3 = settings.integrator.li(ctx, &ray, &mut sampler, &mut rays);
                 if l.is_finite() {
-                    sum[0] += l.x as f64;
-                    sum[1] += l.y as f64;
-                    sum[2] += l.z as f64;
+                    for (c, v) in l.to_array().into_iter().enumerate() {
+                        sum[c] += v as f64;
+                        sq[c] += v as f64 * v as f64;
+                    }
                 } else {
                     bad += 1;
                     if first_bad.len() < BAD_SAMPLES_KEPT {
@@ -157,7 +160,7 @@ fn render_tile(
                     }
                 }
             }
-            sums.push(sum);
+            sums.push((sum, sq));
         }
     }
     TileResult {
@@ -223,8 +226,8 @@ pub fn render(
             let mut sums = result.sums.into_iter();
             for y in tile.y0..tile.y1 {
                 for x in tile.x0..tile.x1 {
-                    let sum = sums.next().expect("one sum per tile pixel");
-                    film.add(x, y, sum, pass.1 - pass.0);
+                    let (sum, sq) = sums.next().expect("one sum per tile pixel");
+                    film.add(x, y, sum, sq, pass.1 - pass.0);
                 }
             }
             stats.rays.add(&result.rays);

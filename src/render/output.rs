@@ -106,14 +106,24 @@ pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
 
 /// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header.
 pub fn write_exr(path: &Path, film: &Film, attrs: &[(String, Attr)]) -> Result<(), OutputError> {
-    let pixels = film.pixels();
-    let width = film.width as usize;
+    write_rgb_exr(path, film.width, film.height, &film.pixels(), attrs)
+}
+
+/// Writes row-major RGB `pixels` (top row first) as a float32 EXR with `attrs` in the header.
+pub fn write_rgb_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[glam::Vec3],
+    attrs: &[(String, Attr)],
+) -> Result<(), OutputError> {
+    let row = width as usize;
     let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
-        let p = pixels[pos.y() * width + pos.x()];
+        let p = pixels[pos.y() * row + pos.x()];
         (p.x, p.y, p.z)
     });
     let mut image = Image::from_encoded_channels(
-        (film.width as usize, film.height as usize),
+        (width as usize, height as usize),
         Encoding::SMALL_LOSSLESS,
         channels,
     );
