@@ -30,8 +30,8 @@ pub struct SurfaceInteraction {
     pub p_error: Vec3,
     /// Unit geometric normal, flipped to the side the ray came from.
     pub ng: Vec3,
-    /// Unit shading normal (interpolated vertex normal, or `ng` for flat triangles), on the
-    /// same side as `ng`.
+    /// Unit shading normal (interpolated vertex normal, or `ng` for flat triangles), facing
+    /// the side the ray came from (`ns · wo ≥ 0`).
     pub ns: Vec3,
     /// Unit direction back toward the ray's origin.
     pub wo: Vec3,
@@ -62,8 +62,12 @@ impl SurfaceInteraction {
             + Vec3::splat(gamma(7) * extent);
         let front_face = hit.ng.dot(ray.dir) < 0.0;
         let ng = if front_face { hit.ng } else { -hit.ng };
+        // Two-sided shading: the shading normal faces the side the ray arrives from. Where
+        // an interpolated normal disagrees with the geometry (grazing views of smooth
+        // silhouettes) it may then point below the geometric surface; directions sampled
+        // around it enter the object, as in Mitsuba's `twosided` BSDF.
         let ns = match scene.shading_normal(hit.prim, b1, b2) {
-            Some(n) if n.dot(ng) < 0.0 => -n,
+            Some(n) if n.dot(ray.dir) > 0.0 => -n,
             Some(n) => n,
             None => ng,
         };
