@@ -1,0 +1,599 @@
+//! strata against reference images rendered by Mitsuba 3 (scenes/references/, made by
+//! tools/references/make_references.sh; manifest.json says how each was made).
+//!
+//! Each test renders the reference's scene with the `render` binary and the options the
+//! manifest lists (`strata_args`), at `SPP` samples per pixel, writing the image and its
+//! per-pixel variance of the mean (`--variance`). The reference comes with the same
+//! variance image (sample variance across independent passes / passes). Three checks,
+//! each per channel; all must pass:
+//!
+//! 1. **idiff, per pixel** (OpenImageIO, as a person would run it): `-fail 5σ₉₉ -failpercent 0.5`,
+//!    σ₉₉ = the 99th percentile over pixels of σ = √(var_strata + var_reference). A pixel
+//!    differing by more than 5σ₉₉ is rare for noise alone (Chebyshev bounds it by 4% even for
+//!    heavy-tailed estimators; for Gaussian noise it is ~1e-6), so more than 0.5% of pixels
+//!    doing so means structure (edges shifted, missing shadows), not noise.
+//! 2. **idiff, 8×8 block means**: the same comparison on images averaged over 8×8 blocks,
+//!    `-fail 5σ_block,max` with no failures allowed, σ_block = √(Σ var)/64 over the block.
+//! 3. **Z-tests** (as Mitsuba's own test suite does): the whole-image mean and every block
+//!    mean, z = Δ/σ with σ from the variance images, |z| < 5 (false alarm ≤ 6e-7 per test;
+//!    a few hundred blocks keep the suite's false alarm rate below 1e-3). The image mean's σ
+//!    is tiny, so a 2% bias fails even where per-pixel noise is large: at 256 spp an AO pixel
+//!    has σ ≈ 0.03, the mean of 25 600 pixels σ ≈ 2e-4, and 2% of 0.5 is 50σ.
+//!
+//! Negative controls (kept as tests) show each comparison fails on a 3% darker image, on the
+//! image shifted by one pixel (what a camera off by one pixel gives), and on ambient
+//! occlusion computed with the wrong hemisphere warp (uniform, without the cosine weight).
+//!
+//! A failed comparison leaves strata's image, its variance, the reference and idiff's
+//! difference image in `target/tmp/reference-results/<scene>.<integrator>/` and names them.
+//!
+//! idiff is required under CI (`CI` set): the test fails without it. Elsewhere a missing
+//! idiff is reported loudly and only the Z-tests run.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+use strata::render::output::{read_exr_rgb, write_rgb_exr};
+
+/// Samples per pixel of strata's renders in these tests.
+const SPP: u32 = 256;
+/// The z beyond which a pixel, block or image mean is declared different.
+const Z: f64 = 5.0;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+#[derive(Clone, Debug)]
+struct Reference {
+    name: String,
+    scene: String,
+    integrator: String,
+    strata_args: Vec<String>,
+    reference: PathBuf,
+    variance: PathBuf,
+    scene_sha256: String,
+    command: String,
+}
+
+fn manifest() -> Vec<Reference> {
+    let path = repo().join("scenes/references/manifest.json");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let m: Value = serde_json::from_str(&text).unwrap();
+    m["references"]
+        .as_array()
+        .expect("manifest.references")
+        .iter()
+        .map(|e| {
+            let s = |k: &str| {
+                e[k].as_str()
+                    .unwrap_or_else(|| panic!("manifest entry without {k}: {e}"))
+                    .to_string()
+            };
+            let scene = s("scene");
+            let integrator = s("integrator");
+            let stem = Path::new(&scene)
+                .file_stem()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            Reference {
+                name: format!("{stem}.{integrator}"),
+                strata_args: e["strata_args"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|a| a.as_str().unwrap().to_string())
+                    .collect(),
+                reference: repo().join(s("reference")),
+                variance: repo().join(s("variance")),
+                scene_sha256: s("scene_sha256"),
+                command: s("command"),
+                scene,
+                integrator,
+            }
+        })
+        .collect()
+}
+
+/// An RGB image with its per-pixel variance of the mean.
+#[derive(Clone)]
+struct Image {
+    w: usize,
+    h: usize,
+    px: Vec<[f32; 3]>,
+    var: Vec<[f32; 3]>,
+}
+
+fn read_pair(image: &Path, variance: &Path) -> Image {
+    let (w, h, px) = read_exr_rgb(image).unwrap_or_else(|e| panic!("{e}"));
+    let (vw, vh, var) = read_exr_rgb(variance).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (w, h),
+        (vw, vh),
+        "{} and its variance differ in size",
+        image.display()
+    );
+    Image { w, h, px, var }
+}
+
+fn results_dir(r: &Reference) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("reference-results")
+        .join(&r.name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Renders the reference's scene with strata; returns the image and where it was written.
+fn render_strata(r: &Reference, extra: &[&str], tag: &str) -> (Image, PathBuf, PathBuf) {
+    let dir = results_dir(r);
+    let out = dir.join(format!("strata{tag}.exr"));
+    let var = dir.join(format!("strata{tag}.var.exr"));
+    let spp = SPP.to_string();
+    let mut args: Vec<&str> = vec![
+        r.scene.as_str(),
+        "-o",
+        out.to_str().unwrap(),
+        "--variance",
+        var.to_str().unwrap(),
+    ];
+    args.extend(r.strata_args.iter().map(String::as_str));
+    args.extend([
+        "--spp",
+        &spp,
+        "--seed",
+        "1",
+        "--sampler",
+        "sobol",
+        "--no-png",
+    ]);
+    args.extend(extra);
+    let run = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args(&args)
+        .current_dir(repo())
+        .output()
+        .expect("run render");
+    assert!(
+        run.status.success(),
+        "render {args:?} failed:\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    (read_pair(&out, &var), out, var)
+}
+
+fn idiff_available() -> bool {
+    match Command::new("idiff").arg("--version").output() {
+        Ok(o) if o.status.success() => true,
+        _ => {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "idiff (Debian: openimageio-tools) is required under CI; tools/setup.sh installs it"
+            );
+            eprintln!("\n*** SKIPPED the idiff comparisons: idiff not found (install openimageio-tools); the Z-tests still run ***\n");
+            false
+        }
+    }
+}
+
+fn sigma(a: &Image, b: &Image, i: usize, c: usize) -> f64 {
+    (a.var[i][c] as f64 + b.var[i][c] as f64).sqrt()
+}
+
+fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+/// 8×8 block means (and their variances) of an image; partial blocks at the edges are dropped.
+fn blocks(img: &Image) -> Image {
+    let (bw, bh) = (img.w / 8, img.h / 8);
+    let mut px = vec![[0f32; 3]; bw * bh];
+    let mut var = vec![[0f32; 3]; bw * bh];
+    for by in 0..bh {
+        for bx in 0..bw {
+            for c in 0..3 {
+                let (mut s, mut v) = (0f64, 0f64);
+                for y in by * 8..by * 8 + 8 {
+                    for x in bx * 8..bx * 8 + 8 {
+                        s += img.px[y * img.w + x][c] as f64;
+                        v += img.var[y * img.w + x][c] as f64;
+                    }
+                }
+                px[by * bw + bx][c] = (s / 64.0) as f32;
+                var[by * bw + bx][c] = (v / 4096.0) as f32;
+            }
+        }
+    }
+    Image {
+        w: bw,
+        h: bh,
+        px,
+        var,
+    }
+}
+
+fn run_idiff(a: &Path, b: &Path, fail: f64, fail_percent: f64, diff: &Path) -> Result<(), String> {
+    let out = Command::new("idiff")
+        .args([
+            "-fail",
+            &format!("{fail:e}"),
+            "-failpercent",
+            &fail_percent.to_string(),
+        ])
+        .args([
+            "-warn",
+            &format!("{fail:e}"),
+            "-warnpercent",
+            "100",
+            "-abs",
+            "-o",
+        ])
+        .arg(diff)
+        .arg(a)
+        .arg(b)
+        .output()
+        .map_err(|e| format!("cannot run idiff: {e}"))?;
+    // idiff exits 0 (PASS), 1 (WARNING), 2 (FAILURE) or more (error).
+    match out.status.code() {
+        Some(0) | Some(1) => Ok(()),
+        _ => {
+            let text = String::from_utf8_lossy(&out.stdout);
+            let summary: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+            Err(format!(
+                "idiff -fail {fail:.3e} -failpercent {fail_percent}: {}",
+                summary.join(" | ")
+            ))
+        }
+    }
+}
+
+/// The Z-tests of the whole-image mean and every block mean.
+fn z_tests(a: &Image, b: &Image) -> Result<(), String> {
+    let mut problems = Vec::new();
+    for c in 0..3 {
+        let n = a.px.len() as f64;
+        let da: f64 = a.px.iter().map(|p| p[c] as f64).sum::<f64>() / n;
+        let db: f64 = b.px.iter().map(|p| p[c] as f64).sum::<f64>() / n;
+        let var: f64 = (0..a.px.len())
+            .map(|i| sigma(a, b, i, c).powi(2))
+            .sum::<f64>()
+            / (n * n);
+        let z = (da - db) / var.sqrt().max(1e-7 * db.abs().max(1e-6));
+        if z.abs() >= Z {
+            problems.push(format!(
+                "channel {c}: image mean {da:.5} vs reference {db:.5} (z = {z:.1})"
+            ));
+        }
+    }
+    let (ba, bb) = (blocks(a), blocks(b));
+    let mut worst = (0.0f64, 0usize, 0usize);
+    let mut failing = 0;
+    for i in 0..ba.px.len() {
+        for c in 0..3 {
+            let s = sigma(&ba, &bb, i, c)
+                .max(1e-6 * (bb.px[i][c] as f64).abs())
+                .max(1e-9);
+            let z = (ba.px[i][c] as f64 - bb.px[i][c] as f64) / s;
+            if z.abs() >= Z {
+                failing += 1;
+            }
+            if z.abs() > worst.0.abs() {
+                worst = (z, i, c);
+            }
+        }
+    }
+    if failing > 0 {
+        let (z, i, c) = worst;
+        problems.push(format!(
+            "{failing} 8×8 block mean(s) with |z| ≥ {Z}; worst block ({}, {}) channel {c}: {:.5} vs {:.5} (z = {z:.1})",
+            i % ba.w,
+            i / ba.w,
+            ba.px[i][c],
+            bb.px[i][c]
+        ));
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(problems.join("; "))
+    }
+}
+
+/// All checks of strata's `img` (written at `img_path`) against reference `r`.
+fn compare(
+    r: &Reference,
+    img: &Image,
+    img_path: &Path,
+    tag: &str,
+    use_idiff: bool,
+) -> Result<(), String> {
+    let reference = read_pair(&r.reference, &r.variance);
+    if (img.w, img.h) != (reference.w, reference.h) {
+        return Err(format!(
+            "size {}x{} differs from the reference's {}x{}",
+            img.w, img.h, reference.w, reference.h
+        ));
+    }
+    let mut problems = Vec::new();
+    if let Err(e) = z_tests(img, &reference) {
+        problems.push(format!("Z-test: {e}"));
+    }
+    if use_idiff {
+        let dir = results_dir(r);
+        let sigmas: Vec<f64> = (0..img.px.len())
+            .flat_map(|i| (0..3).map(move |c| (i, c)))
+            .map(|(i, c)| sigma(img, &reference, i, c))
+            .collect();
+        let fail = Z * percentile(sigmas, 0.99).max(1e-6);
+        let diff = dir.join(format!("idiff{tag}.exr"));
+        if let Err(e) = run_idiff(img_path, &r.reference, fail, 0.5, &diff) {
+            problems.push(format!(
+                "per pixel: {e} (difference image {})",
+                diff.display()
+            ));
+        }
+        // Block-averaged images, written for idiff.
+        let (ba, bb) = (blocks(img), blocks(&reference));
+        let to_vec3 = |v: &[[f32; 3]]| {
+            v.iter()
+                .map(|p| glam::Vec3::from_array(*p))
+                .collect::<Vec<_>>()
+        };
+        let pa = dir.join(format!("strata{tag}.blocks.exr"));
+        let pb = dir.join("reference.blocks.exr");
+        write_rgb_exr(&pa, ba.w as u32, ba.h as u32, &to_vec3(&ba.px), &[]).unwrap();
+        write_rgb_exr(&pb, bb.w as u32, bb.h as u32, &to_vec3(&bb.px), &[]).unwrap();
+        let block_sigma = (0..ba.px.len())
+            .flat_map(|i| (0..3).map(move |c| (i, c)))
+            .map(|(i, c)| sigma(&ba, &bb, i, c))
+            .fold(0.0f64, f64::max);
+        let diff = dir.join(format!("idiff{tag}.blocks.exr"));
+        if let Err(e) = run_idiff(&pa, &pb, Z * block_sigma.max(1e-6), 0.0, &diff) {
+            problems.push(format!(
+                "8×8 blocks: {e} (difference image {})",
+                diff.display()
+            ));
+        }
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        let dir = results_dir(r);
+        let _ = std::fs::copy(&r.reference, dir.join("reference.exr"));
+        Err(format!(
+            "{}{tag}: {}\n    strata: {}\n    reference: {} (kept in {})",
+            r.name,
+            problems.join("\n    "),
+            img_path.display(),
+            r.reference.display(),
+            dir.display()
+        ))
+    }
+}
+
+fn check_all(integrator: &str) {
+    let use_idiff = idiff_available();
+    let refs: Vec<Reference> = manifest()
+        .into_iter()
+        .filter(|r| r.integrator == integrator)
+        .collect();
+    assert!(
+        !refs.is_empty(),
+        "no {integrator} reference in the manifest"
+    );
+    let mut failures = Vec::new();
+    for r in &refs {
+        let (img, path, _) = render_strata(r, &[], "");
+        match compare(r, &img, &path, "", use_idiff) {
+            Ok(()) => eprintln!("{}: matches the reference", r.name),
+            Err(e) => failures.push(e),
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} comparisons failed:\n{}",
+        failures.len(),
+        refs.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn ao_matches_the_references() {
+    check_all("ao");
+}
+
+#[test]
+fn direct_lighting_matches_the_references() {
+    check_all("direct");
+}
+
+#[test]
+fn path_tracing_matches_the_references() {
+    check_all("path");
+}
+
+/// A scene reference: the SHA-256 over the scene and the files it references, as
+/// manifest.json's `hash_algorithm` says (tools/references/scene_hash.py).
+fn scene_sha256(scene: &str) -> String {
+    let root = repo();
+    let path = root.join(scene);
+    let bytes = std::fs::read(&path).unwrap();
+    let json: Value = if bytes.starts_with(b"glTF") {
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+    } else {
+        serde_json::from_slice(&bytes).unwrap()
+    };
+    let mut files = vec![normalise(Path::new(scene))];
+    let dir = Path::new(scene).parent().unwrap_or(Path::new(""));
+    for key in ["buffers", "images"] {
+        for item in json[key].as_array().into_iter().flatten() {
+            if let Some(uri) = item["uri"].as_str() {
+                if !uri.starts_with("data:") {
+                    files.push(normalise(&dir.join(percent_decode(uri))));
+                }
+            }
+        }
+    }
+    files.sort();
+    files.dedup();
+    let mut lines = Vec::new();
+    for f in &files {
+        let digest =
+            Sha256::digest(std::fs::read(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")));
+        lines.extend_from_slice(f.as_bytes());
+        lines.push(0);
+        lines.extend_from_slice(format!("{digest:x}\n").as_bytes());
+    }
+    format!("{:x}", Sha256::digest(&lines))
+}
+
+fn normalise(p: &Path) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for c in p.components() {
+        match c {
+            std::path::Component::ParentDir => {
+                parts.pop();
+            }
+            std::path::Component::Normal(s) => parts.push(s.to_string_lossy().into_owned()),
+            _ => {}
+        }
+    }
+    parts.join("/")
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() + 1 {
+            if let Ok(v) = u8::from_str_radix(&s[i + 1..i + 3], 16) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8(out).unwrap()
+}
+
+#[test]
+fn every_reference_was_made_from_the_current_scene() {
+    let mut stale = Vec::new();
+    for r in manifest() {
+        let now = scene_sha256(&r.scene);
+        if now != r.scene_sha256 {
+            stale.push(format!(
+                "{} (scene {} changed; regenerate with `{}`)",
+                r.name, r.scene, r.command
+            ));
+        }
+        assert!(
+            r.reference.is_file() && r.variance.is_file(),
+            "{}: missing image files",
+            r.name
+        );
+    }
+    assert!(stale.is_empty(), "stale references:\n{}", stale.join("\n"));
+}
+
+/// The negative controls on scenes whose images have structure (the analytic scenes are
+/// uniform: a shift or a different warp cannot change them).
+#[test]
+fn comparisons_fail_on_wrong_images() {
+    let use_idiff = idiff_available();
+    for name in ["cornell-box.ao", "flight-helmet.ao"] {
+        let r = manifest().into_iter().find(|r| r.name == name).expect(name);
+        let (img, path, _) = render_strata(&r, &[], "");
+        compare(&r, &img, &path, "", use_idiff)
+            .unwrap_or_else(|e| panic!("the true image must pass first: {e}"));
+        let dir = results_dir(&r);
+        let write = |tag: &str, img: &Image| {
+            let p = dir.join(format!("strata{tag}.exr"));
+            let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+            write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
+            p
+        };
+
+        // 3% darker.
+        let mut darker = img.clone();
+        darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
+        let p = write(".darker", &darker);
+        assert!(
+            compare(&r, &darker, &p, ".darker", use_idiff).is_err(),
+            "{name}: a 3% darker image passed"
+        );
+
+        // Shifted one pixel to the right (the first column repeated).
+        let mut shifted = img.clone();
+        for y in 0..img.h {
+            for x in (1..img.w).rev() {
+                shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
+                shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
+            }
+        }
+        let p = write(".shifted", &shifted);
+        assert!(
+            compare(&r, &shifted, &p, ".shifted", use_idiff).is_err(),
+            "{name}: a one-pixel shift passed"
+        );
+
+        // AO without the cosine weight of the uniform warp.
+        let (wrong, p, _) =
+            render_strata(&r, &["--hemisphere", "uniform-unweighted"], ".unweighted");
+        assert!(
+            compare(&r, &wrong, &p, ".unweighted", use_idiff).is_err(),
+            "{name}: AO without the cosine weight passed"
+        );
+    }
+}
+
+/// POV-Ray and Mitsuba, two renderers nobody here wrote, agree on the point-lights scene's
+/// direct lighting: this validates the conversions (camera, units, light falloff) themselves.
+/// POV-Ray's image is noise-free (738 grid samples per pixel), so σ is Mitsuba's alone.
+#[test]
+fn povray_and_mitsuba_agree_on_point_lights() {
+    let use_idiff = idiff_available();
+    let text =
+        std::fs::read_to_string(repo().join("scenes/references/povray-manifest.json")).unwrap();
+    let pov: Value = serde_json::from_str(&text).unwrap();
+    let entry = &pov["references"][0];
+    let scene = entry["scene"].as_str().unwrap();
+    assert_eq!(
+        entry["scene_sha256"].as_str().unwrap(),
+        scene_sha256(scene),
+        "the POV-Ray reference is stale: regenerate with tools/references/make_povray_reference.sh"
+    );
+    let mitsuba = manifest()
+        .into_iter()
+        .find(|r| r.scene == scene && r.integrator == "direct")
+        .expect("Mitsuba's direct reference of the same scene");
+    let pov_path = repo().join(entry["reference"].as_str().unwrap());
+    let (w, h, px) = read_exr_rgb(&pov_path).unwrap();
+    let img = Image {
+        w,
+        h,
+        var: vec![[0.0; 3]; px.len()],
+        px,
+    };
+    compare(&mitsuba, &img, &pov_path, ".povray", use_idiff)
+        .unwrap_or_else(|e| panic!("POV-Ray vs Mitsuba: {e}"));
+    // The same comparison rejects POV-Ray's image 3% darker.
+    let mut darker = img.clone();
+    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
+    let p = results_dir(&mitsuba).join("povray.darker.exr");
+    let v: Vec<glam::Vec3> = darker
+        .px
+        .iter()
+        .map(|p| glam::Vec3::from_array(*p))
+        .collect();
+    write_rgb_exr(&p, w as u32, h as u32, &v, &[]).unwrap();
+    assert!(compare(&mitsuba, &darker, &p, ".povray.darker", use_idiff).is_err());
+}

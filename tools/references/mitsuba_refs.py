@@ -1,0 +1,993 @@
+#!/usr/bin/env python3
+"""glTF 2.0 -> Mitsuba 3 conversion and the Mitsuba reference renders of strata's scenes.
+
+Run through tools/references/make_references.sh (which makes the pinned virtualenv):
+
+    make_references.sh                         # every reference in JOBS, then the manifest
+    make_references.sh cornell-box.path ao-wall.ao   # only these (the manifest is merged)
+    python3 mitsuba_refs.py --list             # the job names
+    python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera) and radiometry tests
+
+The conversion is written from the glTF alone (nothing is tuned per scene); the contract it
+implements is strata's (see scenes/references/README.md):
+- camera: the first camera met in a depth-first, pre-order walk of the default scene (the
+  order strata numbers cameras in); Mitsuba `perspective`, fov_axis 'y', fov = yfov in degrees,
+  to_world = camera world matrix x diag(-1, 1, -1, 1); the resolution sets the aspect ratio.
+- film: hdrfilm, box reconstruction filter, linear RGB float32.
+- geometry: every primitive becomes a world-space `mi.Mesh` (node transforms applied, winding
+  flipped under a negative determinant, normals by the inverse transpose). Primitives without
+  NORMAL and every emissive primitive use face normals (the winding decides the front face).
+  Modes TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN; points and lines are skipped (warning).
+- material: twosided(diffuse) with reflectance = baseColorFactor.rgb x baseColorTexture.rgb
+  (texture decoded from sRGB, bilinear, glTF wrap mode, TEXCOORD_0 passed unchanged: Mitsuba 3's
+  bitmap has uv (0, 0) at the image's top row like glTF, so NO v flip; checked by
+  --check). Metallic/roughness are ignored.
+- emission: a one-sided `area` emitter with radiance = emissiveFactor x emissiveTexture x
+  KHR_materials_emissive_strength. A doubleSided emissive material is refused unless its
+  `extras.strata_reference_single_sided_ok` is true (then only its front face emits).
+- KHR_lights_punctual: point -> `point` with intensity = color x intensity; directional ->
+  `directional` with irradiance = color x intensity; spot lights are refused.
+- background: the document's `extras.strata.background` (linear RGB radiance, black when
+  absent) -> a `constant` emitter; camera rays that miss see it.
+- integrators: `ao` = every surface white twosided diffuse (reflectance 1), a constant
+  environment of radiance 1, no other emitter, `path` with max_depth 2 and hide_emitters (so
+  misses are 0): the image is (1/pi) * integral of V cos over the hemisphere. `direct` = `path`
+  with max_depth 2 (strata --max-depth 1) and `path` = max_depth 9 (strata's default 8 bounces),
+  both with the real materials, emitters and lights. Russian roulette is effectively off
+  (rr_depth 100 > max_depth), so it adds no noise.
+- noise: each reference is K independent passes (different seeds, `multijitter` sampler); the
+  EXR is their mean and the .var.exr the per-pixel variance of that mean (sample variance
+  across passes / K).
+- masks: <scene>.mask.exr marks the pixels where the two readings of "the shading normal's
+  hemisphere" differ on smooth-shaded meshes (see normals_mask()).
+"""
+import argparse
+import base64
+import json
+import math
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.parse
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, HERE)
+import scene_hash  # noqa: E402
+
+import mitsuba as mi  # noqa: E402
+
+VARIANT = os.environ.get("STRATA_MITSUBA_VARIANT", "scalar_rgb")
+RR_DEPTH = 100
+OUT_DIR = os.path.join(REPO, "scenes", "references")
+
+# Scenes: repository-relative path and output resolution (width, height).
+SCENES = {
+    "ao-open-plane": ("scenes/ao-open-plane.gltf", (64, 64)),
+    "ao-wall": ("scenes/ao-wall.gltf", (64, 64)),
+    "flight-helmet": ("scenes/flight-helmet.gltf", (192, 144)),
+    "cornell-box": ("scenes/cornell-box.gltf", (160, 160)),
+    "point-lights": ("scenes/point-lights.gltf", (192, 144)),
+    "suzanne": ("scenes/suzanne.gltf", (192, 144)),
+    "emissive-strength": ("scenes/emissive-strength.gltf", (256, 128)),
+}
+# strata integrator -> (Mitsuba max_depth, strata --max-depth or None)
+INTEGRATORS = {"ao": (2, None), "direct": (2, 1), "path": (9, 8)}
+# Jobs: (scene, integrator, total spp, passes). Passes use spp/passes samples each.
+JOBS = [
+    ("ao-open-plane", "ao", 4096, 16),
+    ("ao-wall", "ao", 4096, 16),
+    ("flight-helmet", "ao", 8192, 32),
+    ("cornell-box", "ao", 8192, 32),
+    ("point-lights", "ao", 8192, 32),
+    ("suzanne", "ao", 8192, 32),
+    ("emissive-strength", "ao", 8192, 32),
+    ("cornell-box", "direct", 8192, 32),
+    ("point-lights", "direct", 8192, 32),
+    ("suzanne", "direct", 8192, 32),
+    ("emissive-strength", "direct", 8192, 32),
+    ("cornell-box", "path", 8192, 32),
+    ("point-lights", "path", 8192, 32),
+    ("suzanne", "path", 8192, 32),
+    ("emissive-strength", "path", 8192, 32),
+]
+# Mitsuba's multi-jittered sampler: each pass is an independent, unbiased stratified estimate
+# (seeded differently), so the sample variance across passes stays a valid variance estimate;
+# at equal spp it had 8x (AO) to 40x (path) lower variance than `independent` on the Cornell box.
+SAMPLER = "multijitter"
+
+
+class ConversionError(Exception):
+    pass
+
+
+# ---------------------------------------------------------------------------------------
+# glTF reading
+# ---------------------------------------------------------------------------------------
+
+COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength"}
+
+
+class Gltf:
+    def __init__(self, path):
+        self.path = os.path.abspath(path)
+        self.base = os.path.dirname(self.path)
+        with open(self.path, "rb") as f:
+            data = f.read()
+        self.glb_bin = None
+        if data[:4] == b"glTF":
+            off = 12
+            doc = None
+            while off < len(data):
+                clen, ctype = struct.unpack_from("<II", data, off)
+                chunk = data[off + 8: off + 8 + clen]
+                if ctype == 0x4E4F534A and doc is None:
+                    doc = json.loads(chunk.decode("utf-8"))
+                elif ctype == 0x004E4942 and self.glb_bin is None:
+                    self.glb_bin = chunk
+                off += 8 + clen
+            self.doc = doc
+        else:
+            self.doc = json.loads(data.decode("utf-8"))
+        required = set(self.doc.get("extensionsRequired", [])) - SUPPORTED_EXTENSIONS
+        if required:
+            raise ConversionError(f"{path}: required extensions not supported: {sorted(required)}")
+        self._buffers = {}
+
+    def resolve(self, uri):
+        return os.path.normpath(os.path.join(self.base, urllib.parse.unquote(uri)))
+
+    def _uri_bytes(self, uri):
+        if uri.startswith("data:"):
+            head, payload = uri.split(",", 1)
+            if not head.endswith(";base64"):
+                return urllib.parse.unquote_to_bytes(payload)
+            return base64.b64decode(payload)
+        with open(self.resolve(uri), "rb") as f:
+            return f.read()
+
+    def buffer(self, i):
+        if i not in self._buffers:
+            b = self.doc["buffers"][i]
+            if "uri" in b:
+                data = self._uri_bytes(b["uri"])
+            elif i == 0 and self.glb_bin is not None:
+                data = self.glb_bin
+            else:
+                raise ConversionError(f"buffer {i} has no data")
+            if len(data) < b["byteLength"]:
+                raise ConversionError(f"buffer {i} is shorter than its byteLength")
+            self._buffers[i] = data
+        return self._buffers[i]
+
+    def _view_array(self, view_index, byte_offset, dtype, ncomp, count):
+        view = self.doc["bufferViews"][view_index]
+        data = self.buffer(view["buffer"])
+        itemsize = np.dtype(dtype).itemsize
+        elem = itemsize * ncomp
+        stride = view.get("byteStride") or elem
+        start = view.get("byteOffset", 0) + byte_offset
+        if count == 0:
+            return np.zeros((0, ncomp), dtype)
+        end = start + stride * (count - 1) + elem
+        if end > view.get("byteOffset", 0) + view["byteLength"]:
+            raise ConversionError(f"accessor runs past bufferView {view_index}")
+        raw = np.frombuffer(data, dtype=np.uint8, count=end - start, offset=start)
+        if stride == elem:
+            return np.frombuffer(raw.tobytes(), dtype=dtype).reshape(count, ncomp).copy()
+        rows = np.lib.stride_tricks.as_strided(raw, shape=(count, elem), strides=(stride, 1))
+        return np.frombuffer(rows.copy().tobytes(), dtype=dtype).reshape(count, ncomp)
+
+    def accessor(self, i, as_float=True):
+        a = self.doc["accessors"][i]
+        dtype = np.dtype(COMPONENT[a["componentType"]]).newbyteorder("<")
+        ncomp = NCOMP[a["type"]]
+        count = a["count"]
+        if "bufferView" in a:
+            arr = self._view_array(a["bufferView"], a.get("byteOffset", 0), dtype, ncomp, count)
+        else:
+            arr = np.zeros((count, ncomp), dtype)
+        if "sparse" in a:
+            s = a["sparse"]
+            idt = np.dtype(COMPONENT[s["indices"]["componentType"]]).newbyteorder("<")
+            idx = self._view_array(s["indices"]["bufferView"], s["indices"].get("byteOffset", 0), idt, 1, s["count"])[:, 0]
+            val = self._view_array(s["values"]["bufferView"], s["values"].get("byteOffset", 0), dtype, ncomp, s["count"])
+            arr = arr.copy()
+            arr[idx.astype(np.int64)] = val
+        if not as_float:
+            return arr
+        out = arr.astype(np.float64)
+        if a.get("normalized"):
+            scale = {np.int8: 127.0, np.uint8: 255.0, np.int16: 32767.0, np.uint16: 65535.0}[COMPONENT[a["componentType"]]]
+            out = out / scale
+            if a["componentType"] in (5120, 5122):
+                out = np.maximum(out, -1.0)
+        return out
+
+
+def node_local_matrix(node):
+    if "matrix" in node:
+        return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
+    t = node.get("translation", [0, 0, 0])
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    s = node.get("scale", [1, 1, 1])
+    r = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+    m = np.eye(4)
+    m[:3, :3] = r @ np.diag(s)
+    m[:3, 3] = t
+    return m
+
+
+def walk(g):
+    """Yields (node_index, node, world_matrix) depth-first, pre-order, over the default scene."""
+    doc = g.doc
+    scenes = doc.get("scenes", [])
+    if not scenes:
+        raise ConversionError("no scene")
+    scene = scenes[doc.get("scene", 0)]
+
+    def visit(i, parent, path):
+        if i in path:
+            raise ConversionError(f"node {i} is its own ancestor")
+        node = doc["nodes"][i]
+        world = parent @ node_local_matrix(node)
+        yield i, node, world
+        for c in node.get("children", []):
+            yield from visit(c, world, path + (i,))
+
+    for root in scene.get("nodes", []):
+        yield from visit(root, np.eye(4), ())
+
+
+def triangle_indices(g, prim, vertex_count):
+    mode = prim.get("mode", 4)
+    if "indices" in prim:
+        idx = g.accessor(prim["indices"], as_float=False)[:, 0].astype(np.int64)
+    else:
+        idx = np.arange(vertex_count, dtype=np.int64)
+    if mode == 4:
+        n = len(idx) // 3
+        tris = idx[: 3 * n].reshape(n, 3)
+    elif mode == 5:  # strip: p_i = (v_i, v_{i+(1+i%2)}, v_{i+(2-i%2)})
+        n = max(len(idx) - 2, 0)
+        i = np.arange(n)
+        tris = np.stack([idx[i], idx[i + 1 + i % 2], idx[i + 2 - i % 2]], axis=1)
+    elif mode == 6:  # fan: p_i = (v_{i+1}, v_{i+2}, v_0)
+        n = max(len(idx) - 2, 0)
+        i = np.arange(n)
+        tris = np.stack([idx[i + 1], idx[i + 2], np.full(n, idx[0] if len(idx) else 0)], axis=1)
+    else:
+        return None
+    if len(tris) and tris.max() >= vertex_count:
+        raise ConversionError("index out of range")
+    return tris
+
+
+# ---------------------------------------------------------------------------------------
+# textures
+# ---------------------------------------------------------------------------------------
+
+_texture_cache = {}
+
+
+def load_texture_linear(g, tex_index):
+    """(H, W, 3) float32 linear RGB of glTF texture `tex_index` (sRGB-decoded), and its wrap mode."""
+    tex = g.doc["textures"][tex_index]
+    if "source" not in tex:
+        raise ConversionError(f"texture {tex_index} has no source")
+    img = g.doc["images"][tex["source"]]
+    sampler = g.doc.get("samplers", [])[tex["sampler"]] if "sampler" in tex else {}
+    ws, wt = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
+    if ws != wt:
+        raise ConversionError(f"texture {tex_index}: wrapS {ws} != wrapT {wt} is not supported by Mitsuba's bitmap")
+    key = (g.path, tex["source"])
+    if key not in _texture_cache:
+        if "uri" in img:
+            data = g._uri_bytes(img["uri"])
+        else:
+            view = g.doc["bufferViews"][img["bufferView"]]
+            buf = g.buffer(view["buffer"])
+            data = buf[view.get("byteOffset", 0): view.get("byteOffset", 0) + view["byteLength"]]
+        with tempfile.NamedTemporaryFile(suffix=".img") as f:
+            f.write(data)
+            f.flush()
+            bmp = mi.Bitmap(f.name)
+        # glTF colour textures are sRGB whatever the file says; alpha is ignored (opaque).
+        bmp.set_srgb_gamma(True)
+        fmt = bmp.pixel_format()
+        if fmt in (mi.Bitmap.PixelFormat.Y, mi.Bitmap.PixelFormat.YA):
+            target = mi.Bitmap.PixelFormat.Y
+        else:
+            target = mi.Bitmap.PixelFormat.RGB
+        if fmt in (mi.Bitmap.PixelFormat.YA, mi.Bitmap.PixelFormat.RGBA):
+            # Drop alpha by slicing raw channels first, so no (un)premultiplication happens.
+            arr = np.array(bmp, copy=True)
+            arr = arr[..., :1] if target == mi.Bitmap.PixelFormat.Y else arr[..., :3]
+            bmp = mi.Bitmap(np.ascontiguousarray(arr), target)
+            bmp.set_srgb_gamma(True)
+        lin = bmp.convert(target, mi.Struct.Type.Float32, srgb_gamma=False)
+        arr = np.array(lin, dtype=np.float32)
+        if arr.ndim == 2:
+            arr = arr[..., None]
+        if arr.shape[2] == 1:
+            arr = np.repeat(arr, 3, axis=2)
+        _texture_cache[key] = np.ascontiguousarray(arr[..., :3])
+    return _texture_cache[key], WRAP[ws]
+
+
+def texture_dict(arr, wrap):
+    return {"type": "bitmap", "data": mi.TensorXf(arr), "raw": True, "filter_type": "bilinear", "wrap_mode": wrap}
+
+
+def check_texture_info(info, what):
+    if info.get("texCoord", 0) != 0:
+        raise ConversionError(f"{what}: only TEXCOORD_0 is supported")
+    if "KHR_texture_transform" in info.get("extensions", {}):
+        raise ConversionError(f"{what}: KHR_texture_transform is not supported by this converter")
+
+
+# ---------------------------------------------------------------------------------------
+# scene conversion
+# ---------------------------------------------------------------------------------------
+
+def material_props(g, mat_index, mode):
+    """(bsdf dict, emitter dict or None, needs_uv) for a material, in mode 'ao' or 'shaded'."""
+    white = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}}
+    if mode == "ao":
+        return white, None, False
+    mat = g.doc["materials"][mat_index] if mat_index is not None else {}
+    name = mat.get("name", f"material {mat_index}")
+    pbr = mat.get("pbrMetallicRoughness", {})
+    factor = np.array(pbr.get("baseColorFactor", [1, 1, 1, 1])[:3], dtype=np.float32)
+    needs_uv = False
+    if "baseColorTexture" in pbr:
+        info = pbr["baseColorTexture"]
+        check_texture_info(info, f"{name} baseColorTexture")
+        arr, wrap = load_texture_linear(g, info["index"])
+        reflectance = texture_dict(np.ascontiguousarray(arr * factor[None, None, :]), wrap)
+        needs_uv = True
+    else:
+        reflectance = {"type": "rgb", "value": factor.tolist()}
+    bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
+
+    emissive = np.array(mat.get("emissiveFactor", [0, 0, 0]), dtype=np.float32)
+    strength = mat.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    emitter = None
+    if np.any(emissive * strength > 0):
+        if mat.get("doubleSided", False) and not mat.get("extras", {}).get("strata_reference_single_sided_ok", False):
+            raise ConversionError(
+                f"material '{name}' is emissive and doubleSided: Mitsuba's area emitter is one-sided, so the "
+                "reference would miss the back face's emission. Set doubleSided false in the scene (or, if the "
+                "back face cannot matter, extras.strata_reference_single_sided_ok = true).")
+        scale = (emissive * strength).astype(np.float32)
+        if "emissiveTexture" in mat:
+            info = mat["emissiveTexture"]
+            check_texture_info(info, f"{name} emissiveTexture")
+            arr, wrap = load_texture_linear(g, info["index"])
+            radiance = texture_dict(np.ascontiguousarray(arr * scale[None, None, :]), wrap)
+            needs_uv = True
+        else:
+            radiance = {"type": "rgb", "value": scale.tolist()}
+        emitter = {"type": "area", "radiance": radiance}
+    return bsdf, emitter, needs_uv
+
+
+def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(bsdf)
+    if emitter is not None:
+        props["emitter"] = mi.load_dict(emitter)
+    mesh = mi.Mesh(name, len(pos), len(faces), props, has_vertex_normals=normals is not None,
+                   has_vertex_texcoords=uvs is not None)
+    p = mi.traverse(mesh)
+    scalar = mi.variant().startswith("scalar")
+    f32 = (lambda a: a) if scalar else mi.Float
+    u32 = (lambda a: a) if scalar else mi.UInt32
+    p["vertex_positions"] = f32(np.ascontiguousarray(pos, dtype=np.float32).ravel())
+    p["faces"] = u32(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
+    if normals is not None:
+        p["vertex_normals"] = f32(np.ascontiguousarray(normals, dtype=np.float32).ravel())
+    if uvs is not None:
+        p["vertex_texcoords"] = f32(np.ascontiguousarray(uvs, dtype=np.float32).ravel())
+    p.update()
+    return mesh
+
+
+def convert(path, mode, resolution, max_depth):
+    """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'. Returns (dict, info)."""
+    g = Gltf(path)
+    doc = g.doc
+    scene = {"type": "scene"}
+    info = {"triangles": 0, "meshes": 0, "lights": [], "emissive_materials": set(), "warnings": []}
+    camera = None
+    lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    for ni, node, world in walk(g):
+        if "camera" in node and camera is None:
+            camera = (doc["cameras"][node["camera"]], world)
+        if "mesh" in node:
+            lin = world[:3, :3]
+            det = np.linalg.det(lin)
+            normal_m = np.linalg.inv(lin).T if abs(det) > 0 else None
+            for pi, prim in enumerate(doc["meshes"][node["mesh"]]["primitives"]):
+                attrs = prim["attributes"]
+                pos = g.accessor(attrs["POSITION"])
+                tris = triangle_indices(g, prim, len(pos))
+                if tris is None:
+                    info["warnings"].append(f"node {ni} mesh {node['mesh']} primitive {pi}: mode {prim.get('mode')} skipped")
+                    continue
+                if len(tris) == 0:
+                    continue
+                if det < 0:
+                    tris = tris[:, [0, 2, 1]]
+                wpos = pos @ lin.T + world[:3, 3]
+                bsdf, emitter, needs_uv = material_props(g, prim.get("material"), mode)
+                normals = None
+                if "NORMAL" in attrs and emitter is None and normal_m is not None:
+                    n = g.accessor(attrs["NORMAL"]) @ normal_m.T
+                    ln = np.linalg.norm(n, axis=1, keepdims=True)
+                    normals = np.where(ln > 0, n / np.maximum(ln, 1e-30), 0.0)
+                if emitter is not None:
+                    info["emissive_materials"].add(prim.get("material"))
+                    if "NORMAL" in attrs:
+                        check_flat_normals(g, attrs["NORMAL"], tris, wpos, normal_m, f"node {ni} primitive {pi}")
+                uvs = None
+                if needs_uv:
+                    if "TEXCOORD_0" not in attrs:
+                        raise ConversionError(f"node {ni} primitive {pi}: textured material without TEXCOORD_0")
+                    # Passed unchanged: Mitsuba 3's bitmap texture puts uv (0, 0) at the image's
+                    # first (top) row, as glTF does (verified by --check; flipping v
+                    # renders the texture upside down).
+                    uvs = g.accessor(attrs["TEXCOORD_0"])[:, :2].copy()
+                mesh = make_mesh(f"n{ni}_m{node['mesh']}_p{pi}", wpos, tris, normals, uvs, bsdf, emitter)
+                scene[f"mesh_{ni}_{pi}"] = mesh
+                info["triangles"] += len(tris)
+                info["meshes"] += 1
+        light_ext = node.get("extensions", {}).get("KHR_lights_punctual")
+        if light_ext is not None and mode != "ao":
+            light = lights[light_ext["light"]]
+            value = (np.array(light.get("color", [1, 1, 1])) * light.get("intensity", 1.0)).tolist()
+            kind = light["type"]
+            if kind == "point":
+                if light.get("range"):
+                    info["warnings"].append(f"light {light_ext['light']}: range ignored")
+                scene[f"light_{ni}"] = {"type": "point", "position": world[:3, 3].tolist(),
+                                        "intensity": {"type": "rgb", "value": value}}
+            elif kind == "directional":
+                d = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
+                d = d / np.linalg.norm(d)
+                scene[f"light_{ni}"] = {"type": "directional", "direction": d.tolist(),
+                                        "irradiance": {"type": "rgb", "value": value}}
+            else:
+                raise ConversionError(f"light {light_ext['light']}: type '{kind}' is not supported "
+                                      "(glTF's spot cone falloff differs from Mitsuba's)")
+            info["lights"].append(kind)
+    if camera is None:
+        raise ConversionError(f"{path}: no camera in the default scene")
+    cam, world = camera
+    if cam["type"] != "perspective":
+        raise ConversionError("only perspective cameras are supported")
+    rot = world[:3, :3]
+    if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-5) or np.linalg.det(rot) < 0:
+        raise ConversionError("the camera's world transform is not a rotation + translation")
+    to_world = world @ np.diag([-1.0, 1.0, -1.0, 1.0])
+    w, h = resolution
+    scene["sensor"] = {
+        "type": "perspective",
+        "fov_axis": "y",
+        "fov": math.degrees(cam["perspective"]["yfov"]),
+        "near_clip": float(cam["perspective"].get("znear", 0.01)),
+        "far_clip": 1e9,
+        "to_world": mi.ScalarTransform4f(to_world.tolist()),
+        "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"},
+                 "pixel_format": "rgb", "component_format": "float32"},
+        "sampler": {"type": SAMPLER, "sample_count": 1},
+    }
+    background = doc.get("extras", {}).get("strata", {}).get("background")
+    if mode == "ao":
+        scene["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+        scene["integrator"] = {"type": "path", "max_depth": 2, "rr_depth": RR_DEPTH, "hide_emitters": True}
+        info["background"] = None
+    else:
+        if background is not None and any(c > 0 for c in background):
+            scene["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [float(c) for c in background]}}
+        scene["integrator"] = {"type": "path", "max_depth": max_depth, "rr_depth": RR_DEPTH, "hide_emitters": False}
+        info["background"] = [float(c) for c in background] if background is not None else [0.0, 0.0, 0.0]
+    info["emissive_materials"] = sorted(info["emissive_materials"])
+    return scene, info
+
+
+def check_flat_normals(g, normal_acc, tris, wpos, normal_m, label):
+    """Emissive primitives use face normals (winding = front); their normals must agree (up to sign)."""
+    n = g.accessor(normal_acc) @ normal_m.T
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    a, b, c = wpos[tris[:, 0]], wpos[tris[:, 1]], wpos[tris[:, 2]]
+    fn = np.cross(b - a, c - a)
+    ok = np.linalg.norm(fn, axis=1) > 0
+    fn = fn[ok] / np.linalg.norm(fn[ok], axis=1, keepdims=True)
+    for k in range(3):
+        cos = np.abs(np.sum(fn * n[tris[ok, k]], axis=1))
+        if np.any(cos < 0.999):
+            raise ConversionError(f"{label}: emissive primitive with smooth (non-flat) normals is not supported")
+
+
+# ---------------------------------------------------------------------------------------
+# rendering
+# ---------------------------------------------------------------------------------------
+
+def render_passes(scene_dict, spp, passes, seed_base):
+    scene = mi.load_dict(scene_dict)
+    per = spp // passes
+    imgs = []
+    for k in range(passes):
+        img = mi.render(scene, spp=per, seed=seed_base + k)
+        imgs.append(np.array(img, dtype=np.float64))
+    stack = np.stack(imgs)  # (K, H, W, 3)
+    mean = stack.mean(axis=0)
+    var_mean = stack.var(axis=0, ddof=1) / passes
+    return mean, var_mean
+
+
+def normals_mask(scene_dict, resolution, sub=8):
+    """Where strata's and Mitsuba's readings of "the shading normal's hemisphere" can differ.
+
+    Per pixel, over sub x sub stratified camera rays (first hits only), returns (H, W, 3):
+    R: the fraction of rays whose hit sees the interpolated shading normal n_s and the geometric
+       normal n_g on different sides (sign(d.n_s) != sign(d.n_g); silhouettes of smooth-shaded
+       meshes). There Mitsuba's twosided BSDF picks the side by n_s, so it shades the hemisphere
+       that mostly points into the object, while strata flips n_s to n_g's side of the ray: the
+       two differ by up to the whole value. Leave out pixels with R > 0.
+    G: the mean over the rays' hits of (1 - |n_s.n_g|)/2, the cosine-weighted fraction of n_s's
+       hemisphere that lies below the geometric surface. strata counts those directions as
+       occluded; Mitsuba traces them (into the object: usually occluded too, but through thin
+       open surfaces they can escape). It bounds the AO difference this causes; zero on flat
+       geometry. Compare at very high precision only where G is small.
+    B: 0."""
+    scene = mi.load_dict(scene_dict)
+    sensor = scene.sensors()[0]
+    w, h = resolution
+    mask = np.zeros((h, w, 3), dtype=np.float32)
+    offsets = [(i + 0.5) / sub for i in range(sub)]
+    for y in range(h):
+        for x in range(w):
+            side = 0
+            wedge = 0.0
+            for oy in offsets:
+                for ox in offsets:
+                    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f((x + ox) / w, (y + oy) / h), mi.Point2f(0.5, 0.5))
+                    si = scene.ray_intersect(ray)
+                    if not si.is_valid():
+                        continue
+                    d = (ray.d[0], ray.d[1], ray.d[2])
+                    ng = (si.n[0], si.n[1], si.n[2])
+                    ns = (si.sh_frame.n[0], si.sh_frame.n[1], si.sh_frame.n[2])
+                    a = d[0] * ng[0] + d[1] * ng[1] + d[2] * ng[2]
+                    b = d[0] * ns[0] + d[1] * ns[1] + d[2] * ns[2]
+                    if a * b < 0:
+                        side += 1
+                    c = abs(ng[0] * ns[0] + ng[1] * ns[1] + ng[2] * ns[2])
+                    wedge += (1.0 - min(c, 1.0)) / 2
+            mask[y, x, 0] = side / (sub * sub)
+            mask[y, x, 1] = wedge / (sub * sub)
+    return mask
+
+
+FIXED_EXR_DATETIME = b"2000:01:01 00:00:00"
+
+
+def write_exr(path, arr):
+    """Writes an RGB float32 EXR with ZIP compression (Mitsuba writes, oiiotool recompresses).
+
+    The same pixels give the same bytes: oiiotool's Software/ImageHistory attributes are
+    turned off, and the DateTime (EXR `capDate`) it always stamps is overwritten in place (same length, so no
+    offset moves) with a fixed value."""
+    tmp = path + ".tmp.exr"
+    mi.Bitmap(np.ascontiguousarray(arr.astype(np.float32)), mi.Bitmap.PixelFormat.RGB).write(tmp)
+    subprocess.run(["oiiotool", tmp, "--nosoftwareattrib", "--compression", "zip", "-o", path], check=True)
+    os.remove(tmp)
+    with open(path, "r+b") as f:
+        head = f.read(4096)
+        key = b"capDate\0string\0"  # OpenEXR's standard attribute for oiiotool's DateTime
+        at = head.find(key)
+        if at >= 0:
+            n = struct.unpack_from("<i", head, at + len(key))[0]
+            if n == len(FIXED_EXR_DATETIME):
+                f.seek(at + len(key) + 4)
+                f.write(FIXED_EXR_DATETIME)
+
+
+def error_stats(mean, var_mean):
+    se = np.sqrt(np.maximum(var_mean, 0)).mean(axis=2)  # per pixel, averaged over channels
+    img_mean = float(mean.mean())
+    rel = se / img_mean if img_mean > 0 else se
+    value = mean.mean(axis=2)
+    lit = value > 1e-3 * max(img_mean, 1e-30)
+    own = se[lit] / value[lit]
+    return {
+        "image_mean": img_mean,
+        "mean_standard_error": float(se.mean()),
+        "max_standard_error": float(se.max()),
+        "mean_relative_standard_error": float(rel.mean()),
+        "p99_relative_standard_error": float(np.percentile(rel, 99)),
+        "max_relative_standard_error": float(rel.max()),
+        "median_standard_error_over_pixel_value": float(np.median(own)) if own.size else 0.0,
+        "note": "per-pixel standard error of the reference mean = sqrt(var.exr), averaged over RGB; "
+                "*_relative_* = divided by the image mean (over all pixels and channels); the last one "
+                "divides by each pixel's own value (pixels above 1e-3 x the image mean)",
+    }
+
+
+def job_name(scene, integrator):
+    return f"{scene}.{integrator}"
+
+
+def strata_args(integrator, strata_depth, res, background):
+    """The strata command-line options that match this reference (plus --spp, --seed, -o)."""
+    args = ["--integrator", integrator]
+    if strata_depth is not None:
+        args += ["--max-depth", str(strata_depth)]
+    if background is not None and any(c > 0 for c in background):
+        args += ["--background", ",".join(f"{c:g}" for c in background)]
+    return args + ["--resolution", f"{res[0]}x{res[1]}"]
+
+
+_masks_done = set()
+
+
+def run_job(scene_name, integrator, spp, passes, seed_base=0):
+    rel, res = SCENES[scene_name]
+    mdepth, _ = INTEGRATORS[integrator]
+    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth)
+    t0 = time.time()
+    mean, var_mean = render_passes(scene_dict, spp, passes, seed_base)
+    seconds = time.time() - t0
+    base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
+    write_exr(base + ".exr", mean)
+    write_exr(base + ".var.exr", var_mean)
+    if scene_name not in _masks_done:
+        # the camera's first hits only: one mask per scene, the same for every integrator
+        write_exr(os.path.join(OUT_DIR, scene_name + ".mask.exr"), normals_mask(scene_dict, res))
+        _masks_done.add(scene_name)
+    # statistics of the float32 values as written (so --rebuild-manifest gives the same numbers)
+    mean, var_mean = (a.astype(np.float32).astype(np.float64) for a in (mean, var_mean))
+    return manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds)
+
+
+def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds):
+    rel, res = SCENES[scene_name]
+    mdepth, strata_depth = INTEGRATORS[integrator]
+    base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
+    return {
+        "reference": os.path.relpath(base + ".exr", REPO),
+        "variance": os.path.relpath(base + ".var.exr", REPO),
+        "scene": rel,
+        "scene_sha256": scene_hash.scene_sha256(os.path.join(REPO, rel)),
+        "integrator": integrator,
+        "max_depth": strata_depth,
+        "mitsuba_max_depth": mdepth,
+        "strata_args": strata_args(integrator, strata_depth, res, info["background"]),
+        "renderer": "mitsuba",
+        "renderer_version": mi.__version__,
+        "variant": mi.variant(),
+        "mitsuba_integrator": dict(scene_dict["integrator"]),
+        "mitsuba_sampler": SAMPLER,
+        "russian_roulette": f"off in effect: rr_depth {RR_DEPTH} > max_depth {mdepth}",
+        "spp": spp,
+        "passes": passes,
+        "spp_per_pass": spp // passes,
+        "seeds": f"{seed_base}..{seed_base + passes - 1} (pass k uses seed {seed_base} + k)",
+        "resolution": [res[0], res[1]],
+        "background": ("ao: constant environment of radiance 1, hidden from camera rays (misses are 0)"
+                       if integrator == "ao" else info["background"]),
+        "triangles": info["triangles"],
+        "lights": info["lights"],
+        "command": f"tools/references/make_references.sh {job_name(scene_name, integrator)}",
+        "standard_error": error_stats(mean, var_mean),
+        "mask": os.path.relpath(os.path.join(OUT_DIR, scene_name + ".mask.exr"), REPO),
+        "mask_stats": mask_stats(os.path.join(OUT_DIR, scene_name + ".mask.exr")),
+        "render_seconds": None if seconds is None else round(seconds, 1),
+        "warnings": info["warnings"],
+    }
+
+
+def mask_stats(path):
+    if not os.path.exists(path):
+        return None
+    m = np.array(mi.Bitmap(path), dtype=np.float64)
+    return {"pixels_shading_side_R_gt_0": int((m[..., 0] > 0).sum()),
+            "pixels_wedge_G_gt_0.01": int((m[..., 1] > 0.01).sum()),
+            "pixels_wedge_G_gt_0.001": int((m[..., 1] > 0.001).sum()),
+            "note": "R > 0: leave out (shading normal faces away from the camera where the triangle faces it, "
+                    "or the reverse: Mitsuba and strata pick different hemispheres); G: fraction of the shading "
+                    "hemisphere below the geometric surface (strata: occluded; Mitsuba: traced), bounds the AO "
+                    "difference from that rule. See normals_mask() in tools/references/mitsuba_refs.py."}
+
+
+def rebuild_entry(scene_name, integrator, spp, passes, old):
+    """Manifest entry recomputed from the EXRs on disk (no rendering); keeps the old timing."""
+    rel, res = SCENES[scene_name]
+    mdepth, _ = INTEGRATORS[integrator]
+    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth)
+    base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
+    mean = np.array(mi.Bitmap(base + ".exr"), dtype=np.float64)[..., :3]
+    var_mean = np.array(mi.Bitmap(base + ".var.exr"), dtype=np.float64)[..., :3]
+    seconds = (old or {}).get("render_seconds")
+    if not os.path.exists(os.path.join(OUT_DIR, scene_name + ".mask.exr")):
+        write_exr(os.path.join(OUT_DIR, scene_name + ".mask.exr"), normals_mask(scene_dict, res))
+    return manifest_entry(scene_name, integrator, spp, passes, 0, scene_dict, info, mean, var_mean, seconds)
+
+
+MANIFEST_HEADER = {
+    "description": "Reference images of strata's scenes rendered with Mitsuba 3. Each <scene>.<integrator>.exr "
+                   "is the mean of `passes` independent renders (linear Rec.709 RGB, float32, ZIP); "
+                   "<scene>.<integrator>.var.exr is the per-pixel variance of that mean (sample variance across "
+                   "passes / passes). Conventions: scenes/references/README.md.",
+    "hash_algorithm": scene_hash.ALGORITHM,
+    "regenerate_all": "tools/references/make_references.sh",
+}
+
+
+def old_entries():
+    path = os.path.join(OUT_DIR, "manifest.json")
+    old = {}
+    if os.path.exists(path):
+        with open(path) as f:
+            for e in json.load(f).get("references", []):
+                old[os.path.basename(e["reference"])[: -len(".exr")]] = e
+    return old
+
+
+def update_manifest(entries):
+    old = old_entries()
+    for e in entries:
+        old[os.path.basename(e["reference"])[: -len(".exr")]] = e
+    order = {job_name(s, i): k for k, (s, i, _, _) in enumerate(JOBS)}
+    refs = [old[k] for k in sorted(old, key=lambda k: order.get(k, len(order)))]
+    doc = dict(MANIFEST_HEADER)
+    doc["environment"] = {"mitsuba": mi.__version__, "drjit": drjit_version(), "numpy": np.__version__,
+                          "variant": mi.variant(), "python": sys.version.split()[0]}
+    doc["references"] = refs
+    with open(os.path.join(OUT_DIR, "manifest.json"), "w") as f:
+        json.dump(doc, f, indent=1)
+        f.write("\n")
+
+
+def drjit_version():
+    import drjit
+    return drjit.__version__
+
+
+# ---------------------------------------------------------------------------------------
+# orientation check: textured quad + off-centre marker
+# ---------------------------------------------------------------------------------------
+
+def write_png_rgb(path, rows):
+    """Minimal 8-bit RGB PNG writer (rows: list of lists of (r, g, b) bytes, top row first)."""
+    import zlib
+    h, w = len(rows), len(rows[0])
+    raw = b"".join(b"\0" + bytes(c for px in row for c in px) for row in rows)
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+    with open(path, "wb") as f:
+        f.write(png)
+
+
+def srgb_to_linear(c):
+    c = c / 255.0
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def check_orientation(out_dir):
+    """Renders a quad in the plane z = 0, x, y in [-1, 1], facing a camera at (0, 0, 3) on +Z
+    that looks down -Z, with a 4x4 texture of four 2x2 colour blocks (top-left red, top-right
+    green, bottom-left blue, bottom-right grey 128) mapped so that glTF uv (0, 0) (the image's
+    top-left) is at the quad's top-left corner (-1, +1). An untextured yellow marker square sits
+    at x, y in [-1.45, -1.15] x [1.15, 1.45] (world top-left, outside the quad). Lit by a
+    constant environment of radiance 1 (each pixel's radiance = its albedo: open planes). The
+    image must show the texture upright and the marker at the top-left."""
+    os.makedirs(out_dir, exist_ok=True)
+    R, G, B, Y = (255, 0, 0), (0, 255, 0), (0, 0, 255), (128, 128, 128)
+    rows = [[R, R, G, G], [R, R, G, G], [B, B, Y, Y], [B, B, Y, Y]]
+    write_png_rgb(os.path.join(out_dir, "check.png"), rows)
+    pos = [[-1, 1, 0], [-1, -1, 0], [1, -1, 0], [1, 1, 0],
+           [-1.45, 1.45, 0], [-1.45, 1.15, 0], [-1.15, 1.15, 0], [-1.15, 1.45, 0]]
+    nrm = [[0, 0, 1]] * 8
+    uv = [[0, 0], [0, 1], [1, 1], [1, 0]] + [[0, 0]] * 4
+    idx = [0, 1, 2, 0, 2, 3] * 2
+    blob = (b"".join(struct.pack("<3f", *p) for p in pos) + b"".join(struct.pack("<3f", *n) for n in nrm)
+            + b"".join(struct.pack("<2f", *t) for t in uv) + struct.pack("<12H", *idx))
+    doc = {
+        "asset": {"version": "2.0"},
+        "extras": {"strata": {"background": [1, 1, 1]}},
+        "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": [{"camera": 0, "translation": [0, 0, 3]}, {"mesh": 0}, {"mesh": 1}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 2 * math.atan(1.5 / 3), "znear": 0.01}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0}]},
+                   {"primitives": [{"attributes": {"POSITION": 4, "NORMAL": 5}, "indices": 6, "material": 1}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+                      {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 0, 1]}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}],
+        "images": [{"uri": "check.png"}],
+        "accessors": [
+            {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 0, "byteOffset": 96, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 0, "byteOffset": 192, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 1, "byteOffset": 0, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 0, "byteOffset": 144, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "byteOffset": 12, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 256}, {"buffer": 0, "byteOffset": 256, "byteLength": 24}],
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+    }
+    path = os.path.join(out_dir, "check.gltf")
+    with open(path, "w") as f:
+        json.dump(doc, f)
+    res = 60  # the camera sees [-1.5, 1.5]^2: 20 pixels per world unit
+    scene_dict, _ = convert(path, "shaded", (res, res), 2)
+    mean, var = render_passes(scene_dict, 4096, 4, 0)
+    write_exr(os.path.join(out_dir, "check.exr"), mean)
+
+    def px(x, y):  # world (x, y) on the plane -> pixel (row, col), row 0 at the top
+        return int((1.5 - y) * 20), int((x + 1.5) * 20)
+
+    g128 = srgb_to_linear(128)
+    expect = {"top-left of quad (red)": ((-0.5, 0.5), [1, 0, 0]),
+              "top-right of quad (green)": ((0.5, 0.5), [0, 1, 0]),
+              "bottom-left of quad (blue)": ((-0.5, -0.5), [0, 0, 1]),
+              "bottom-right of quad (grey 128 -> %.4f)" % g128: ((0.5, -0.5), [g128] * 3),
+              "marker, world top-left (yellow)": ((-1.3, 1.3), [1, 1, 0]),
+              "background, world bottom-right (env 1)": ((1.3, -1.3), [1, 1, 1]),
+              "background, world top-right (env 1)": ((1.3, 1.3), [1, 1, 1])}
+    ok = True
+    lines = []
+    for what, ((x, y), rgb) in expect.items():
+        r, c = px(x, y)
+        got = mean[r, c]
+        good = np.allclose(got, rgb, atol=0.02)
+        ok &= bool(good)
+        lines.append(f"{'ok  ' if good else 'FAIL'} {what}: pixel (row {r}, col {c}) = {np.round(got, 4).tolist()}, expected {np.round(rgb, 4).tolist()}")
+    return ok, lines
+
+
+def check_radiometry(out_dir):
+    """A white (albedo 1) plane y = 0 lit by a point light of intensity pi x (1, 0.5, 0.25) at
+    (0, 1, 0), seen by a camera at (0, 3, 0) looking straight down (image up = world -Z).
+    Analytic radiance at (x, 0, z): (1/pi) * I * cos / d^2 = (1, 0.5, 0.25) * (1 + x^2 + z^2)^(-3/2).
+    Two black (base colour 0) emissive quads at y = 0.01, emissiveFactor (0.2, 0.3, 0.4) with
+    emissive strength 5: one facing up (front, counter-clockwise, toward the camera: radiance
+    (1, 1.5, 2)) and one facing down (the camera sees its back: radiance 0)."""
+    os.makedirs(out_dir, exist_ok=True)
+    pos = [[-3, 0, 3], [3, 0, 3], [3, 0, -3], [-3, 0, -3],                       # plane, CCW from +Y
+           [0.25, 0.01, -0.25], [0.4, 0.01, -0.25], [0.4, 0.01, -0.4], [0.25, 0.01, -0.4],  # up-facing
+           [-0.4, 0.01, -0.25], [-0.4, 0.01, -0.4], [-0.25, 0.01, -0.4], [-0.25, 0.01, -0.25]]  # down-facing
+    idx = [0, 1, 2, 0, 2, 3] * 3
+    blob = b"".join(struct.pack("<3f", *p) for p in pos) + struct.pack("<18H", *idx)
+    h = math.sqrt(0.5)
+    doc = {
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 0.5, 0.25], "intensity": math.pi}]}},
+        "scene": 0, "scenes": [{"nodes": [0, 1, 2, 3, 4]}],
+        "nodes": [{"camera": 0, "translation": [0, 3, 0], "rotation": [-h, 0, 0, h]}, {"mesh": 0}, {"mesh": 1}, {"mesh": 2},
+                  {"translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.3, "znear": 0.01}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 3, "material": 0}]},
+                   {"primitives": [{"attributes": {"POSITION": 1}, "indices": 3, "material": 1}]},
+                   {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 1}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1]}},
+                      {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [0.2, 0.3, 0.4],
+                       "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}}],
+        "accessors": [
+            {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 0, "byteOffset": 96, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "byteOffset": 0, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 144}, {"buffer": 0, "byteOffset": 144, "byteLength": 36}],
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+    }
+    # Two renders: the plane and the light alone (Mitsuba then always picks the point light in
+    # its uniform emitter selection, so the image is noise-free), and the full scene for the quads.
+    n = 40
+    images = []
+    for name, nodes in (("radiometry-light", [0, 1, 4]), ("radiometry", [0, 1, 2, 3, 4])):
+        doc["scenes"] = [{"nodes": nodes}]
+        path = os.path.join(out_dir, name + ".gltf")
+        with open(path, "w") as f:
+            json.dump(doc, f)
+        scene_dict, _ = convert(path, "shaded", (n, n), 2)
+        mean, _ = render_passes(scene_dict, 256, 2, 0)
+        write_exr(os.path.join(out_dir, name + ".exr"), mean)
+        images.append(mean)
+    t = math.tan(0.15) * 3
+    lines, ok = [], True
+    worst = 0.0
+    for r in range(n):
+        for c in range(n):
+            x = ((c + 0.5) / n * 2 - 1) * t
+            z = -(1 - (r + 0.5) / n * 2) * t
+            e = np.array([1, 0.5, 0.25]) * (1 + x * x + z * z) ** -1.5
+            worst = max(worst, float(np.max(np.abs(images[0][r, c] - e) / e)))
+    good = worst < 2e-3
+    ok &= good
+    lines.append(f"{'ok  ' if good else 'FAIL'} point light on a white plane: max relative error over {n * n} pixels "
+                 f"vs (1/pi) I cos/d^2 = {worst:.2e}")
+    mean = images[1]
+    for what, (x, z), e in [("front of emissive quad", (0.325, -0.325), [1, 1.5, 2]),
+                            ("back of emissive quad", (-0.325, -0.325), [0, 0, 0])]:
+        c, r = int((x / t + 1) / 2 * n), int((1 + z / t) / 2 * n)
+        good = np.allclose(mean[r, c], e, atol=1e-3)
+        ok &= bool(good)
+        lines.append(f"{'ok  ' if good else 'FAIL'} {what}: pixel (row {r}, col {c}) = {np.round(mean[r, c], 4).tolist()}, expected {e}")
+    return ok, lines
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
+    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--spp", type=int, help="override the total spp (testing; not for committed references)")
+    ap.add_argument("--out", help="output folder (default scenes/references; the manifest is only written there)")
+    ap.add_argument("--no-manifest", action="store_true")
+    ap.add_argument("--rebuild-manifest", action="store_true",
+                    help="recompute the manifest entries of the jobs from the EXRs on disk, without rendering")
+    ap.add_argument("--check", metavar="DIR", help="run the orientation and radiometry checks, writing into DIR")
+    args = ap.parse_args()
+    mi.set_variant(VARIANT)
+    if args.check:
+        ok1, lines1 = check_orientation(args.check)
+        ok2, lines2 = check_radiometry(args.check)
+        print("\n".join(lines1 + lines2))
+        print("checks:", "passed" if ok1 and ok2 else "FAILED")
+        return 0 if ok1 and ok2 else 1
+    if args.list:
+        for s, i, spp, k in JOBS:
+            print(job_name(s, i), spp, k)
+        return 0
+    global OUT_DIR
+    if args.out:
+        OUT_DIR = os.path.abspath(args.out)
+    os.makedirs(OUT_DIR, exist_ok=True)
+    wanted = set(args.jobs)
+    known = {job_name(s, i) for s, i, _, _ in JOBS}
+    if wanted - known:
+        print(f"unknown jobs: {sorted(wanted - known)}; known: {sorted(known)}", file=sys.stderr)
+        return 2
+    write_manifest = not args.no_manifest and not args.out and not args.spp
+    for s, i, spp, k in JOBS:
+        if wanted and job_name(s, i) not in wanted:
+            continue
+        spp = args.spp or spp
+        if args.rebuild_manifest:
+            entry = rebuild_entry(s, i, spp, k, old_entries().get(job_name(s, i)))
+        else:
+            entry = run_job(s, i, spp, k)
+        se = entry["standard_error"]
+        print(f"{job_name(s, i)}: {entry['render_seconds']} s, mean {se['image_mean']:.4g}, "
+              f"rel. s.e. mean {se['mean_relative_standard_error']:.2e} max {se['max_relative_standard_error']:.2e}",
+              flush=True)
+        if write_manifest:  # after each job, so an interrupted run keeps what it finished
+            update_manifest([entry])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
