@@ -1343,3 +1343,43 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     }
     sab / (saa * sbb).sqrt()
 }
+
+/// `next_2x2d` (two 2D values from one slot, used by the path tracer): for `stratified` both
+/// halves are correlated multi-jittered patterns, for `sobol` the first half is a (0, m, 2)-net
+/// (Sobol dimensions 0 and 1), and every value lies strictly inside (0, 1).
+#[test]
+fn paired_2d_draws_keep_their_stratification() {
+    for spp in [16u32, 64, 256] {
+        for (px, py) in [(0u32, 0u32), (17, 3)] {
+            let draw = |kind| {
+                let mut s = PixelSampler::new(kind, spp, 9);
+                (0..spp)
+                    .map(|i| {
+                        s.start(px, py, i);
+                        s.next_2d();
+                        s.next_2x2d()
+                    })
+                    .collect::<Vec<(Vec2, Vec2)>>()
+            };
+            let strat = draw(SamplerKind::Stratified);
+            let (m, n) = kensler_grid(spp);
+            for half in [0, 1] {
+                let pts: Vec<Vec2> = strat
+                    .iter()
+                    .map(|p| if half == 0 { p.0 } else { p.1 })
+                    .collect();
+                check_multi_jittered(&pts, m, n)
+                    .unwrap_or_else(|e| panic!("stratified spp={spp} half {half}: {e}"));
+            }
+            let sobol = draw(SamplerKind::Sobol);
+            let first: Vec<Vec2> = sobol.iter().map(|p| p.0).collect();
+            check_02_net(&first, spp.trailing_zeros())
+                .unwrap_or_else(|e| panic!("sobol spp={spp}: {e}"));
+            for (a, b) in strat.iter().chain(&sobol) {
+                for v in [a.x, a.y, b.x, b.y] {
+                    assert!(v > 0.0 && v < 1.0, "{v}");
+                }
+            }
+        }
+    }
+}

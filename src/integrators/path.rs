@@ -13,9 +13,9 @@
 //! | `strategy`  | mis     | `mis`, `light` (NEE only) or `bsdf` (BSDF sampling only, delta     |
 //! |             |         | lights still by NEE): all three are unbiased; for comparisons     |
 //!
-//! Sample dimensions per bounce, in order: light choice (1D), light point (2D), BSDF
-//! direction (2D), Russian roulette (1D); all are drawn whether used or not, so a pixel's
-//! dimensions do not shift between strategies.
+//! Sample dimensions per bounce, in order: one 2×2D slot (BSDF direction, light point) and
+//! one 2D slot (light choice, Russian roulette); all are drawn whether used or not, so a
+//! pixel's dimensions do not shift between strategies.
 
 use std::fmt;
 use std::str::FromStr;
@@ -146,10 +146,10 @@ pub fn li(
         depth += 1;
 
         let bsdf = Lambertian::new(materials.albedo(scene, &si, uv), &si);
-        let u_light_select = sampler.next_1d();
-        let u_light = sampler.next_2d();
-        let u_bsdf = sampler.next_2d();
-        let u_rr = sampler.next_1d();
+        // Two slots per bounce: (BSDF direction, light point) and (light choice, roulette).
+        let (u_bsdf, u_light) = sampler.next_2x2d();
+        let u_misc = sampler.next_2d();
+        let (u_light_select, u_rr) = (u_misc.x, u_misc.y);
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF.
         if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light_select, u_light) {

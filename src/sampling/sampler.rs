@@ -1,8 +1,8 @@
 //! Per-pixel samplers, addressed by (pixel, sample index, dimension).
 //!
 //! A renderer calls [`PixelSampler::start`] for one sample of one pixel and then draws
-//! [`PixelSampler::next_1d`] / [`PixelSampler::next_2d`] in a fixed order; the i-th call is the
-//! sample's i-th *dimension slot*. Every value is a pure function of (seed, pixel, sample
+//! [`PixelSampler::next_1d`] / [`PixelSampler::next_2d`] / [`PixelSampler::next_2x2d`] in a
+//! fixed order; the i-th call is the sample's i-th *dimension slot*. Every value is a pure function of (seed, pixel, sample
 //! index, slot), so the image is the same whatever thread renders which pixel.
 //!
 //! | kind         | what it is                                                               |
@@ -20,7 +20,7 @@ use glam::Vec2;
 use std::fmt;
 use std::str::FromStr;
 
-use super::hash::{hash_words, permute, u32_to_unit_f32, unit_f32};
+use super::hash::{hash_words, mix64, permute, u32_to_unit_f32, unit_f32};
 
 /// The most samples per pixel the `sobol` sampler supports (`sobol_burley`'s 2^16 limit).
 pub const SOBOL_MAX_SPP: u32 = 1 << 16;
@@ -138,10 +138,37 @@ impl PixelSampler {
             SamplerKind::Stratified => self.cmj_2d(key),
             SamplerKind::Sobol => {
                 let seed = (key >> 32) as u32;
-                Vec2::new(
-                    sobol_open(self.index, 0, seed),
-                    sobol_open(self.index, 1, seed),
+                // One SIMD evaluation of dimensions 0–3 (identical to two `sample` calls).
+                let [x, y, _, _] = sobol_burley::sample_4d(self.index, 0, seed);
+                Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
+            }
+        }
+    }
+
+    /// Two 2D values from one dimension slot. `sobol` evaluates one 4D point (dimensions 0–3
+    /// of the Sobol sequence, one SIMD call: half the cost of two [`PixelSampler::next_2d`]);
+    /// `stratified` gives two independently permuted CMJ patterns; `random` two independent
+    /// pairs. For consumers that draw several values per bounce.
+    #[inline]
+    pub fn next_2x2d(&mut self) -> (Vec2, Vec2) {
+        let key = self.next_slot_key();
+        match self.kind {
+            SamplerKind::Random => {
+                let a = hash_words(&[key, self.index as u64]);
+                let b = hash_words(&[key ^ 0x6a09_e667_f3bc_c908, self.index as u64]);
+                (
+                    Vec2::new(u32_to_unit_f32(a as u32), u32_to_unit_f32((a >> 32) as u32)),
+                    Vec2::new(u32_to_unit_f32(b as u32), u32_to_unit_f32((b >> 32) as u32)),
                 )
+            }
+            SamplerKind::Stratified => (
+                self.cmj_2d(key),
+                self.cmj_2d(mix64(key ^ 0x6a09_e667_f3bc_c908)),
+            ),
+            SamplerKind::Sobol => {
+                let [a, b, c, d] = sobol_burley::sample_4d(self.index, 0, (key >> 32) as u32);
+                let h = Vec2::splat(SOBOL_HALF_CELL);
+                (Vec2::new(a, b) + h, Vec2::new(c, d) + h)
             }
         }
     }
@@ -192,5 +219,7 @@ fn in_stratum(k: u32, jitter: f32, count: u32) -> f32 {
 /// the other samplers do.
 #[inline]
 fn sobol_open(index: u32, dimension: u32, seed: u32) -> f32 {
-    sobol_burley::sample(index, dimension, seed) + 0.5 / (1u32 << 23) as f32
+    sobol_burley::sample(index, dimension, seed) + SOBOL_HALF_CELL
 }
+
+const SOBOL_HALF_CELL: f32 = 0.5 / (1u32 << 23) as f32;
