@@ -15,6 +15,7 @@ use strata::accel::{Accel, AccelOptions, Backend, BuildQuality};
 use strata::integrators::{
     AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, Prepared, Strategy,
 };
+use strata::lights::TriangleSampling;
 use strata::render::output::{self, Attr};
 use strata::render::{self, RenderSettings};
 use strata::sampling::sampler::SOBOL_MAX_SPP;
@@ -51,6 +52,10 @@ struct Cli {
     /// Path tracing: Russian roulette from this bounce on.
     #[arg(long, default_value_t = 5, value_name = "BOUNCES")]
     rr_depth: u32,
+
+    /// Direct and path: how points on emissive triangles are sampled.
+    #[arg(long, default_value = "area", value_name = "area|solid-angle")]
+    triangle_sampling: TriangleSampling,
 
     /// Constant environment radiance, linear RGB [default: black].
     #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
@@ -299,8 +304,9 @@ fn run(cli: Cli) -> Result<Outcome> {
     };
     let t_prepare = Instant::now();
     let background = glam::Vec3::from_array(cli.background.unwrap_or([0.0; 3]));
-    let prepared =
+    let mut prepared =
         Prepared::new(&scene, &cli.scene, &integrator, background).map_err(|e| anyhow!(e))?;
+    prepared.lights.triangle_sampling = cli.triangle_sampling;
     if integrator.needs_lights() && prepared.lights.is_empty() {
         eprintln!(
             "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
@@ -382,6 +388,10 @@ fn run(cli: Cli) -> Result<Outcome> {
             attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
             attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
             attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
+            attrs.push((
+                "strata:triangle_sampling".into(),
+                Attr::Text(prepared.lights.triangle_sampling.to_string()),
+            ));
             attrs.push((
                 "strata:background".into(),
                 Attr::Text(format!(

@@ -226,3 +226,122 @@ mod tests {
         }
     }
 }
+
+/// Solid angle subtended by the spherical triangle of unit vectors `a`, `b`, `c`
+/// (Van Oosterom & Strackee 1983): Ω = 2·atan2(|a·(b×c)|, 1 + a·b + b·c + c·a).
+#[inline]
+pub fn spherical_triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let num = a.dot(b.cross(c)).abs();
+    let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+    2.0 * num.atan2(den)
+}
+
+/// A direction distributed uniformly (pdf 1/Ω) over the spherical triangle of unit vectors
+/// `a`, `b`, `c`, after Arvo, "Stratified Sampling of Spherical Triangles" (SIGGRAPH 1995):
+/// `u.x` picks the sub-triangle of area u.x·Ω (fixing the point Ĉ on arc AC), `u.y` the
+/// point on arc BĈ. Returns `None` for a degenerate triangle.
+pub fn square_to_spherical_triangle(a: Vec3, b: Vec3, c: Vec3, u: Vec2) -> Option<Vec3> {
+    let area = spherical_triangle_area(a, b, c);
+    if !(area > 0.0 && area.is_finite()) {
+        return None;
+    }
+    // Normals of the great circles through the edges, and the angle α at vertex a.
+    let n_ab = a.cross(b).try_normalize()?;
+    let n_ac = a.cross(c).try_normalize()?;
+    let cos_alpha = n_ab.dot(n_ac).clamp(-1.0, 1.0);
+    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+    let alpha = cos_alpha.acos();
+    let cos_c = a.dot(b);
+
+    // The sub-triangle of area Â = u.x·Ω fixes Ĉ on the arc from a to c (Arvo's eqs.).
+    let a_hat = u.x * area;
+    let (s, t) = (a_hat - alpha).sin_cos();
+    let uu = t - cos_alpha;
+    let vv = s + sin_alpha * cos_c;
+    let den = (vv * s + uu * t) * sin_alpha;
+    let q = if den.abs() > 0.0 {
+        (((vv * t - uu * s) * cos_alpha - vv) / den).clamp(-1.0, 1.0)
+    } else {
+        1.0
+    };
+    let c_perp = (c - c.dot(a) * a).try_normalize()?;
+    let c_hat = q * a + (1.0 - q * q).max(0.0).sqrt() * c_perp;
+
+    // Uniform in solid angle along the arc from b to Ĉ.
+    let z = 1.0 - u.y * (1.0 - c_hat.dot(b));
+    let Some(perp) = (c_hat - c_hat.dot(b) * b).try_normalize() else {
+        return Some(b);
+    };
+    Some((z * b + (1.0 - z * z).max(0.0).sqrt() * perp).normalize())
+}
+
+#[cfg(test)]
+mod spherical_tests {
+    use super::*;
+
+    /// Splits (a, b, c) into four spherical sub-triangles at the edge midpoints.
+    fn subdivide(a: Vec3, b: Vec3, c: Vec3) -> [[Vec3; 3]; 4] {
+        let (ab, bc, ca) = (
+            (a + b).normalize(),
+            (b + c).normalize(),
+            (c + a).normalize(),
+        );
+        [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+    }
+
+    fn inside(p: Vec3, [a, b, c]: [Vec3; 3]) -> bool {
+        let s = a.dot(b.cross(c)).signum();
+        p.dot(a.cross(b)) * s >= -1e-6
+            && p.dot(b.cross(c)) * s >= -1e-6
+            && p.dot(c.cross(a)) * s >= -1e-6
+    }
+
+    #[test]
+    fn spherical_triangle_samples_are_uniform_over_the_triangle() {
+        let cases = [
+            [Vec3::X, Vec3::Y, Vec3::Z],
+            [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.3, 0.0, 1.0).normalize(),
+                Vec3::new(0.0, 0.2, 1.0).normalize(),
+            ],
+            [
+                Vec3::new(-0.9, 0.1, 0.2).normalize(),
+                Vec3::new(0.8, 0.3, 0.1).normalize(),
+                Vec3::new(0.1, -0.2, 1.0).normalize(),
+            ],
+        ];
+        let n = 64;
+        for tri in cases {
+            let [a, b, c] = tri;
+            let total = spherical_triangle_area(a, b, c);
+            let parts = subdivide(a, b, c);
+            let mut counts = [0usize; 4];
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let w = square_to_spherical_triangle(a, b, c, u).unwrap();
+                    assert!(
+                        (w.length() - 1.0).abs() < 1e-4 && inside(w, tri),
+                        "{w} outside {tri:?}"
+                    );
+                    let k = parts.iter().position(|p| inside(w, *p)).unwrap();
+                    counts[k] += 1;
+                }
+            }
+            // Each sub-triangle receives its share of the solid angle (a stratified grid of
+            // samples: the error is far below 2% of the total).
+            for (k, p) in parts.iter().enumerate() {
+                let want = spherical_triangle_area(p[0], p[1], p[2]) / total;
+                let got = counts[k] as f32 / (n * n) as f32;
+                assert!(
+                    (got - want).abs() < 0.02,
+                    "{tri:?} part {k}: {got} vs {want}"
+                );
+            }
+        }
+        // The octant's solid angle is 4π/8.
+        let octant = spherical_triangle_area(Vec3::X, Vec3::Y, Vec3::Z);
+        assert!((octant - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+    }
+}
