@@ -72,26 +72,50 @@ fn camera(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     }
 }
 
-/// Renders and returns the mean of every pixel (grey channel average) and the pixels.
-fn render(
-    scene: &Scene,
-    camera: Camera,
-    integrator: Integrator,
+/// How a test render is set up beyond scene, camera and integrator.
+#[derive(Clone, Copy)]
+struct Setup {
     size: u32,
     spp: u32,
     seed: u64,
-) -> Vec<Vec3> {
+    sampler: SamplerKind,
+    background: Vec3,
+    triangle_sampling: strata::lights::TriangleSampling,
+}
+
+impl Setup {
+    fn new(size: u32, spp: u32, seed: u64) -> Setup {
+        Setup {
+            size,
+            spp,
+            seed,
+            sampler: SamplerKind::Random,
+            background: Vec3::ZERO,
+            triangle_sampling: Default::default(),
+        }
+    }
+}
+
+/// Renders and returns the film (checking that no sample was NaN or infinite).
+fn render_film(
+    scene: &Scene,
+    camera: Camera,
+    integrator: Integrator,
+    setup: Setup,
+) -> render::RenderResult {
     let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
-    let prepared = Prepared::new(scene, Path::new("test"), &integrator, Vec3::ZERO).unwrap();
+    let mut prepared =
+        Prepared::new(scene, Path::new("test"), &integrator, setup.background).unwrap();
+    prepared.lights.triangle_sampling = setup.triangle_sampling;
     let ctx = prepared.context(scene, &accel);
     let settings = RenderSettings {
         camera,
         crop: None,
-        width: size,
-        height: size,
-        spp,
-        seed,
-        sampler: SamplerKind::Random,
+        width: setup.size,
+        height: setup.size,
+        spp: setup.spp,
+        seed: setup.seed,
+        sampler: setup.sampler,
         integrator,
         tile_size: 8,
     };
@@ -108,7 +132,21 @@ fn render(
         "NaN/Inf samples: {:?}",
         result.stats.first_bad
     );
-    result.film.pixels()
+    result
+}
+
+/// Renders with the random sampler, no background, and returns the pixels.
+fn render(
+    scene: &Scene,
+    camera: Camera,
+    integrator: Integrator,
+    size: u32,
+    spp: u32,
+    seed: u64,
+) -> Vec<Vec3> {
+    render_film(scene, camera, integrator, Setup::new(size, spp, seed))
+        .film
+        .pixels()
 }
 
 fn path(max_depth: u32) -> Integrator {
@@ -346,29 +384,18 @@ fn spot_light_cone_inside_penumbra_and_outside() {
 #[test]
 fn no_light_means_no_work_and_a_warning_free_black_image() {
     let scene = floor(0.5, vec![]);
-    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let integrator = path(8);
     let prepared = Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ZERO).unwrap();
     assert!(prepared.lights.is_empty());
-    let ctx = prepared.context(&scene, &accel);
-    let settings = RenderSettings {
-        camera: camera(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5),
-        crop: None,
-        width: 8,
-        height: 8,
-        spp: 4,
-        seed: 0,
+    let setup = Setup {
         sampler: SamplerKind::Sobol,
-        integrator,
-        tile_size: 8,
+        ..Setup::new(8, 4, 0)
     };
-    let pool = render::thread_pool(1).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
+    let result = render_film(
+        &scene,
+        camera(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5),
+        integrator,
+        setup,
     );
     assert_eq!(
         result.stats.rays.total(),
@@ -439,30 +466,14 @@ fn textures_are_upright_and_srgb_decoded() {
     };
     // Under a constant environment L = 1, an unoccluded Lambertian plane shows ρ·L.
     let integrator = direct();
-    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let prepared = Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ONE).unwrap();
     assert_eq!(prepared.materials.decoded_images(), 1);
-    let ctx = prepared.context(&scene, &accel);
-    let settings = RenderSettings {
-        camera: cam,
-        crop: None,
-        width: 8,
-        height: 8,
-        spp: 256,
-        seed: 0,
+    let setup = Setup {
         sampler: SamplerKind::Stratified,
-        integrator,
-        tile_size: 8,
+        background: Vec3::ONE,
+        ..Setup::new(8, 256, 0)
     };
-    let pool = render::thread_pool(0).unwrap();
-    let film = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    )
-    .film;
+    let film = render_film(&scene, cam, integrator, setup).film;
     // sRGB 128 decodes to 0.2158 (IEC 61966-2-1); 255 to 1.
     let grey = ((128.0f32 / 255.0 + 0.055) / 1.055).powf(2.4);
     // Pixels (1, 1), (6, 1), (1, 6), (6, 6) lie inside the four texels' constant regions
@@ -603,33 +614,14 @@ fn solid_angle_and_area_sampling_of_emitters_agree_and_solid_angle_wins_up_close
         strategy: Strategy::Light,
         ..Default::default()
     });
-    let render_with = |sampling, spp, seed| {
-        let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
-        let mut prepared =
-            Prepared::new(&scene, Path::new("test"), &direct_light_only, Vec3::ZERO).unwrap();
-        prepared.lights.triangle_sampling = sampling;
-        let ctx = prepared.context(&scene, &accel);
-        let settings = RenderSettings {
-            camera: cam.clone(),
-            crop: None,
-            width: size,
-            height: size,
-            spp,
-            seed,
-            sampler: SamplerKind::Random,
-            integrator: direct_light_only,
-            tile_size: 8,
+    let render_with = |triangle_sampling, spp, seed| {
+        let setup = Setup {
+            triangle_sampling,
+            ..Setup::new(size, spp, seed)
         };
-        let pool = render::thread_pool(0).unwrap();
-        render::render(
-            &ctx,
-            &settings,
-            &pool,
-            &ProgressBar::hidden(),
-            &AtomicBool::new(false),
-        )
-        .film
-        .pixels()
+        render_film(&scene, cam.clone(), direct_light_only, setup)
+            .film
+            .pixels()
     };
     let reference = render_with(TriangleSampling::SolidAngle, 4096, 100);
     let rmse = |img: &[Vec3]| {
