@@ -33,8 +33,8 @@ struct Cli {
     #[arg(short, long, value_name = "FILE.exr")]
     output: Option<PathBuf>,
 
-    /// Ray tracing backend.
-    #[arg(long, default_value = "embree", value_name = "embree")]
+    /// Ray tracing backend: Embree, or the pure-Rust CWBVH of the obvhs crate.
+    #[arg(long, default_value = "embree", value_name = "embree|obvhs")]
     backend: Backend,
 
     /// Light transport algorithm: ambient occlusion, direct lighting, or path tracing.

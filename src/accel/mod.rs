@@ -10,6 +10,7 @@
 //! Backends form a closed set, dispatched by `match` (no virtual calls in the ray loop).
 
 mod embree_backend;
+mod obvhs_backend;
 
 use glam::Vec3;
 use std::fmt;
@@ -18,6 +19,7 @@ use std::str::FromStr;
 use crate::scene::Scene;
 
 pub use embree_backend::EmbreeAccel;
+pub use obvhs_backend::ObvhsAccel;
 
 /// A ray segment `org + t·dir`, t in `[t_min, t_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,6 +62,8 @@ pub struct Hit {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
     Embree,
+    /// The pure-Rust CWBVH of the `obvhs` crate.
+    Obvhs,
 }
 
 impl FromStr for Backend {
@@ -67,7 +71,10 @@ impl FromStr for Backend {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "embree" => Ok(Backend::Embree),
-            other => Err(format!("unknown backend '{other}' (available: embree)")),
+            "obvhs" => Ok(Backend::Obvhs),
+            other => Err(format!(
+                "unknown backend '{other}' (available: embree, obvhs)"
+            )),
         }
     }
 }
@@ -76,6 +83,7 @@ impl fmt::Display for Backend {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Backend::Embree => "embree",
+            Backend::Obvhs => "obvhs",
         })
     }
 }
@@ -135,6 +143,7 @@ pub enum AccelError {
 /// The acceleration structure of a scene.
 pub enum Accel {
     Embree(EmbreeAccel),
+    Obvhs(ObvhsAccel),
 }
 
 impl Accel {
@@ -145,6 +154,7 @@ impl Accel {
         }
         match options.backend {
             Backend::Embree => Ok(Accel::Embree(EmbreeAccel::build(scene, options)?)),
+            Backend::Obvhs => Ok(Accel::Obvhs(ObvhsAccel::build(scene, options))),
         }
     }
 
@@ -153,6 +163,7 @@ impl Accel {
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         match self {
             Accel::Embree(a) => a.intersect(ray),
+            Accel::Obvhs(a) => a.intersect(ray),
         }
     }
 
@@ -161,12 +172,14 @@ impl Accel {
     pub fn occluded(&self, ray: &Ray) -> bool {
         match self {
             Accel::Embree(a) => a.occluded(ray),
+            Accel::Obvhs(a) => a.occluded(ray),
         }
     }
 
     pub fn backend(&self) -> Backend {
         match self {
             Accel::Embree(_) => Backend::Embree,
+            Accel::Obvhs(_) => Backend::Obvhs,
         }
     }
 
@@ -174,6 +187,7 @@ impl Accel {
     pub fn describe(&self) -> String {
         match self {
             Accel::Embree(a) => a.describe(),
+            Accel::Obvhs(a) => a.describe(),
         }
     }
 }
