@@ -310,6 +310,13 @@ impl LightSet {
         self.emitters.is_empty()
     }
 
+    /// True when some emitter can be reached by a ray (emissive triangles, background):
+    /// otherwise BSDF-sampled directions never find light and the last bounce's extension
+    /// ray can be skipped.
+    pub fn has_reachable_emitters(&self) -> bool {
+        !self.triangle_light.is_empty() || self.background.is_some()
+    }
+
     /// The background radiance (black without one).
     #[inline]
     pub fn background(&self) -> Vec3 {

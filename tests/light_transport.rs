@@ -645,3 +645,28 @@ fn solid_angle_and_area_sampling_of_emitters_agree_and_solid_angle_wins_up_close
         "solid angle {es} should beat area {ea} under a close, large light"
     );
 }
+
+/// With only delta lights, direct lighting traces no extension ray (a BSDF direction can
+/// never reach a point light); path tracing still does for its indirect bounces.
+#[test]
+fn direct_lighting_of_point_lights_traces_no_extension_rays() {
+    let light = Light::Point {
+        position: Vec3::new(0.0, 2.0, 0.0),
+        intensity: Vec3::splat(5.0),
+        range: None,
+    };
+    let scene = floor(0.5, vec![light]);
+    let cam = camera(Vec3::new(0.0, 1.0, 2.0), Vec3::ZERO, 0.8);
+    let direct_rays = render_film(&scene, cam.clone(), direct(), Setup::new(8, 4, 0))
+        .stats
+        .rays;
+    assert_eq!(direct_rays.extension, 0);
+    assert_eq!(
+        direct_rays.shadow, direct_rays.camera,
+        "one shadow ray per camera hit"
+    );
+    let path_rays = render_film(&scene, cam, path(3), Setup::new(8, 4, 0))
+        .stats
+        .rays;
+    assert!(path_rays.extension > 0);
+}

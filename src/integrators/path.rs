@@ -174,6 +174,12 @@ pub fn li(
             }
         }
 
+        // After the last bounce the extension ray only serves to find emitters by BSDF
+        // sampling: skip it when only delta lights exist.
+        if depth == settings.max_depth && !lights.has_reachable_emitters() {
+            break;
+        }
+
         // Sample the BSDF for the next direction.
         let Some((wi, pdf)) = bsdf.sample(u_bsdf) else {
             break;
