@@ -26,7 +26,8 @@
 //! occlusion computed with the wrong hemisphere warp (uniform, without the cosine weight).
 //!
 //! A failed comparison leaves strata's image, its variance, the reference and idiff's
-//! difference image in `target/tmp/reference-results/<scene>.<integrator>/` and names them.
+//! difference image in `target/tmp/reference-results/<test>/<scene>.<integrator>/` and names
+//! them.
 //!
 //! idiff is required under CI (`CI` set): the test fails without it. Elsewhere a missing
 //! idiff is reported loudly and only the Z-tests run.
@@ -120,9 +121,15 @@ fn read_pair(image: &Path, variance: &Path) -> Image {
     Image { w, h, px, var }
 }
 
+/// `target/tmp/reference-results/<test>/<scene>.<integrator>/`: one folder per test (the test
+/// harness names each test's thread after it), so tests running in parallel on the same
+/// reference never write the same files.
 fn results_dir(r: &Reference) -> PathBuf {
+    let current = std::thread::current();
+    let test = current.name().unwrap_or("main").replace("::", "-");
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("reference-results")
+        .join(test)
         .join(&r.name);
     std::fs::create_dir_all(&dir).unwrap();
     dir
