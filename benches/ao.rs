@@ -11,6 +11,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec2;
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Ray};
+use strata::embree::RawRay;
 use strata::integrators::{AoSettings, Integrator, Prepared};
 use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderSettings};
@@ -70,6 +71,20 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(ao_rays.len() as u64));
     g.bench_function("any hit, AO rays", |b| {
         b.iter(|| ao_rays.iter().filter(|r| accel.occluded(r)).count())
+    });
+    // The same rays through raw rtcOccluded1 calls in a tight loop: the cost of Accel.
+    let raw_rays: Vec<RawRay> = ao_rays
+        .iter()
+        .map(|r| RawRay::new(r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max))
+        .collect();
+    let raw_scene = accel.as_embree().expect("Embree backend").raw();
+    assert_eq!(
+        raw_scene.occluded_count_raw(&raw_rays),
+        ao_rays.iter().filter(|r| accel.occluded(r)).count(),
+        "raw and Accel paths must agree"
+    );
+    g.bench_function("any hit, AO rays, raw Embree loop", |b| {
+        b.iter(|| raw_scene.occluded_count_raw(&raw_rays))
     });
 
     let prepared = Prepared::default();

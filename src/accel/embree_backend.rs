@@ -64,6 +64,11 @@ impl EmbreeAccel {
             .occluded(ray.org.to_array(), ray.dir.to_array(), ray.t_min, ray.t_max)
     }
 
+    /// The committed Embree scene (for measurements against raw Embree calls).
+    pub fn raw(&self) -> &embree::Scene {
+        &self.scene
+    }
+
     pub fn describe(&self) -> String {
         format!(
             "Embree {} (compiled against {} headers)",

@@ -176,6 +176,14 @@ impl Accel {
         }
     }
 
+    /// The Embree backend, if this is one.
+    pub fn as_embree(&self) -> Option<&EmbreeAccel> {
+        match self {
+            Accel::Embree(a) => Some(a),
+            _ => None,
+        }
+    }
+
     pub fn backend(&self) -> Backend {
         match self {
             Accel::Embree(_) => Backend::Embree,

@@ -418,6 +418,16 @@ pub struct RawHit {
     pub ng: [f32; 3],
 }
 
+/// A ray in Embree's own layout, for [`Scene::occluded_count_raw`].
+#[derive(Clone, Copy)]
+pub struct RawRay(sys::RTCRay);
+
+impl RawRay {
+    pub fn new(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> RawRay {
+        RawRay(make_ray(org, dir, tnear, tfar))
+    }
+}
+
 fn make_ray(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> sys::RTCRay {
     sys::RTCRay {
         org_x: org[0],
@@ -504,6 +514,32 @@ impl Scene {
         }
         // Embree sets tfar to -inf when an occluder is found.
         ray.tfar == f32::NEG_INFINITY
+    }
+
+    /// A measuring baseline for the cost of strata's own layers: traces `rays` with
+    /// `rtcOccluded1` in a tight loop (one context for the batch, rays already in Embree's
+    /// layout) and returns how many are occluded. Benchmarks compare it with the same rays
+    /// through [`crate::accel::Accel::occluded`].
+    pub fn occluded_count_raw(&self, rays: &[RawRay]) -> usize {
+        let mut count = 0;
+        #[cfg(embree3)]
+        let mut ctx = intersect_context();
+        for r in rays {
+            let mut ray = r.0;
+            #[cfg(embree3)]
+            // SAFETY: the scene is committed; `ctx` and `ray` are valid, aligned locals.
+            unsafe {
+                sys::rtcOccluded1(self.raw, &mut ctx, &mut ray)
+            };
+            #[cfg(embree4)]
+            // SAFETY: the scene is committed; `ray` is a valid, aligned local; null arguments
+            // select Embree 4's defaults.
+            unsafe {
+                sys::rtcOccluded1(self.raw, &mut ray, std::ptr::null_mut())
+            };
+            count += (ray.tfar == f32::NEG_INFINITY) as usize;
+        }
+        count
     }
 
     /// The Embree device this scene belongs to.
