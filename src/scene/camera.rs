@@ -71,3 +71,43 @@ impl Camera {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_rays_follow_the_gltf_camera_convention() {
+        // A camera at (1, 2, 3) looking down −Z, yfov 90°: the image's top-left corner ray
+        // points to (−aspect, +1, −1), the centre ray straight down −Z.
+        let cam = Camera {
+            name: None,
+            projection: Projection::Perspective {
+                yfov: std::f32::consts::FRAC_PI_2,
+            },
+            to_world: Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)),
+            aspect_ratio: None,
+        };
+        let centre = cam.generate_ray(100.0, 50.0, 200, 100);
+        assert_eq!(centre.org, Vec3::new(1.0, 2.0, 3.0));
+        assert!((centre.dir - Vec3::NEG_Z).length() < 1e-6);
+        let corner = cam.generate_ray(0.0, 0.0, 200, 100);
+        assert!(
+            (corner.dir - Vec3::new(-2.0, 1.0, -1.0).normalize()).length() < 1e-6,
+            "{}",
+            corner.dir
+        );
+        // Orthographic: parallel rays, origins spread over ±ymag·aspect × ±ymag.
+        let ortho = Camera {
+            projection: Projection::Orthographic { ymag: 2.0 },
+            ..cam
+        };
+        let r = ortho.generate_ray(200.0, 100.0, 200, 100);
+        assert!(
+            (r.org - Vec3::new(1.0 + 4.0, 2.0 - 2.0, 3.0)).length() < 1e-5,
+            "{}",
+            r.org
+        );
+        assert_eq!(r.dir, Vec3::NEG_Z);
+    }
+}
