@@ -143,10 +143,6 @@ impl AliasTable {
         self.pmf[i]
     }
 
-    pub fn len(&self) -> usize {
-        self.pmf.len()
-    }
-
     pub fn is_empty(&self) -> bool {
         self.pmf.is_empty()
     }

@@ -446,7 +446,9 @@ fn scene_sha256(scene: &str) -> String {
         for item in json[key].as_array().into_iter().flatten() {
             if let Some(uri) = item["uri"].as_str() {
                 if !uri.starts_with("data:") {
-                    files.push(normalise(&dir.join(percent_decode(uri))));
+                    files.push(normalise(
+                        &dir.join(strata::scene::percent_decode(uri).unwrap()),
+                    ));
                 }
             }
         }
@@ -476,24 +478,6 @@ fn normalise(p: &Path) -> String {
         }
     }
     parts.join("/")
-}
-
-fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' && i + 2 < b.len() + 1 {
-            if let Ok(v) = u8::from_str_radix(&s[i + 1..i + 3], 16) {
-                out.push(v);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(b[i]);
-        i += 1;
-    }
-    String::from_utf8(out).unwrap()
 }
 
 #[test]

@@ -184,13 +184,6 @@ impl Accel {
         }
     }
 
-    pub fn backend(&self) -> Backend {
-        match self {
-            Accel::Embree(_) => Backend::Embree,
-            Accel::Obvhs(_) => Backend::Obvhs,
-        }
-    }
-
     /// A one-line description of the backend (library and version).
     pub fn describe(&self) -> String {
         match self {

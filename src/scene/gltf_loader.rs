@@ -188,7 +188,7 @@ fn resolve_uri(uri: &str, base_dir: &Path) -> Result<PathBuf> {
 }
 
 /// Decodes %XX escapes of a URI reference (RFC 3986 §2.1).
-fn percent_decode(uri: &str) -> Result<String> {
+pub fn percent_decode(uri: &str) -> Result<String> {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
