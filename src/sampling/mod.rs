@@ -4,6 +4,7 @@
 pub mod hash;
 pub mod onb;
 pub mod sampler;
+pub mod sobol;
 pub mod warps;
 
 pub use onb::Onb;

@@ -12,7 +12,7 @@
 //! |              | sample per cell of an m×n grid, m·n ≥ spp, and one per 1/spp column and  |
 //! |              | row when spp = m·n; 1D slots are jittered 1/spp strata. Any spp works.   |
 //! |              | Each slot permutes its strata with its own key, so slots are decorrelated|
-//! | `sobol`      | Owen-scrambled Sobol (Burley 2020, the `sobol_burley` crate): every slot |
+//! | `sobol`      | Owen-scrambled Sobol (Burley 2020; [`super::sobol`]): every slot         |
 //! |              | uses the first two Sobol dimensions, a (0,2)-sequence, with its own      |
 //! |              | scramble and index shuffle (Burley's padding); at most 65 536 spp.       |
 
@@ -21,9 +21,10 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::hash::{hash_words, mix64, permute, u32_to_unit_f32, unit_f32};
+use super::sobol;
 
-/// The most samples per pixel the `sobol` sampler supports (`sobol_burley`'s 2^16 limit).
-pub const SOBOL_MAX_SPP: u32 = 1 << 16;
+/// The most samples per pixel the `sobol` sampler supports (16-bit indices).
+pub const SOBOL_MAX_SPP: u32 = sobol::MAX_INDEX;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum SamplerKind {
@@ -123,7 +124,7 @@ impl PixelSampler {
                 let jitter = unit_f32(hash_words(&[key ^ 0x5851_f42d, self.index as u64]));
                 in_stratum(stratum, jitter, self.spp)
             }
-            SamplerKind::Sobol => sobol_open(self.index, 0, (key >> 32) as u32),
+            SamplerKind::Sobol => sobol_open(self.index, (key >> 32) as u32),
         }
     }
 
@@ -139,7 +140,7 @@ impl PixelSampler {
             SamplerKind::Sobol => {
                 let seed = (key >> 32) as u32;
                 // One SIMD evaluation of dimensions 0–3 (identical to two `sample` calls).
-                let [x, y, _, _] = sobol_burley::sample_4d(self.index, 0, seed);
+                let [x, y, _, _] = sobol::sample_4d(self.index, seed);
                 Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
             }
         }
@@ -166,7 +167,7 @@ impl PixelSampler {
                 self.cmj_2d(mix64(key ^ 0x6a09_e667_f3bc_c908)),
             ),
             SamplerKind::Sobol => {
-                let [a, b, c, d] = sobol_burley::sample_4d(self.index, 0, (key >> 32) as u32);
+                let [a, b, c, d] = sobol::sample_4d(self.index, (key >> 32) as u32);
                 let h = Vec2::splat(SOBOL_HALF_CELL);
                 (Vec2::new(a, b) + h, Vec2::new(c, d) + h)
             }
@@ -214,12 +215,12 @@ fn in_stratum(k: u32, jitter: f32, count: u32) -> f32 {
     }
 }
 
-/// `sobol_burley` returns multiples of 2^-23 in [0, 1); moving each to the centre of its
-/// 2^-23 cell keeps every elementary interval (all are coarser) and excludes 0 exactly, as
-/// the other samplers do.
+/// Sobol values are multiples of 2^-23 in [0, 1); moving each to the centre of its 2^-23 cell
+/// keeps every elementary interval (all are coarser) and excludes 0 exactly, as the other
+/// samplers do.
 #[inline]
-fn sobol_open(index: u32, dimension: u32, seed: u32) -> f32 {
-    sobol_burley::sample(index, dimension, seed) + SOBOL_HALF_CELL
+fn sobol_open(index: u32, seed: u32) -> f32 {
+    sobol::sample_4d(index, seed)[0] + SOBOL_HALF_CELL
 }
 
 const SOBOL_HALF_CELL: f32 = 0.5 / (1u32 << 23) as f32;
