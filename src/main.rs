@@ -454,6 +454,17 @@ fn run(cli: Cli) -> Result<Outcome> {
             s.cameras
         );
         println!("backend: {}, {threads} threads", accel.describe());
+        let mem = accel.memory();
+        let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
+        println!(
+            "memory: BVH {:.1} MiB ({:.1} bytes/triangle), backend geometry {:.1} MiB{}",
+            mib(mem.bvh),
+            mem.bvh as f64 / s.triangles.max(1) as f64,
+            mib(mem.geometry),
+            mem.build_peak
+                .map(|p| format!(", build peak {:.1} MiB", mib(p)))
+                .unwrap_or_default()
+        );
         println!(
             "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.3} s, write {:.3} s",
             load_time.as_secs_f64(),

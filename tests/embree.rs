@@ -232,3 +232,47 @@ fn render_workers_flush_denormals() {
     let flags: Vec<bool> = pool.broadcast(|_| embree::ftz_daz_enabled());
     assert_eq!(flags, vec![true, true]);
 }
+
+/// The memory each backend reports follows from what it must store: Embree copies the
+/// vertex and index buffers (12 bytes per vertex and per triangle, at least) and builds a
+/// non-empty BVH, and its build peak covers what it keeps; obvhs stores one 48-byte
+/// triangle and a 4-byte id per triangle. A grid of 2·n² triangles makes the sizes clear.
+#[test]
+fn backends_report_the_memory_they_hold() {
+    let n = 64u32;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for y in 0..=n {
+        for x in 0..=n {
+            positions.push([x as f32, y as f32, 0.0]);
+        }
+    }
+    let at = |x: u32, y: u32| y * (n + 1) + x;
+    for y in 0..n {
+        for x in 0..n {
+            triangles.push([at(x, y), at(x + 1, y), at(x + 1, y + 1)]);
+            triangles.push([at(x, y), at(x + 1, y + 1), at(x, y + 1)]);
+        }
+    }
+    let scene = scene_of(&positions, &triangles);
+    let t = triangles.len();
+
+    let embree = Accel::build(&scene, &AccelOptions::default()).unwrap().memory();
+    assert!(
+        embree.geometry >= 12 * positions.len() + 12 * t,
+        "Embree geometry {} B for {} vertices and {t} triangles",
+        embree.geometry,
+        positions.len()
+    );
+    assert!(embree.bvh >= 8 * t, "Embree BVH {} B for {t} triangles", embree.bvh);
+    let peak = embree.build_peak.expect("Embree reports its peak");
+    assert!(peak >= embree.geometry + embree.bvh, "peak {peak} B, {embree:?}");
+
+    let options = AccelOptions {
+        backend: strata::accel::Backend::Obvhs,
+        ..AccelOptions::default()
+    };
+    let obvhs = Accel::build(&scene, &options).unwrap().memory();
+    assert_eq!(obvhs.geometry, 52 * t, "{obvhs:?}");
+    assert!(obvhs.bvh >= 4 * t, "{obvhs:?}");
+}

@@ -3,13 +3,14 @@
 
 use glam::Vec3;
 
-use super::{AccelOptions, BuildQuality, Hit, Ray};
+use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::embree::{self, Device, EmbreeError, SceneBuilder, SceneOptions};
 use crate::scene::Scene;
 
 pub struct EmbreeAccel {
     scene: embree::Scene,
     version: String,
+    memory: AccelMemory,
 }
 
 impl EmbreeAccel {
@@ -39,9 +40,21 @@ impl EmbreeAccel {
         // glam's Vec3 is three packed f32s: the same layout as Embree's FLOAT3 buffer items.
         let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
         builder.attach_triangles(&positions, &scene.triangles)?;
+        let geometry = device.memory_in_use();
         let scene = builder.commit()?;
+        // What stays allocated after the build (the builder's scratch memory is freed).
+        let total = device.memory_in_use();
+        let memory = AccelMemory {
+            geometry: geometry.max(0) as usize,
+            bvh: (total - geometry).max(0) as usize,
+            build_peak: Some(device.peak_memory().max(0) as usize),
+        };
         let version = scene.device().version();
-        Ok(EmbreeAccel { scene, version })
+        Ok(EmbreeAccel {
+            scene,
+            version,
+            memory,
+        })
     }
 
     #[inline]
@@ -62,6 +75,10 @@ impl EmbreeAccel {
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.scene
             .occluded(ray.org.to_array(), ray.dir.to_array(), ray.t_min, ray.t_max)
+    }
+
+    pub fn memory(&self) -> AccelMemory {
+        self.memory
     }
 
     /// The committed Embree scene (for measurements against raw Embree calls).

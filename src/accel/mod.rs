@@ -22,11 +22,16 @@ pub use embree_backend::EmbreeAccel;
 pub use obvhs_backend::ObvhsAccel;
 
 /// A ray segment `org + t·dir`, t in `[t_min, t_max]`.
+///
+/// The field order matches Embree's `RTCRay` in 16-byte groups (origin and t_min, then
+/// direction), so building an `RTCRay` from it is two whole-vector copies: Embree reads the
+/// ray with 16-byte loads, and a load that straddles several smaller stores stalls.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
 pub struct Ray {
     pub org: Vec3,
-    pub dir: Vec3,
     pub t_min: f32,
+    pub dir: Vec3,
     pub t_max: f32,
 }
 
@@ -131,6 +136,20 @@ impl Default for AccelOptions {
     }
 }
 
+/// Memory an [`Accel`] holds after its build, in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AccelMemory {
+    /// The backend's copy of the triangles (Embree's vertex and index buffers; obvhs's
+    /// leaf-ordered triangles and their ids).
+    pub geometry: usize,
+    /// The hierarchy itself: nodes and leaves (Embree's leaves hold their own copies of the
+    /// vertices), as the backend reports it.
+    pub bvh: usize,
+    /// The most the backend held at once during the build, scratch memory included, where
+    /// it reports it (Embree's memory monitor; obvhs does not).
+    pub build_peak: Option<usize>,
+}
+
 /// An error while building the acceleration structure.
 #[derive(Debug, thiserror::Error)]
 pub enum AccelError {
@@ -181,6 +200,14 @@ impl Accel {
         match self {
             Accel::Embree(a) => Some(a),
             _ => None,
+        }
+    }
+
+    /// The memory the structure holds.
+    pub fn memory(&self) -> AccelMemory {
+        match self {
+            Accel::Embree(a) => a.memory(),
+            Accel::Obvhs(a) => a.memory(),
         }
     }
 

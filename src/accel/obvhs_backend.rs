@@ -14,7 +14,7 @@ use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
-use super::{AccelOptions, BuildQuality, Hit, Ray};
+use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::scene::Scene;
 
 pub struct ObvhsAccel {
@@ -84,7 +84,9 @@ impl ObvhsAccel {
         )
     }
 
-    #[inline]
+    // Out of line: inlined into `Accel`'s dispatch, the traversal stack would make every
+    // Embree query pay for a large stack frame (BENCHMARKS.md, "Cost of our layer").
+    #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let r = Self::ray(ray);
         let mut hit = RayHit::none();
@@ -111,12 +113,22 @@ impl ObvhsAccel {
         })
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         let tris = &self.tris;
         !self.bvh.ray_traverse_miss(Self::ray(ray), |r, slot| {
             intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
         })
+    }
+
+    pub fn memory(&self) -> AccelMemory {
+        use std::mem::size_of_val;
+        AccelMemory {
+            geometry: size_of_val(self.tris.as_slice()) + size_of_val(self.ids.as_slice()),
+            bvh: size_of_val(self.bvh.nodes.as_slice())
+                + size_of_val(self.bvh.primitive_indices.as_slice()),
+            build_peak: None,
+        }
     }
 
     pub fn describe(&self) -> String {

@@ -11,6 +11,7 @@
 
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::fmt;
+use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 
 #[allow(
@@ -112,6 +113,9 @@ struct DeviceInner {
     raw: sys::RTCDevice,
     /// Owned by this struct and handed to Embree as the callback's user pointer.
     errors: *mut ErrorSlot,
+    /// Bytes Embree has allocated, kept by the memory monitor callback; owned by this
+    /// struct like `errors`.
+    memory: *mut MemoryCounter,
 }
 
 // SAFETY: an RTCDevice may be used from any thread (Embree's API is thread-safe at the device
@@ -127,8 +131,10 @@ impl Drop for DeviceInner {
         // callback is removed before the slot it points to is freed.
         unsafe {
             sys::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
+            sys::rtcSetDeviceMemoryMonitorFunction(self.raw, None, std::ptr::null_mut());
             sys::rtcReleaseDevice(self.raw);
             drop(Box::from_raw(self.errors));
+            drop(Box::from_raw(self.memory));
         }
     }
 }
@@ -166,6 +172,26 @@ unsafe extern "C" fn error_callback(
     }
 }
 
+/// Bytes allocated and not freed, and the most that ever were at once.
+#[derive(Default)]
+struct MemoryCounter {
+    current: AtomicI64,
+    peak: AtomicI64,
+}
+
+/// Embree calls this before each allocation it tracks (bytes > 0, `post` false) and after
+/// each free (bytes < 0, `post` true); returning true lets the allocation proceed.
+unsafe extern "C" fn memory_callback(user: *mut c_void, bytes: isize, _post: bool) -> bool {
+    if !user.is_null() {
+        // SAFETY: `user` is the `*mut MemoryCounter` registered in Device::new, alive until
+        // the callback is unregistered in Drop.
+        let counter = unsafe { &*(user as *const MemoryCounter) };
+        let now = counter.current.fetch_add(bytes as i64, Ordering::Relaxed) + bytes as i64;
+        counter.peak.fetch_max(now, Ordering::Relaxed);
+    }
+    true
+}
+
 impl Device {
     /// Creates a device with the given Embree configuration string (e.g. `"threads=2"`).
     pub fn new(config: &str) -> Result<Device, EmbreeError> {
@@ -188,8 +214,17 @@ impl Device {
         // SAFETY: `raw` is a live device; `errors` points to a heap slot that outlives the
         // registration (it is unregistered before being freed in DeviceInner::drop).
         unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), errors.cast()) };
+        let memory: *mut MemoryCounter = Box::into_raw(Box::default());
+        // SAFETY: as for the error slot: `memory` outlives its registration.
+        unsafe {
+            sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(memory_callback), memory.cast())
+        };
         Ok(Device {
-            inner: Arc::new(DeviceInner { raw, errors }),
+            inner: Arc::new(DeviceInner {
+                raw,
+                errors,
+                memory,
+            }),
         })
     }
 
@@ -208,6 +243,21 @@ impl Device {
             }),
             None => Ok(()),
         }
+    }
+
+    /// Bytes Embree reports as allocated and not yet freed on this device (geometry buffers,
+    /// BVH nodes and leaves, builder scratch while a build runs), from its memory monitor.
+    pub fn memory_in_use(&self) -> i64 {
+        // SAFETY: `memory` is valid for the lifetime of `inner` (see DeviceInner).
+        unsafe { &*self.inner.memory }
+            .current
+            .load(Ordering::Relaxed)
+    }
+
+    /// The most bytes [`Device::memory_in_use`] has ever been (a build's peak).
+    pub fn peak_memory(&self) -> i64 {
+        // SAFETY: as above.
+        unsafe { &*self.inner.memory }.peak.load(Ordering::Relaxed)
     }
 
     /// The version of the Embree library loaded at run time, e.g. `"4.4.0"`.
@@ -446,7 +496,66 @@ fn make_ray(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> sys::RTCRay 
     }
 }
 
+/// `RTCRay` with its first two 16-byte groups held as SIMD vectors. Embree reads a ray with
+/// 16-byte loads; built field by field, a group is written by several smaller stores, and a
+/// load that spans several pending stores cannot be forwarded from them and stalls. Built
+/// from vectors, each group is one store. The layout equals `RTCRay`'s (checked below).
+#[repr(C)]
+#[derive(Clone, Copy)]
+struct VectorRay {
+    org_tnear: glam::Vec4,
+    dir_time: glam::Vec4,
+    tfar: f32,
+    mask: u32,
+    id: u32,
+    flags: u32,
+}
+
+const _: () = {
+    use std::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<VectorRay>() == size_of::<sys::RTCRay>());
+    assert!(align_of::<VectorRay>() == align_of::<sys::RTCRay>());
+    assert!(offset_of!(VectorRay, org_tnear) == offset_of!(sys::RTCRay, org_x));
+    assert!(offset_of!(sys::RTCRay, tnear) == offset_of!(sys::RTCRay, org_x) + 12);
+    assert!(offset_of!(VectorRay, dir_time) == offset_of!(sys::RTCRay, dir_x));
+    assert!(offset_of!(sys::RTCRay, time) == offset_of!(sys::RTCRay, dir_x) + 12);
+    assert!(offset_of!(VectorRay, tfar) == offset_of!(sys::RTCRay, tfar));
+    assert!(offset_of!(VectorRay, mask) == offset_of!(sys::RTCRay, mask));
+    assert!(offset_of!(VectorRay, id) == offset_of!(sys::RTCRay, id));
+    assert!(offset_of!(VectorRay, flags) == offset_of!(sys::RTCRay, flags));
+};
+
+/// `RTCRayHit` with the ray as a [`VectorRay`].
+#[repr(C)]
+struct VectorRayHit {
+    ray: VectorRay,
+    hit: sys::RTCHit,
+}
+
+const _: () = {
+    use std::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<VectorRayHit>() == size_of::<sys::RTCRayHit>());
+    assert!(align_of::<VectorRayHit>() == align_of::<sys::RTCRayHit>());
+    assert!(offset_of!(VectorRayHit, hit) == offset_of!(sys::RTCRayHit, hit));
+};
+
+impl VectorRay {
+    #[inline(always)]
+    fn new(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> VectorRay {
+        VectorRay {
+            org_tnear: glam::Vec4::new(org[0], org[1], org[2], tnear),
+            dir_time: glam::Vec4::new(dir[0], dir[1], dir[2], 0.0),
+            tfar,
+            // Embree 4 enables ray masks by default: a zero mask would miss everything.
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+}
+
 #[cfg(embree3)]
+#[inline]
 fn intersect_context() -> sys::RTCIntersectContext {
     // rtcInitIntersectContext is an inline function bindgen cannot bind; this is its body.
     let mut ctx = sys::RTCIntersectContext {
@@ -462,26 +571,27 @@ impl Scene {
     /// The closest hit along `org + t·dir` for t in `[tnear, tfar]`, if any.
     #[inline]
     pub fn intersect(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> Option<RawHit> {
-        let mut rayhit = sys::RTCRayHit {
-            ray: make_ray(org, dir, tnear, tfar),
+        let mut rayhit = VectorRayHit {
+            ray: VectorRay::new(org, dir, tnear, tfar),
             hit: sys::RTCHit {
                 geomID: INVALID_GEOMETRY_ID,
                 primID: INVALID_GEOMETRY_ID,
                 ..Default::default()
             },
         };
+        let ptr = (&mut rayhit as *mut VectorRayHit).cast::<sys::RTCRayHit>();
         #[cfg(embree3)]
         {
             let mut ctx = intersect_context();
-            // SAFETY: the scene is committed; `ctx` and `rayhit` are valid, aligned locals that
-            // Embree reads and writes only during the call.
-            unsafe { sys::rtcIntersect1(self.raw, &mut ctx, &mut rayhit) };
+            // SAFETY: the scene is committed; `ptr` points to a live, aligned local whose
+            // layout equals RTCRayHit (checked at compile time); `ctx` is a valid local. Embree
+            // reads and writes them only during the call.
+            unsafe { sys::rtcIntersect1(self.raw, &mut ctx, ptr) };
         }
         #[cfg(embree4)]
         {
-            // SAFETY: the scene is committed; `rayhit` is a valid, aligned local; null arguments
-            // select Embree 4's defaults.
-            unsafe { sys::rtcIntersect1(self.raw, &mut rayhit, std::ptr::null_mut()) };
+            // SAFETY: as above; null arguments select Embree 4's defaults.
+            unsafe { sys::rtcIntersect1(self.raw, ptr, std::ptr::null_mut()) };
         }
         if rayhit.hit.geomID == INVALID_GEOMETRY_ID {
             return None;
@@ -499,18 +609,19 @@ impl Scene {
     /// True when anything lies along `org + t·dir` for t in `[tnear, tfar]`.
     #[inline]
     pub fn occluded(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
-        let mut ray = make_ray(org, dir, tnear, tfar);
+        let mut ray = VectorRay::new(org, dir, tnear, tfar);
+        let ptr = (&mut ray as *mut VectorRay).cast::<sys::RTCRay>();
         #[cfg(embree3)]
         {
             let mut ctx = intersect_context();
-            // SAFETY: the scene is committed; `ctx` and `ray` are valid, aligned locals.
-            unsafe { sys::rtcOccluded1(self.raw, &mut ctx, &mut ray) };
+            // SAFETY: the scene is committed; `ptr` points to a live, aligned local whose
+            // layout equals RTCRay (checked at compile time); `ctx` is a valid local.
+            unsafe { sys::rtcOccluded1(self.raw, &mut ctx, ptr) };
         }
         #[cfg(embree4)]
         {
-            // SAFETY: the scene is committed; `ray` is a valid, aligned local; null arguments
-            // select Embree 4's defaults.
-            unsafe { sys::rtcOccluded1(self.raw, &mut ray, std::ptr::null_mut()) };
+            // SAFETY: as above; null arguments select Embree 4's defaults.
+            unsafe { sys::rtcOccluded1(self.raw, ptr, std::ptr::null_mut()) };
         }
         // Embree sets tfar to -inf when an occluder is found.
         ray.tfar == f32::NEG_INFINITY
@@ -538,6 +649,37 @@ impl Scene {
                 sys::rtcOccluded1(self.raw, &mut ray, std::ptr::null_mut())
             };
             count += (ray.tfar == f32::NEG_INFINITY) as usize;
+        }
+        count
+    }
+
+    /// The closest-hit counterpart of [`Scene::occluded_count_raw`]: traces `rays` with
+    /// `rtcIntersect1` in a tight loop and returns how many hit something.
+    pub fn intersect_count_raw(&self, rays: &[RawRay]) -> usize {
+        let mut count = 0;
+        #[cfg(embree3)]
+        let mut ctx = intersect_context();
+        for r in rays {
+            let mut rayhit = sys::RTCRayHit {
+                ray: r.0,
+                hit: sys::RTCHit {
+                    geomID: INVALID_GEOMETRY_ID,
+                    primID: INVALID_GEOMETRY_ID,
+                    ..Default::default()
+                },
+            };
+            #[cfg(embree3)]
+            // SAFETY: the scene is committed; `ctx` and `rayhit` are valid, aligned locals.
+            unsafe {
+                sys::rtcIntersect1(self.raw, &mut ctx, &mut rayhit)
+            };
+            #[cfg(embree4)]
+            // SAFETY: the scene is committed; `rayhit` is a valid, aligned local; null
+            // arguments select Embree 4's defaults.
+            unsafe {
+                sys::rtcIntersect1(self.raw, &mut rayhit, std::ptr::null_mut())
+            };
+            count += (rayhit.hit.geomID != INVALID_GEOMETRY_ID) as usize;
         }
         count
     }

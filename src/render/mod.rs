@@ -124,6 +124,9 @@ fn render_tile(
     samples: (u32, u32),
 ) -> TileResult {
     let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+    let camera = settings
+        .camera
+        .ray_generator(settings.width, settings.height);
     let mut rays = RayCounts::default();
     let mut sums = Vec::with_capacity(((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize);
     let mut bad = 0;
@@ -136,12 +139,7 @@ fn render_tile(
                 sampler.start(x, y, index);
                 // The first two dimensions place the sample on the film.
                 let film_uv = sampler.next_2d();
-                let ray = settings.camera.generate_ray(
-                    x as f32 + film_uv.x,
-                    y as f32 + film_uv.y,
-                    settings.width,
-                    settings.height,
-                );
+                let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
                 let l: Vec3 = settings.integrator.li(ctx, &ray, &mut sampler, &mut rays);
                 if l.is_finite() {
                     for (c, v) in l.to_array().into_iter().enumerate() {

@@ -47,27 +47,85 @@ impl Camera {
     }
 
     /// The primary ray through film position (fx, fy), in pixels from the top-left corner of
-    /// a `width × height` image.
+    /// a `width × height` image. For many rays, make a [`RayGenerator`] once.
     #[inline]
     pub fn generate_ray(&self, fx: f32, fy: f32, width: u32, height: u32) -> Ray {
-        let aspect = width as f32 / height as f32;
-        // Film position → normalised device coordinates in [-1, 1], +y up.
-        let ndc_x = 2.0 * fx / width as f32 - 1.0;
-        let ndc_y = 1.0 - 2.0 * fy / height as f32;
-        match self.projection {
+        self.ray_generator(width, height).ray(fx, fy)
+    }
+
+    /// The camera's primary rays for a `width × height` image, with everything that does not
+    /// depend on the film position computed once.
+    pub fn ray_generator(&self, width: u32, height: u32) -> RayGenerator {
+        let (w, h) = (width as f32, height as f32);
+        let aspect = w / h;
+        // Film position (fx, fy) → normalised device coordinates x = 2·fx/w − 1,
+        // y = 1 − 2·fy/h (+y up); the camera-space point is (x·sx, y·sy, z) and a step of one
+        // pixel moves it by (2·sx/w, −2·sy/h).
+        let (sx, sy, z) = match self.projection {
             Projection::Perspective { yfov } => {
                 let tan_half = (0.5 * yfov).tan();
-                let d = Vec3::new(ndc_x * tan_half * aspect, ndc_y * tan_half, -1.0);
-                let org = self.to_world.transform_point3(Vec3::ZERO);
-                let dir = self.to_world.transform_vector3(d).normalize();
-                Ray::new(org, dir)
+                (tan_half * aspect, tan_half, -1.0)
             }
-            Projection::Orthographic { ymag } => {
-                let local = Vec3::new(ndc_x * ymag * aspect, ndc_y * ymag, 0.0);
-                let org = self.to_world.transform_point3(local);
-                let dir = self.to_world.transform_vector3(Vec3::NEG_Z).normalize();
-                Ray::new(org, dir)
-            }
+            Projection::Orthographic { ymag } => (ymag * aspect, ymag, 0.0),
+        };
+        let m = &self.to_world;
+        let corner = Vec3::new(-sx, sy, z);
+        let du = m.transform_vector3(Vec3::new(2.0 * sx / w, 0.0, 0.0));
+        let dv = m.transform_vector3(Vec3::new(0.0, -2.0 * sy / h, 0.0));
+        match self.projection {
+            Projection::Perspective { .. } => RayGenerator::Perspective {
+                org: m.transform_point3(Vec3::ZERO),
+                corner: m.transform_vector3(corner),
+                du,
+                dv,
+            },
+            Projection::Orthographic { .. } => RayGenerator::Orthographic {
+                corner: m.transform_point3(corner),
+                du,
+                dv,
+                dir: m.transform_vector3(Vec3::NEG_Z).normalize(),
+            },
+        }
+    }
+}
+
+/// A camera's primary rays for one image size (see [`Camera::ray_generator`]): world-space
+/// film corner and per-pixel steps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RayGenerator {
+    /// Rays from `org` through `corner + fx·du + fy·dv`, normalised.
+    Perspective {
+        org: Vec3,
+        corner: Vec3,
+        du: Vec3,
+        dv: Vec3,
+    },
+    /// Parallel rays along `dir` from `corner + fx·du + fy·dv`.
+    Orthographic {
+        corner: Vec3,
+        du: Vec3,
+        dv: Vec3,
+        dir: Vec3,
+    },
+}
+
+impl RayGenerator {
+    /// The ray through film position (fx, fy), in pixels from the top-left corner.
+    #[inline]
+    pub fn ray(&self, fx: f32, fy: f32) -> Ray {
+        match *self {
+            RayGenerator::Perspective {
+                org,
+                corner,
+                du,
+                dv,
+            } => Ray::new(org, (corner + fx * du + fy * dv).normalize()),
+            RayGenerator::Orthographic {
+                corner,
+                du,
+                dv,
+                dir,
+            } => Ray::new(corner + fx * du + fy * dv, dir),
         }
     }
 }

@@ -7,7 +7,7 @@
 mod camera;
 mod gltf_loader;
 
-pub use camera::{Camera, Projection};
+pub use camera::{Camera, Projection, RayGenerator};
 pub use gltf_loader::{load, percent_decode, LoadError, LoadOptions};
 
 use glam::{Vec2, Vec3, Vec4};

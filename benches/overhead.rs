@@ -1,0 +1,185 @@
+//! The cost of strata's own layers over raw Embree calls, as ratios measured in one run.
+//!
+//!     cargo bench --bench overhead
+//!
+//! The rays are exactly those of an AO render of the bundled flight helmet (320×240, 8 spp,
+//! one thread): every camera ray, and the AO ray of every camera hit, made with the
+//! renderer's own sampler, camera and offsets, in the renderer's order (pass, 16×16 tile,
+//! pixel, sample). Three ways of tracing them then alternate for `ROUNDS` rounds:
+//!
+//! - **raw**: `rtcIntersect1` / `rtcOccluded1` in tight loops over rays already in Embree's
+//!   layout, one intersection context per batch: the most any renderer could get from Embree
+//!   one ray at a time;
+//! - **accel**: the same rays through [`Accel::intersect`] / [`Accel::occluded`], the calls the
+//!   integrators make;
+//! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
+//!   which traces the same rays.
+//!
+//! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera); the helmet
+//! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
+//! for the render/raw ratio.
+//!
+//! Alternating rounds and taking the median of per-round ratios cancels most of the drift of
+//! a shared machine. Printed: each way's median Mrays/s, and the median ratios accel/raw
+//! (target ≥ 0.97: our layer costs under 3%) and render/raw (target ≥ 0.85).
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use indicatif::ProgressBar;
+use strata::accel::{Accel, AccelOptions, Ray};
+use strata::embree::RawRay;
+use strata::integrators::{AoSettings, Integrator, Prepared};
+use strata::interaction::SurfaceInteraction;
+use strata::render::{self, RenderSettings};
+use strata::sampling::warps::square_to_cosine_hemisphere;
+use strata::sampling::{Onb, PixelSampler, SamplerKind};
+use strata::scene::{self, LoadOptions, Scene};
+
+const W: u32 = 320;
+const H: u32 = 240;
+const SPP: u32 = 8;
+const TILE: u32 = 16;
+const ROUNDS: usize = 15;
+
+/// The camera rays and AO rays of the render, generated as `render::render` and the AO
+/// integrator do.
+fn render_rays(scene: &Scene, accel: &Accel) -> (Vec<Ray>, Vec<Ray>) {
+    let camera = scene.cameras[0].ray_generator(W, H);
+    let mut sampler = PixelSampler::new(SamplerKind::Sobol, SPP, 0);
+    let (mut camera_rays, mut ao_rays) = (Vec::new(), Vec::new());
+    for (s0, s1) in render::passes(SPP) {
+        for ty in (0..H).step_by(TILE as usize) {
+            for tx in (0..W).step_by(TILE as usize) {
+                for y in ty..(ty + TILE).min(H) {
+                    for x in tx..(tx + TILE).min(W) {
+                        for index in s0..s1 {
+                            sampler.start(x, y, index);
+                            let film = sampler.next_2d();
+                            let ray = camera.ray(x as f32 + film.x, y as f32 + film.y);
+                            camera_rays.push(ray);
+                            let Some(hit) = accel.intersect(&ray) else {
+                                continue;
+                            };
+                            let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
+                            let local = square_to_cosine_hemisphere(sampler.next_2d());
+                            let wi = Onb::from_normal(si.ns).to_world(local);
+                            if wi.dot(si.ng) > 0.0 {
+                                ao_rays.push(si.spawn_ray(wi, f32::INFINITY));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (camera_rays, ao_rays)
+}
+
+fn raw(rays: &[Ray]) -> Vec<RawRay> {
+    rays.iter()
+        .map(|r| RawRay::new(r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max))
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    // `cargo bench` passes --bench; `cargo test --benches` runs this once as a smoke test.
+    let quick = !std::env::args().any(|a| a == "--bench");
+    strata::embree::enable_ftz_daz();
+    let path = std::env::var_os("STRATA_OVERHEAD_SCENE").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/flight-helmet.gltf"),
+        Into::into,
+    );
+    let scene = scene::load(&path, &LoadOptions::default()).expect("scene");
+    let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
+    let embree = accel.as_embree().expect("Embree backend").raw();
+
+    let (camera_rays, ao_rays) = render_rays(&scene, &accel);
+    let (raw_camera, raw_ao) = (raw(&camera_rays), raw(&ao_rays));
+    let total = (camera_rays.len() + ao_rays.len()) as f64;
+
+    let prepared = Prepared::default();
+    let ctx = prepared.context(&scene, &accel);
+    let pool = render::thread_pool(1).expect("thread pool");
+    let settings = RenderSettings {
+        camera: scene.cameras[0].clone(),
+        crop: None,
+        width: W,
+        height: H,
+        spp: SPP,
+        seed: 0,
+        sampler: SamplerKind::Sobol,
+        integrator: Integrator::Ao(AoSettings::default()),
+        tile_size: TILE,
+    };
+    let render_once = || {
+        render::render(
+            &ctx,
+            &settings,
+            &pool,
+            &ProgressBar::hidden(),
+            &AtomicBool::new(false),
+        )
+    };
+
+    // The three ways must trace the same rays with the same answers.
+    let hits_raw = embree.intersect_count_raw(&raw_camera);
+    let hits_accel = camera_rays
+        .iter()
+        .filter(|r| accel.intersect(r).is_some())
+        .count();
+    let occluded_raw = embree.occluded_count_raw(&raw_ao);
+    let occluded_accel = ao_rays.iter().filter(|r| accel.occluded(r)).count();
+    assert_eq!(hits_raw, hits_accel, "camera hits differ");
+    assert_eq!(occluded_raw, occluded_accel, "AO occlusion differs");
+    let rendered = render_once().stats.rays;
+    assert_eq!(
+        (rendered.camera as usize, rendered.shadow as usize),
+        (camera_rays.len(), ao_rays.len()),
+        "the render traces other rays than the batches"
+    );
+
+    let rounds = if quick { 1 } else { ROUNDS };
+    let (mut t_raw, mut t_accel, mut t_render) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..rounds {
+        let t = Instant::now();
+        let n = embree.intersect_count_raw(&raw_camera) + embree.occluded_count_raw(&raw_ao);
+        t_raw.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(n);
+
+        let t = Instant::now();
+        let n = camera_rays
+            .iter()
+            .filter(|r| accel.intersect(r).is_some())
+            .count()
+            + ao_rays.iter().filter(|r| accel.occluded(r)).count();
+        t_accel.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(n);
+
+        // The render runs on a one-thread pool; its own timer excludes the pool hand-off.
+        t_render.push(render_once().stats.seconds);
+    }
+    let ratio = |a: &[f64], b: &[f64]| median(a.iter().zip(b).map(|(x, y)| y / x).collect());
+    let mrays = |t: &[f64]| total / median(t.to_vec()) / 1e6;
+    println!(
+        "{} ({} triangles), AO {W}x{H} {SPP} spp, 1 thread: {} camera rays + {} AO rays, {rounds} rounds",
+        path.file_name().unwrap_or_default().to_string_lossy(),
+        scene.triangles.len(),
+        camera_rays.len(),
+        ao_rays.len()
+    );
+    println!("  raw Embree loops   {:6.2} Mrays/s", mrays(&t_raw));
+    println!("  through Accel      {:6.2} Mrays/s", mrays(&t_accel));
+    println!("  full AO render     {:6.2} Mrays/s", mrays(&t_render));
+    println!(
+        "  Accel / raw {:.3}, render / raw {:.3} (medians of per-round ratios)",
+        ratio(&t_accel, &t_raw),
+        ratio(&t_render, &t_raw)
+    );
+}
