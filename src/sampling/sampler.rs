@@ -67,10 +67,18 @@ pub struct PixelSampler {
     /// Grid of the 2D stratified pattern: m columns × n rows, m·n ≥ spp.
     grid_m: u32,
     grid_n: u32,
+    /// The pixel of the current sample, its key, and the keys of its first dimension slots
+    /// (the same for every sample of the pixel, so computed once per pixel).
+    pixel: (u32, u32),
     pixel_key: u64,
+    slot_keys: [u64; CACHED_SLOTS],
+    cached_slots: u32,
     index: u32,
     slot: u32,
 }
+
+/// Dimension-slot keys kept per pixel: enough for path tracing to depth 7.
+const CACHED_SLOTS: usize = 16;
 
 impl PixelSampler {
     /// A sampler for `spp` samples per pixel.
@@ -85,7 +93,10 @@ impl PixelSampler {
             spp,
             grid_m: m,
             grid_n: n,
+            pixel: (u32::MAX, u32::MAX),
             pixel_key: 0,
+            slot_keys: [0; CACHED_SLOTS],
+            cached_slots: 0,
             index: 0,
             slot: 0,
         }
@@ -98,7 +109,11 @@ impl PixelSampler {
     /// Begins sample `index` of pixel (x, y).
     #[inline]
     pub fn start(&mut self, x: u32, y: u32, index: u32) {
-        self.pixel_key = hash_words(&[self.seed, ((y as u64) << 32) | x as u64]);
+        if (x, y) != self.pixel {
+            self.pixel = (x, y);
+            self.pixel_key = hash_words(&[self.seed, ((y as u64) << 32) | x as u64]);
+            self.cached_slots = 0;
+        }
         self.index = index;
         self.slot = 0;
     }
@@ -106,8 +121,16 @@ impl PixelSampler {
     /// The key of the current dimension slot, and advance to the next.
     #[inline]
     fn next_slot_key(&mut self) -> u64 {
-        let key = hash_words(&[self.pixel_key, self.slot as u64]);
+        let slot = self.slot;
         self.slot += 1;
+        if slot < self.cached_slots {
+            return self.slot_keys[slot as usize];
+        }
+        let key = hash_words(&[self.pixel_key, slot as u64]);
+        if slot == self.cached_slots && (slot as usize) < CACHED_SLOTS {
+            self.slot_keys[slot as usize] = key;
+            self.cached_slots += 1;
+        }
         key
     }
 
