@@ -5,6 +5,11 @@
 //!     tools/bench/prepare_meshes.sh            # converts the large meshes once (OBJ/PLY → GLB)
 //!     cargo bench --bench backends
 //!
+//! For Embree, the `packets/` group compares its packet API (`rtcIntersect4/8/16`, coherent
+//! hint) with one `rtcIntersect1` call per ray on the same camera rays, ordered in 4×4 pixel
+//! blocks so each packet holds neighbouring rays; both include packing rays into Embree's
+//! layout.
+//!
 //! Meshes: the bundled flight helmet, plus every `*.glb`/`*.gltf` in `$STRATA_BENCH_MESHES`
 //! (default `~/.cache/strata/meshes`, filled by the script above). Throughput is in rays.
 
@@ -15,6 +20,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use glam::Vec2;
 use rayon::prelude::*;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
+use strata::embree::RawRay;
 use strata::interaction::SurfaceInteraction;
 use strata::sampling::hash::{hash_words, unit_f32};
 use strata::sampling::warps::square_to_cosine_hemisphere;
@@ -89,6 +95,27 @@ fn ray_sets(scene: &Scene, accel: &Accel) -> (Vec<Ray>, Vec<Ray>) {
     (coherent, incoherent)
 }
 
+/// The camera rays (scanline order, W×H) reordered in 4×4 pixel blocks, in Embree's layout.
+fn block_ordered(coherent: &[Ray]) -> Vec<RawRay> {
+    let mut out = Vec::with_capacity(coherent.len());
+    for by in (0..H).step_by(4) {
+        for bx in (0..W).step_by(4) {
+            for y in by..(by + 4).min(H) {
+                for x in bx..(bx + 4).min(W) {
+                    let r = &coherent[(y * W + x) as usize];
+                    out.push(RawRay::new(
+                        r.org.to_array(),
+                        r.dir.to_array(),
+                        r.t_min,
+                        r.t_max,
+                    ));
+                }
+            }
+        }
+    }
+    out
+}
+
 fn bench(c: &mut Criterion) {
     strata::embree::enable_ftz_daz();
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -122,6 +149,27 @@ fn bench(c: &mut Criterion) {
 
         let reference = build(&scene, Backend::Embree, all);
         let (coherent, incoherent) = ray_sets(&scene, &reference);
+
+        let blocks = block_ordered(&coherent);
+        let raw = reference.as_embree().expect("Embree").raw();
+        let hits = raw.intersect_count_raw(&blocks);
+        assert_eq!(raw.intersect8_count_raw(&blocks), hits, "packets disagree");
+        let mut g = c.benchmark_group(format!("packets/{name}"));
+        g.sample_size(10).measurement_time(Duration::from_secs(3));
+        g.throughput(Throughput::Elements(blocks.len() as u64));
+        g.bench_function("rtcIntersect1, 1 thread", |b| {
+            b.iter(|| raw.intersect_count_raw(&blocks))
+        });
+        g.bench_function("rtcIntersect4, 1 thread", |b| {
+            b.iter(|| raw.intersect4_count_raw(&blocks))
+        });
+        g.bench_function("rtcIntersect8, 1 thread", |b| {
+            b.iter(|| raw.intersect8_count_raw(&blocks))
+        });
+        g.bench_function("rtcIntersect16, 1 thread", |b| {
+            b.iter(|| raw.intersect16_count_raw(&blocks))
+        });
+        g.finish();
         let mut g = c.benchmark_group(format!("trace/{name}"));
         g.sample_size(10).measurement_time(Duration::from_secs(3));
         for backend in [Backend::Embree, Backend::Obvhs] {
