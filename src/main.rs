@@ -97,6 +97,10 @@ struct Cli {
     #[arg(long, default_value = "cosine", value_name = "cosine|uniform")]
     hemisphere: Hemisphere,
 
+    /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    ao_samples: u32,
+
     /// BVH build quality.
     #[arg(long, default_value = "medium", value_name = "low|medium|high")]
     bvh_quality: BuildQuality,
@@ -226,6 +230,9 @@ fn run(cli: Cli) -> Result<Outcome> {
             cli.spp
         );
     }
+    if cli.ao_samples == 0 {
+        bail!("--ao-samples must be at least 1");
+    }
     let ao_distance = match cli.ao_distance {
         None => f32::INFINITY,
         Some(d) if d > 0.0 => d,
@@ -295,6 +302,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {
             max_distance: ao_distance,
             hemisphere: cli.hemisphere,
+            samples: cli.ao_samples,
         }),
         IntegratorKind::Direct => Integrator::Direct(PathSettings {
             max_depth: 1,
@@ -383,6 +391,7 @@ fn run(cli: Cli) -> Result<Outcome> {
                 Attr::Text(ao.hemisphere.to_string()),
             ));
             attrs.push(("strata:ao_distance".into(), Attr::Float(ao.max_distance)));
+            attrs.push(("strata:ao_samples".into(), Attr::Int(ao.samples as i32)));
         }
         Integrator::Direct(p) | Integrator::Path(p) => {
             attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));

@@ -31,6 +31,7 @@ fn render_ao(
     sampler: SamplerKind,
     hemisphere: Hemisphere,
     seed: u64,
+    ao_samples: u32,
 ) -> Vec<f64> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
@@ -48,6 +49,7 @@ fn render_ao(
         integrator: Integrator::Ao(AoSettings {
             max_distance: f32::INFINITY,
             hemisphere,
+            samples: ao_samples,
         }),
         tile_size: 16,
     };
@@ -122,7 +124,7 @@ fn run_case(file: &str, expected: f64, wall: bool) {
         SamplerKind::Sobol,
     ] {
         for hemisphere in [Hemisphere::Cosine, Hemisphere::Uniform] {
-            let values = render_ao(file, sampler, hemisphere, 7);
+            let values = render_ao(file, sampler, hemisphere, 7, 1);
             if let Err(e) = check(
                 &values,
                 expected,
@@ -134,6 +136,23 @@ fn run_case(file: &str, expected: f64, wall: bool) {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// `--ao-samples N` averages N AO rays per camera hit: the wall still gives 1/2, and with
+/// independent samples each camera sample's variance is AO(1 − AO)/N. The N-fold tighter
+/// bound fails if the rays were not all traced or not averaged (checked by hand: one ray per
+/// hit leaves ~5% of pixels outside it).
+#[test]
+fn several_ao_rays_per_hit_average_to_the_same_value() {
+    let n = 8;
+    let values = render_ao(
+        "ao-wall.gltf",
+        SamplerKind::Random,
+        Hemisphere::Cosine,
+        11,
+        n,
+    );
+    check(&values, 0.5, 0.25 / n as f64, 1.1e-5).unwrap();
 }
 
 #[test]
@@ -164,6 +183,7 @@ fn cosine_sampling_is_exact_on_the_open_plane() {
         SamplerKind::Random,
         Hemisphere::Cosine,
         3,
+        1,
     );
     assert!(
         values.iter().all(|&v| v == 1.0),
@@ -176,7 +196,13 @@ fn cosine_sampling_is_exact_on_the_open_plane() {
 fn the_check_rejects_biased_images() {
     // Negative controls: the same images, 3% darker or replaced by the 0.515 of a too-short
     // AO distance, must fail the check that the true images pass.
-    let values = render_ao("ao-wall.gltf", SamplerKind::Random, Hemisphere::Uniform, 11);
+    let values = render_ao(
+        "ao-wall.gltf",
+        SamplerKind::Random,
+        Hemisphere::Uniform,
+        11,
+        1,
+    );
     let var = variance(0.5, Hemisphere::Uniform, true);
     assert!(check(&values, 0.5, var, 1.1e-5).is_ok());
     let darker: Vec<f64> = values.iter().map(|v| v * 0.97).collect();
@@ -194,6 +220,7 @@ fn the_check_rejects_biased_images() {
         SamplerKind::Random,
         Hemisphere::Uniform,
         11,
+        1,
     );
     assert!(
         check(&plane, 0.5, var, 1.1e-5).is_err(),

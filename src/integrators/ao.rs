@@ -10,10 +10,12 @@
 //! | `max_distance` | ∞        | occluders farther than this are ignored (`--ao-distance`)      |
 //! | `hemisphere`   | cosine   | `cosine`: directions with pdf cos θ/π, estimate V;             |
 //! |                |          | `uniform`: pdf 1/(2π), estimate 2·V·cos θ (same mean, more var) |
+//! | `samples`      | 1        | AO rays per camera hit, averaged (`--ao-samples`; Mitsuba's     |
+//! |                |          | `shading_samples`)                                             |
 //!
 //! Directions are drawn around the shading normal; one that points below the geometric
-//! surface would enter the object, and counts as occluded. One AO ray per camera sample, an
-//! any-hit query leaving the surface through [`SurfaceInteraction::spawn_ray`].
+//! surface would enter the object, and counts as occluded. Each AO ray is an any-hit query
+//! leaving the surface through [`SurfaceInteraction::spawn_ray`].
 
 use std::fmt;
 use std::str::FromStr;
@@ -65,6 +67,8 @@ impl fmt::Display for Hemisphere {
 pub struct AoSettings {
     pub max_distance: f32,
     pub hemisphere: Hemisphere,
+    /// AO rays per camera hit (at least 1).
+    pub samples: u32,
 }
 
 impl Default for AoSettings {
@@ -72,6 +76,7 @@ impl Default for AoSettings {
         AoSettings {
             max_distance: f32::INFINITY,
             hemisphere: Hemisphere::Cosine,
+            samples: 1,
         }
     }
 }
@@ -91,27 +96,30 @@ pub fn li(
         return 0.0;
     };
     let si = SurfaceInteraction::from_hit(scene, ray, &hit);
-
-    // Sample a direction in the shading normal's hemisphere and weight it by cos θ / (π·pdf).
-    let u = sampler.next_2d();
-    let (local, weight) = match settings.hemisphere {
-        Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
-        Hemisphere::Uniform => {
-            let w = square_to_uniform_hemisphere(u);
-            // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
-            (w, 2.0 * w.z)
+    let onb = Onb::from_normal(si.ns);
+    let n = settings.samples.max(1);
+    let mut sum = 0.0;
+    for _ in 0..n {
+        // Sample a direction in the shading normal's hemisphere, weight by cos θ / (π·pdf).
+        let u = sampler.next_2d();
+        let (local, weight) = match settings.hemisphere {
+            Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
+            Hemisphere::Uniform => {
+                let w = square_to_uniform_hemisphere(u);
+                // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
+                (w, 2.0 * w.z)
+            }
+            Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
+        };
+        let wi = onb.to_world(local);
+        // A direction below the geometric surface enters the object: occluded.
+        if wi.dot(si.ng) <= 0.0 || weight == 0.0 {
+            continue;
         }
-        Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
-    };
-    let wi = Onb::from_normal(si.ns).to_world(local);
-    // A direction below the geometric surface enters the object: occluded.
-    if wi.dot(si.ng) <= 0.0 || weight == 0.0 {
-        return 0.0;
+        rays.shadow += 1;
+        if !accel.occluded(&si.spawn_ray(wi, settings.max_distance)) {
+            sum += weight;
+        }
     }
-    rays.shadow += 1;
-    if accel.occluded(&si.spawn_ray(wi, settings.max_distance)) {
-        0.0
-    } else {
-        weight
-    }
+    sum / n as f32
 }
