@@ -70,7 +70,9 @@ pub fn concentric_disk_to_square(p: Vec2) -> Vec2 {
         // Bottom wedge: o.y = −r, θ = φ − π.
         (-r * (FRAC_PI_2 - (phi - PI)) / FRAC_PI_4, -r)
     };
-    (Vec2::new(a, b) + Vec2::ONE) * 0.5
+    // A point on the rim may lie a rounding error outside the disk (the (x, y) part of a
+    // normalised direction with z = 0), which would put the result just outside [0, 1]².
+    ((Vec2::new(a, b) + Vec2::ONE) * 0.5).clamp(Vec2::ZERO, Vec2::ONE)
 }
 
 /// Cosine-weighted direction on the hemisphere z ≥ 0 (Malley's method on the concentric
@@ -112,7 +114,9 @@ pub fn uniform_sphere_to_square(v: Vec3) -> Vec2 {
 /// Uniform direction in the cone of half-angle θmax around +z; pdf 1/(2π(1 − cos θmax)).
 #[inline]
 pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
-    let z = 1.0 - u.x * (1.0 - cos_theta_max);
+    // Rounding of 1 − u·(1 − cos θmax) can land just below cos θmax (u.x = 1, cos θmax =
+    // −0.9304151 gives −0.93041515), outside the cone where the pdf is 0: clamp.
+    let z = (1.0 - u.x * (1.0 - cos_theta_max)).max(cos_theta_max);
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (s, c) = (TAU * u.y).sin_cos();
     Vec3::new(r * c, r * s, z)
@@ -136,7 +140,10 @@ pub fn uniform_cone_to_square(v: Vec3, cos_theta_max: f32) -> Vec2 {
 #[inline]
 pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
     let s = u.x.sqrt();
-    Vec2::new(1.0 - s, u.y * s)
+    let b0 = 1.0 - s;
+    // Bound b1 by 1 − b0 as rounded, so that b2 = 1 − b0 − b1 is never negative (without
+    // it, u.x = 1e-45 rounds b0 to 1 while b1 = u.y·s stays positive).
+    Vec2::new(b0, (u.y * s).min(1.0 - b0))
 }
 
 pub fn uniform_triangle_to_square(b: Vec2) -> Vec2 {
@@ -237,42 +244,43 @@ pub fn spherical_triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 }
 
 /// A direction distributed uniformly (pdf 1/Ω) over the spherical triangle of unit vectors
-/// `a`, `b`, `c`, after Arvo, "Stratified Sampling of Spherical Triangles" (SIGGRAPH 1995):
-/// `u.x` picks the sub-triangle of area u.x·Ω (fixing the point Ĉ on arc AC), `u.y` the
-/// point on arc BĈ. Returns `None` for a degenerate triangle.
+/// `a`, `b`, `c`, with the two stages of Arvo, "Stratified Sampling of Spherical Triangles"
+/// (SIGGRAPH 1995): `u.x` picks the sub-triangle (a, b, Ĉ) of area u.x·Ω, which fixes the
+/// point Ĉ on arc AC; `u.y` picks the point on arc BĈ, uniform in solid angle. Returns `None`
+/// for a degenerate triangle.
+///
+/// Ĉ is not found with Arvo's closed form, which goes through the vertex angle α and
+/// loses most of its digits in f32 on thin triangles (samples landed up to 9e-3 rad outside
+/// them, tests/stress_warps.rs). Instead, with Ĉ = cos φ·a + sin φ·c⊥, the
+/// Van Oosterom–Strackee formula for the sub-triangle's area h = Â/2 solves to
+/// tan(φ/2) = (1 + a·b)·sin h / (K·cos h − (b·c⊥)·sin h), K = |(a × b)·c⊥|; and 1 ∓ cos of
+/// the arc from b to Ĉ are taken as |Ĉ ∓ b|²/2, accurate where 1 ∓ Ĉ·b cancel.
 pub fn square_to_spherical_triangle(a: Vec3, b: Vec3, c: Vec3, u: Vec2) -> Option<Vec3> {
     let area = spherical_triangle_area(a, b, c);
     if !(area > 0.0 && area.is_finite()) {
         return None;
     }
-    // Normals of the great circles through the edges, and the angle α at vertex a.
-    let n_ab = a.cross(b).try_normalize()?;
-    let n_ac = a.cross(c).try_normalize()?;
-    let cos_alpha = n_ab.dot(n_ac).clamp(-1.0, 1.0);
-    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
-    let alpha = cos_alpha.acos();
-    let cos_c = a.dot(b);
+    // c⊥: the unit tangent at a of the great circle toward c; θ_ac the arc length a → c.
+    let c_off = c - c.dot(a) * a;
+    let c_perp = c_off.try_normalize()?;
+    let theta_ac = c_off.length().atan2(c.dot(a));
 
-    // The sub-triangle of area Â = u.x·Ω fixes Ĉ on the arc from a to c (Arvo's eqs.).
-    let a_hat = u.x * area;
-    let (s, t) = (a_hat - alpha).sin_cos();
-    let uu = t - cos_alpha;
-    let vv = s + sin_alpha * cos_c;
-    let den = (vv * s + uu * t) * sin_alpha;
-    let q = if den.abs() > 0.0 {
-        (((vv * t - uu * s) * cos_alpha - vv) / den).clamp(-1.0, 1.0)
-    } else {
-        1.0
-    };
-    let c_perp = (c - c.dot(a) * a).try_normalize()?;
-    let c_hat = q * a + (1.0 - q * q).max(0.0).sqrt() * c_perp;
+    // Ĉ on arc AC such that the triangle (a, b, Ĉ) has area u.x·Ω.
+    let k = a.cross(b).dot(c_perp).abs();
+    let (sin_h, cos_h) = (0.5 * u.x * area).sin_cos();
+    let half_phi = ((1.0 + a.dot(b)) * sin_h).atan2(k * cos_h - b.dot(c_perp) * sin_h);
+    let (sin_phi, cos_phi) = (2.0 * half_phi).min(theta_ac).sin_cos();
+    let c_hat = cos_phi * a + sin_phi * c_perp;
 
-    // Uniform in solid angle along the arc from b to Ĉ.
-    let z = 1.0 - u.y * (1.0 - c_hat.dot(b));
+    // Uniform in solid angle along the arc from b to Ĉ: 1 − cos θ = u.y·(1 − Ĉ·b), and
+    // 1 + cos θ = 2(1 − u.y) + u.y·(1 + Ĉ·b), each without cancellation.
+    let one_minus_z = u.y * 0.5 * (c_hat - b).length_squared();
+    let one_plus_z = 2.0 * (1.0 - u.y) + u.y * 0.5 * (c_hat + b).length_squared();
     let Some(perp) = (c_hat - c_hat.dot(b) * b).try_normalize() else {
         return Some(b);
     };
-    Some((z * b + (1.0 - z * z).max(0.0).sqrt() * perp).normalize())
+    let sin_theta = (one_minus_z * one_plus_z).max(0.0).sqrt();
+    Some(((1.0 - one_minus_z) * b + sin_theta * perp).normalize())
 }
 
 #[cfg(test)]
