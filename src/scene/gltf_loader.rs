@@ -4,8 +4,11 @@
 //! every triangle primitive (lists, strips and fans) is transformed to world space. Normals
 //! go through the inverse transpose; under a transform with negative determinant the winding
 //! is flipped so the counter-clockwise front face stays the front face. Primitives without
-//! normals are shaded flat, as the glTF specification requires. Accessors are range-checked
-//! against their buffers before they are read, so a malformed file is an error, not a panic.
+//! normals are shaded flat, as the glTF specification requires, and so are triangles that use
+//! a zero or non-finite vertex normal. Triangles of zero or non-finite area are dropped, and
+//! with them their vertices; both repairs are counted in one warning line each. Accessors are
+//! range-checked against their buffers before they are read, so a malformed file is an
+//! error, not a panic.
 //!
 //! Images are not decoded here: the scene keeps where their bytes are, and integrators that
 //! read textures decode them.
@@ -90,6 +93,8 @@ fn load_inner(path: &Path) -> Result<Scene> {
         scene: Scene::default(),
         warnings: Vec::new(),
         dropped_triangles: 0,
+        bad_normals: 0,
+        flat_triangles: 0,
         skipped_primitives: 0,
     };
     loader.scene.materials.push(Material::default());
@@ -118,6 +123,15 @@ fn load_inner(path: &Path) -> Result<Scene> {
             "dropped {} degenerate triangle(s) (zero area or non-finite vertices)",
             loader.dropped_triangles
         ));
+    }
+    if loader.bad_normals > 0 {
+        warnings.push(format!(
+            "{} vertex normal(s) zero or not finite; the {} triangle(s) using them are shaded flat",
+            loader.bad_normals, loader.flat_triangles
+        ));
+    }
+    if loader.dropped_triangles > 0 || scene.positions.iter().any(|p| !p.is_finite()) {
+        drop_unused_vertices(&mut scene);
     }
     if scene.triangles.is_empty() {
         return Err(if loader.skipped_primitives > 0 {
@@ -222,6 +236,9 @@ struct Loader<'a> {
     scene: Scene,
     warnings: Vec<String>,
     dropped_triangles: usize,
+    /// Vertex normals that were zero or not finite, and the triangles shaded flat for them.
+    bad_normals: usize,
+    flat_triangles: usize,
     skipped_primitives: usize,
 }
 
@@ -561,14 +578,23 @@ impl Loader<'_> {
                 .as_vec3()
         }));
         match &normals {
-            Some(ns) => self.scene.normals.extend(ns.iter().map(|nrm| {
-                let v = (normal_matrix * DVec3::from_array(nrm.map(f64::from))).normalize_or_zero();
-                if v.is_finite() {
-                    v.as_vec3()
-                } else {
-                    Vec3::ZERO
-                }
-            })),
+            Some(ns) => {
+                let mut bad = 0;
+                self.scene.normals.extend(ns.iter().map(|nrm| {
+                    // Zero for a normal that is zero, not finite, or too short for f64 to
+                    // normalise: triangles using it are shaded flat below.
+                    let v = (normal_matrix * DVec3::from_array(nrm.map(f64::from)))
+                        .normalize_or_zero()
+                        .as_vec3();
+                    if v.is_finite() && v != Vec3::ZERO {
+                        v
+                    } else {
+                        bad += 1;
+                        Vec3::ZERO
+                    }
+                }));
+                self.bad_normals += bad;
+            }
             None => self
                 .scene
                 .normals
@@ -590,12 +616,64 @@ impl Loader<'_> {
                 self.dropped_triangles += 1;
                 continue;
             }
+            // A triangle that uses a bad vertex normal is shaded flat: it gets its own copies
+            // of its vertices, all with the zero normal that means "no normal", so the
+            // neighbours sharing its good vertices keep their smooth shading.
+            let [a, b, c] = if normals.is_some()
+                && [a, b, c]
+                    .iter()
+                    .any(|&i| self.scene.normals[i as usize] == Vec3::ZERO)
+            {
+                let first = self.scene.positions.len();
+                if first + 3 > u32::MAX as usize {
+                    return Err(format!("{label}: the scene has more than 2^32 vertices"));
+                }
+                for i in [a, b, c] {
+                    let (p, t) = (self.scene.positions[i as usize], self.scene.uvs[i as usize]);
+                    self.scene.positions.push(p);
+                    self.scene.uvs.push(t);
+                    self.scene.normals.push(Vec3::ZERO);
+                }
+                self.flat_triangles += 1;
+                let first = first as u32;
+                [first, first + 1, first + 2]
+            } else {
+                [a, b, c]
+            };
             self.scene
                 .triangles
                 .push(if flip { [a, c, b] } else { [a, b, c] });
             self.scene.triangle_materials.push(material);
         }
         Ok(())
+    }
+}
+
+/// Keeps only the vertices some triangle uses, in their order. Run after triangles were
+/// dropped or when a position is not finite: the vertices of dropped triangles (NaN,
+/// infinite, or so large that the area overflows) would otherwise reach the scene bounds,
+/// which place the default camera and size distant lights, and the BVH's vertex buffer.
+fn drop_unused_vertices(scene: &mut Scene) {
+    let mut used = vec![false; scene.positions.len()];
+    for t in &scene.triangles {
+        for &i in t {
+            used[i as usize] = true;
+        }
+    }
+    let mut new_index = vec![u32::MAX; used.len()];
+    let mut kept = 0;
+    for old in (0..used.len()).filter(|&i| used[i]) {
+        new_index[old] = kept as u32;
+        scene.positions[kept] = scene.positions[old];
+        scene.normals[kept] = scene.normals[old];
+        scene.uvs[kept] = scene.uvs[old];
+        kept += 1;
+    }
+    scene.positions.truncate(kept);
+    scene.normals.truncate(kept);
+    scene.uvs.truncate(kept);
+    for t in &mut scene.triangles {
+        *t = t.map(|i| new_index[i as usize]);
     }
 }
 
