@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the AO path on the bundled flight helmet (95k triangles):
 //! closest-hit camera rays, any-hit AO rays, and a whole small AO render, each on one thread
-//! so the numbers compare across machines with different core counts.
+//! so the numbers compare across machines with different core counts; and the cost of one
+//! Owen-scrambled Sobol point (the crate's bit loop against our byte tables).
 //!
 //!     cargo bench --bench ao
 
@@ -119,5 +120,26 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// One 4D Owen-scrambled Sobol point: `sobol_burley`'s bit loop against strata's byte tables.
+fn sobol(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sobol 4D point");
+    g.throughput(Throughput::Elements(1 << 16));
+    g.bench_function("sobol_burley::sample_4d", |b| {
+        b.iter(|| {
+            (0..1u32 << 16)
+                .map(|i| sobol_burley::sample_4d(i, 0, i.wrapping_mul(0x9e37_79b9))[3])
+                .sum::<f32>()
+        })
+    });
+    g.bench_function("strata::sampling::sobol::sample_4d", |b| {
+        b.iter(|| {
+            (0..1u32 << 16)
+                .map(|i| strata::sampling::sobol::sample_4d(i, i.wrapping_mul(0x9e37_79b9))[3])
+                .sum::<f32>()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, sobol);
 criterion_main!(benches);
