@@ -6,6 +6,7 @@
 //! [`render::output`].
 
 pub mod accel;
+pub mod convergence;
 pub mod embree;
 pub mod integrators;
 pub mod interaction;

@@ -1,0 +1,541 @@
+//! `convergence`: error against samples per pixel and against time, for one reference image.
+//!
+//!     cargo build --release
+//!     target/release/convergence --reference scenes/references/cornell-box.path.exr --out results/cornell
+//!
+//! The reference's entry in `manifest.json` (next to it) names its scene and the `render`
+//! arguments that match it (integrator, depth, background, resolution). For every
+//! combination of the chosen samplers, AO hemisphere warps and direct-light strategies, the
+//! tool runs `render` (the binary next to this one) at 1, 2, 4, … spp up to `--max-spp`, or
+//! until a render takes longer than `--time-budget`, with `--seeds` seeds per point, and
+//! compares each image with the reference (`strata::convergence`). It writes
+//!
+//! - `convergence.csv`: one row per configuration and spp (errors are means over seeds);
+//! - `error_vs_spp.png` and `error_vs_time.png`: log-log plots of RMSE;
+//!
+//! and prints the fitted slope of log RMSE against log spp for each configuration (−0.5 for
+//! independent samples; steeper for stratified and low-discrepancy ones where the integrand
+//! allows). The fit uses the points whose MSE is at least 4× the reference's noise floor.
+//! The render time is the renderer's own (`--stats`: rendering only, not loading or the BVH).
+//!
+//! Plot labels need a TrueType font: `$STRATA_FONT`, else DejaVu Sans from Debian's
+//! `fonts-dejavu-core` (installed by tools/setup.sh).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Parser;
+use plotters::prelude::*;
+use strata::convergence::{image_error, log_log_fit, spp_ladder, ImageError};
+use strata::render::output::read_exr_rgb;
+
+#[derive(Parser, Debug)]
+#[command(version, about = "Error against spp and time for one reference image")]
+struct Cli {
+    /// The reference EXR (its manifest entry gives the scene and render arguments).
+    #[arg(long, value_name = "FILE.exr")]
+    reference: PathBuf,
+
+    /// The manifest [default: manifest.json next to the reference].
+    #[arg(long, value_name = "FILE.json")]
+    manifest: Option<PathBuf>,
+
+    /// Samplers to compare, comma-separated.
+    #[arg(long, default_value = "random,stratified,sobol", value_delimiter = ',')]
+    samplers: Vec<String>,
+
+    /// AO only: hemisphere warps to compare, comma-separated.
+    #[arg(long, default_value = "cosine,uniform", value_delimiter = ',')]
+    hemispheres: Vec<String>,
+
+    /// Direct and path only: light-sampling strategies to compare, comma-separated.
+    #[arg(long, default_value = "mis", value_delimiter = ',')]
+    strategies: Vec<String>,
+
+    /// The last rung of the spp ladder 1, 2, 4, …
+    #[arg(long, default_value_t = 1024)]
+    max_spp: u32,
+
+    /// Stop a configuration's ladder after a render that took longer than this (seconds).
+    #[arg(long, value_name = "SECONDS")]
+    time_budget: Option<f64>,
+
+    /// Seeds per point; errors and times are averaged over them.
+    #[arg(long, default_value_t = 1)]
+    seeds: u32,
+
+    /// Render threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+
+    /// Output directory for the CSV and the plots.
+    #[arg(long, default_value = "convergence")]
+    out: PathBuf,
+
+    /// The render binary [default: `render` next to this program].
+    #[arg(long, value_name = "PATH")]
+    render: Option<PathBuf>,
+}
+
+/// One configuration to climb the ladder with.
+#[derive(Clone, Debug)]
+struct Config {
+    sampler: String,
+    hemisphere: Option<String>,
+    strategy: Option<String>,
+}
+
+impl Config {
+    fn label(&self) -> String {
+        let mut s = self.sampler.clone();
+        if let Some(h) = &self.hemisphere {
+            write!(s, ", {h}").unwrap();
+        }
+        if let Some(st) = &self.strategy {
+            write!(s, ", {st}").unwrap();
+        }
+        s
+    }
+
+    fn args(&self) -> Vec<String> {
+        let mut a = vec!["--sampler".to_string(), self.sampler.clone()];
+        if let Some(h) = &self.hemisphere {
+            a.extend(["--hemisphere".into(), h.clone()]);
+        }
+        if let Some(st) = &self.strategy {
+            a.extend(["--strategy".into(), st.clone()]);
+        }
+        a
+    }
+}
+
+/// One point of a ladder.
+struct Point {
+    spp: u32,
+    seconds: f64,
+    rays: f64,
+    error: ImageError,
+}
+
+/// What the reference's manifest entry says.
+struct Reference {
+    scene: PathBuf,
+    integrator: String,
+    args: Vec<String>,
+    variance: Option<PathBuf>,
+}
+
+fn read_manifest(cli: &Cli) -> Result<Reference> {
+    let manifest = cli.manifest.clone().unwrap_or_else(|| {
+        cli.reference
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("manifest.json")
+    });
+    let text = std::fs::read_to_string(&manifest)
+        .with_context(|| format!("{}: cannot read the manifest", manifest.display()))?;
+    let json: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", manifest.display()))?;
+    let want = cli.reference.file_name().and_then(|n| n.to_str());
+    let entry = json["references"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .find(|r| {
+            r["reference"]
+                .as_str()
+                .and_then(|p| Path::new(p).file_name())
+                .and_then(|n| n.to_str())
+                == want
+        })
+        .ok_or_else(|| {
+            anyhow!(
+                "{}: no entry for {}",
+                manifest.display(),
+                cli.reference.display()
+            )
+        })?;
+    // Paths in the manifest are relative to the repository root: two levels above it.
+    let root = manifest
+        .parent()
+        .and_then(Path::parent)
+        .and_then(Path::parent)
+        .unwrap_or(Path::new("."));
+    let field = |k: &str| entry[k].as_str().map(str::to_string);
+    let scene = root.join(field("scene").ok_or_else(|| anyhow!("manifest entry has no scene"))?);
+    let args: Vec<String> = entry["strata_args"]
+        .as_array()
+        .ok_or_else(|| anyhow!("manifest entry has no strata_args"))?
+        .iter()
+        .filter_map(|v| v.as_str().map(str::to_string))
+        .collect();
+    let integrator = field("integrator").unwrap_or_else(|| "ao".into());
+    Ok(Reference {
+        scene,
+        integrator,
+        args,
+        variance: field("variance").map(|v| root.join(v)),
+    })
+}
+
+/// Runs `render` once; returns (render seconds, rays).
+fn run_render(render: &Path, scene: &Path, args: &[String], output: &Path) -> Result<(f64, f64)> {
+    let out = Command::new(render)
+        .arg(scene)
+        .args(args)
+        .arg("-o")
+        .arg(output)
+        .args(["--no-png", "--stats"])
+        .output()
+        .with_context(|| format!("cannot run {}", render.display()))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        bail!(
+            "render {} failed: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let seconds = stdout
+        .lines()
+        .find_map(|l| {
+            let rest = l.strip_prefix("time:")?;
+            let at = rest.find(" render ")?;
+            rest[at + 8..].split_whitespace().next()?.parse().ok()
+        })
+        .ok_or_else(|| anyhow!("no render time in the output of render --stats"))?;
+    let rays = stdout
+        .lines()
+        .find_map(|l| {
+            let rest = l.strip_prefix("rays:")?;
+            let at = rest.find(" total")?;
+            rest[..at].rsplit(' ').next()?.parse().ok()
+        })
+        .ok_or_else(|| anyhow!("no ray count in the output of render --stats"))?;
+    Ok((seconds, rays))
+}
+
+fn configs(cli: &Cli, integrator: &str) -> Vec<Config> {
+    let mut out = Vec::new();
+    for s in &cli.samplers {
+        match integrator {
+            "ao" => {
+                for h in &cli.hemispheres {
+                    out.push(Config {
+                        sampler: s.clone(),
+                        hemisphere: Some(h.clone()),
+                        strategy: None,
+                    });
+                }
+            }
+            _ => {
+                for st in &cli.strategies {
+                    out.push(Config {
+                        sampler: s.clone(),
+                        hemisphere: None,
+                        strategy: Some(st.clone()),
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Registers the plot font once.
+fn register_font() -> Result<()> {
+    let path = std::env::var_os("STRATA_FONT")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf".into());
+    let bytes = std::fs::read(&path).with_context(|| {
+        format!(
+            "{}: no font for the plot labels (install fonts-dejavu-core, or set STRATA_FONT to a .ttf)",
+            path.display()
+        )
+    })?;
+    plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into()))
+        .map_err(|_| anyhow!("{}: not a usable TrueType font", path.display()))
+}
+
+/// A log-log plot of RMSE against `x` (spp or seconds), one line per configuration.
+fn plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    floor: f64,
+) -> Result<()> {
+    let (w, h) = (900u32, 600u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        let all = series.iter().flat_map(|(_, p)| p.iter());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in all.filter(|(x, y)| *x > 0.0 && *y > 0.0) {
+            (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+        }
+        if floor > 0.0 {
+            y0 = y0.min(floor);
+        }
+        if x0 >= x1 {
+            x1 = x0 * 2.0;
+        }
+        if y0 >= y1 {
+            y1 = y0 * 2.0;
+        }
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(
+                (x0 / 1.3..x1 * 1.3).log_scale(),
+                (y0 / 1.3..y1 * 1.3).log_scale(),
+            )
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc("RMSE against the reference")
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        for (i, (name, points)) in series.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            chart
+                .draw_series(LineSeries::new(
+                    points.iter().copied(),
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| anyhow!("plot: {e}"))?
+                .label(name.as_str())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(points.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                .map_err(|e| anyhow!("plot: {e}"))?;
+        }
+        if floor > 0.0 {
+            let grey = RGBColor(120, 120, 120);
+            chart
+                .draw_series(LineSeries::new(
+                    [(x0 / 1.3, floor), (x1 * 1.3, floor)],
+                    grey.stroke_width(1),
+                ))
+                .map_err(|e| anyhow!("plot: {e}"))?
+                .label("reference noise (√ mean variance)")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    let image = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("plot buffer size"))?;
+    image
+        .save(path)
+        .with_context(|| format!("{}: cannot write the plot", path.display()))
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    if cli.max_spp == 0 || cli.seeds == 0 {
+        bail!("--max-spp and --seeds must be at least 1");
+    }
+    let reference = read_manifest(&cli)?;
+    let (rw, rh, ref_pixels) = read_exr_rgb(&cli.reference)
+        .with_context(|| format!("{}: cannot read the reference", cli.reference.display()))?;
+    let ref_var = match &reference.variance {
+        Some(v) if v.exists() => {
+            let (vw, vh, px) = read_exr_rgb(v)
+                .with_context(|| format!("{}: cannot read the variance image", v.display()))?;
+            if (vw, vh) != (rw, rh) {
+                bail!("{}: {vw}x{vh}, but the reference is {rw}x{rh}", v.display());
+            }
+            Some(px)
+        }
+        _ => None,
+    };
+    let render = match &cli.render {
+        Some(r) => r.clone(),
+        None => std::env::current_exe()?.with_file_name("render"),
+    };
+    register_font()?;
+    std::fs::create_dir_all(&cli.out)
+        .with_context(|| format!("{}: cannot create the output directory", cli.out.display()))?;
+    let scratch = tempfile_dir(&cli.out)?;
+
+    let name = cli
+        .reference
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut csv = String::from(
+        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance\n",
+    );
+    let mut by_spp = Vec::new();
+    let mut by_time = Vec::new();
+    println!("{name}: {} ({rw}x{rh})", reference.scene.display());
+    for config in configs(&cli, &reference.integrator) {
+        let mut points: Vec<Point> = Vec::new();
+        for spp in spp_ladder(cli.max_spp) {
+            let (mut seconds, mut rays) = (0.0, 0.0);
+            let mut sum: Option<ImageError> = None;
+            for seed in 0..cli.seeds {
+                let mut args = reference.args.clone();
+                args.extend(config.args());
+                args.extend([
+                    "--spp".into(),
+                    spp.to_string(),
+                    "--seed".into(),
+                    seed.to_string(),
+                    "--threads".into(),
+                    cli.threads.to_string(),
+                ]);
+                let img = scratch.join("image.exr");
+                let (s, r) = run_render(&render, &reference.scene, &args, &img)?;
+                let (w, h, px) = read_exr_rgb(&img)?;
+                if (w, h) != (rw, rh) {
+                    bail!("render gave {w}x{h}, the reference is {rw}x{rh}");
+                }
+                let e = image_error(&px, &ref_pixels, ref_var.as_deref());
+                seconds += s;
+                rays += r;
+                sum = Some(match sum {
+                    None => e,
+                    Some(a) => ImageError {
+                        mse: a.mse + e.mse,
+                        mse_corrected: a.mse_corrected + e.mse_corrected,
+                        relmse: a.relmse + e.relmse,
+                        mae: a.mae + e.mae,
+                        reference_variance: e.reference_variance,
+                    },
+                });
+            }
+            let k = cli.seeds as f64;
+            let s = sum.expect("at least one seed");
+            let error = ImageError {
+                mse: s.mse / k,
+                mse_corrected: s.mse_corrected / k,
+                relmse: s.relmse / k,
+                mae: s.mae / k,
+                reference_variance: s.reference_variance,
+            };
+            let point = Point {
+                spp,
+                seconds: seconds / k,
+                rays: rays / k,
+                error,
+            };
+            writeln!(
+                csv,
+                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}",
+                reference.integrator,
+                config.sampler,
+                config.hemisphere.as_deref().unwrap_or(""),
+                config.strategy.as_deref().unwrap_or(""),
+                spp,
+                cli.seeds,
+                point.seconds,
+                point.rays,
+                error.rmse(),
+                error.rmse_corrected(),
+                error.relmse,
+                error.mae,
+                error.reference_variance
+            )
+            .unwrap();
+            eprintln!(
+                "  {:<24} {spp:>6} spp {:>9.3} s  RMSE {:.4e}",
+                config.label(),
+                point.seconds,
+                error.rmse()
+            );
+            let over_budget = cli.time_budget.is_some_and(|b| point.seconds > b);
+            points.push(point);
+            if over_budget {
+                break;
+            }
+        }
+        // Fit where the image's own error dominates the reference's noise.
+        let usable: Vec<&Point> = points
+            .iter()
+            .filter(|p| p.error.mse >= 4.0 * p.error.reference_variance)
+            .collect();
+        let fit = log_log_fit(
+            &usable
+                .iter()
+                .map(|p| (p.spp as f64, p.error.rmse()))
+                .collect::<Vec<_>>(),
+        );
+        match fit {
+            Some((slope, _)) => println!(
+                "  {:<24} slope of log RMSE against log spp: {slope:+.3} ({} points)",
+                config.label(),
+                usable.len()
+            ),
+            None => println!(
+                "  {:<24} too few points above the reference's noise to fit a slope",
+                config.label()
+            ),
+        }
+        by_spp.push((
+            config.label(),
+            points
+                .iter()
+                .map(|p| (p.spp as f64, p.error.rmse()))
+                .collect(),
+        ));
+        by_time.push((
+            config.label(),
+            points
+                .iter()
+                .map(|p| (p.seconds.max(1e-4), p.error.rmse()))
+                .collect(),
+        ));
+    }
+    let floor = ref_var.as_deref().map_or(0.0, |v| {
+        image_error(&ref_pixels, &ref_pixels, Some(v))
+            .reference_variance
+            .sqrt()
+    });
+    let csv_path = cli.out.join("convergence.csv");
+    std::fs::write(&csv_path, csv)
+        .with_context(|| format!("{}: cannot write", csv_path.display()))?;
+    plot(
+        &cli.out.join("error_vs_spp.png"),
+        &format!("{name}: error against samples per pixel"),
+        "samples per pixel",
+        &by_spp,
+        floor,
+    )?;
+    plot(
+        &cli.out.join("error_vs_time.png"),
+        &format!("{name}: error against render time"),
+        "render seconds",
+        &by_time,
+        floor,
+    )?;
+    let _ = std::fs::remove_dir_all(&scratch);
+    println!(
+        "wrote {}, error_vs_spp.png and error_vs_time.png in {}",
+        csv_path.display(),
+        cli.out.display()
+    );
+    Ok(())
+}
+
+/// A scratch directory inside `out` for the renders' images.
+fn tempfile_dir(out: &Path) -> Result<PathBuf> {
+    let dir = out.join(format!(".scratch-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    Ok(dir)
+}

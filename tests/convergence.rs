@@ -1,0 +1,100 @@
+//! The `convergence` tool end to end on a small ladder: it writes one CSV row per
+//! configuration and spp with sane values, both plots, and a negative slope for independent
+//! samples (whose RMSE must fall as spp grows).
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn convergence_tool_writes_csv_plots_and_slopes() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
+        .current_dir(root)
+        .args([
+            "--reference",
+            "scenes/references/cornell-box.ao.exr",
+            "--samplers",
+            "random,sobol",
+            "--hemispheres",
+            "cosine",
+            "--max-spp",
+            "16",
+            "--render",
+            env!("CARGO_BIN_EXE_render"),
+            "--out",
+        ])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+
+    let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // Two configurations × spp 1, 2, 4, 8, 16.
+    assert_eq!(rows.len(), 10, "{csv}");
+    let col = |name: &str| {
+        csv.lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == name)
+            .unwrap()
+    };
+    let (spp, rmse, rays) = (col("spp"), col("rmse"), col("rays"));
+    let random: Vec<(u32, f64, f64)> = rows
+        .iter()
+        .filter(|r| r[col("sampler")] == "random")
+        .map(|r| {
+            (
+                r[spp].parse().unwrap(),
+                r[rmse].parse().unwrap(),
+                r[rays].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        random.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [1, 2, 4, 8, 16]
+    );
+    // Rays grow with spp (AO: one camera ray plus up to one AO ray per sample).
+    assert!(random.windows(2).all(|w| w[1].2 > w[0].2), "{random:?}");
+    // Independent samples: 16× the samples gives about ¼ the RMSE; allow a wide margin.
+    let ratio = random[4].1 / random[0].1;
+    assert!(
+        (0.15..0.4).contains(&ratio),
+        "RMSE ratio 16 spp / 1 spp = {ratio}"
+    );
+
+    let slope_line = stdout
+        .lines()
+        .find(|l| l.contains("random, cosine") && l.contains("slope"))
+        .unwrap_or_else(|| panic!("no slope for random:\n{stdout}"));
+    let slope: f64 = slope_line
+        .split("spp: ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("cannot read the slope: {slope_line}"));
+    assert!(
+        (-0.7..-0.35).contains(&slope),
+        "random sampling slope {slope}"
+    );
+
+    for plot in ["error_vs_spp.png", "error_vs_time.png"] {
+        let img = image::open(out.path().join(plot)).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (900, 600));
+        // Not blank: lines and labels put plenty of non-white pixels on the white page.
+        let ink = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+        assert!(ink > 5000, "{plot}: only {ink} non-white pixels");
+    }
+}
