@@ -1383,3 +1383,40 @@ fn paired_2d_draws_keep_their_stratification() {
         }
     }
 }
+
+/// Every sampler's points are uniformly distributed over the square when pooled over many
+/// pixels, whatever spp is: a χ² test of the pooled points on a 12×12 grid, for sample counts
+/// that fill Kensler's m×n grid and for ones that do not (500 = 22×23 − 6, 512 = 22×24 − 16).
+/// A stratified sampler that always leaves the same cells of its last row empty puts a
+/// quarter of the expected points in the top strip (6 instead of 21 at spp = 512) in every
+/// pixel: that is a bias, and this test rejects it (it did, before the fix).
+#[test]
+fn pooled_points_are_uniform_for_any_spp() {
+    const GRID: u32 = 12;
+    for kind in [
+        SamplerKind::Random,
+        SamplerKind::Stratified,
+        SamplerKind::Sobol,
+    ] {
+        for spp in [3u32, 7, 12, 50, 256, 500, 512] {
+            let pixels = (60_000 / spp).max(40);
+            let mut counts = vec![0f64; (GRID * GRID) as usize];
+            let mut total = 0.0;
+            for p in 0..pixels {
+                for slot in [0, 1] {
+                    let points = slot_points_2d(kind, spp, 3, (p, 11), slot);
+                    for (b, c) in box_counts(&points, GRID, GRID).unwrap().iter().enumerate() {
+                        counts[b] += *c as f64;
+                    }
+                    total += points.len() as f64;
+                }
+            }
+            let expected = vec![total / (GRID * GRID) as f64; counts.len()];
+            let outcome = chi2_test(&counts, &expected);
+            assert!(
+                !rejected(&outcome),
+                "{kind:?} spp {spp}: pooled points are not uniform: {outcome:?}"
+            );
+        }
+    }
+}

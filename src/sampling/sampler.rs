@@ -201,6 +201,12 @@ impl PixelSampler {
     /// grid is a permutation of its index; within the cell, the sub-column and sub-row come
     /// from permutations shared by each row and column, which gives the n-rooks property
     /// over spp = m·n columns and rows.
+    ///
+    /// When spp < m·n, the spp cells are drawn from all m·n by the (keyed) permutation of
+    /// the whole grid. Taking always the first spp cells, as a permutation of [0, spp) does,
+    /// leaves the same cells of the last row empty in every pixel: the top strip of the
+    /// square is then under-sampled (6 samples instead of 21 at spp = 512), a bias that more
+    /// samples do not remove. For spp = m·n both are the same permutation.
     #[inline]
     fn cmj_2d(&self, key: u64) -> Vec2 {
         let (m, n) = (self.grid_m, self.grid_n);
@@ -210,7 +216,7 @@ impl PixelSampler {
         }
         let k = key as u32;
         let k2 = (key >> 32) as u32;
-        let s = permute(self.index, self.spp, k);
+        let s = permute(self.index, m * n, k);
         let (col, row) = (s % m, s / m);
         let sub_x = permute(row, n, k2 ^ 0x68bc_21eb);
         let sub_y = permute(col, m, k2 ^ 0x02e5_be93);
