@@ -883,7 +883,9 @@ const PIXELS: [(u32, u32); 4] = [(0, 0), (3, 7), (1919, 1079), (65_535, 2)];
 const SEEDS: [u64; 3] = [0, 1, 0x5eed_cafe_f00d];
 /// Sample counts for the stratified sampler: rectangular Kensler grids (m·n = spp) and
 /// non-rectangular ones (5 → 2×3, 7 → 2×4, 10 → 3×4, 32 → 5×7, 50 → 7×8).
-const STRATIFIED_SPP: [u32; 17] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 16, 32, 50, 64, 100, 256];
+const STRATIFIED_SPP: [u32; 19] = [
+    1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 16, 32, 50, 64, 100, 128, 256, 512,
+];
 
 /// The 2D points of dimension slot `slot` (reached by `slot` earlier `next_2d` calls) of all
 /// `spp` samples of one pixel.
@@ -914,13 +916,19 @@ fn slot_values_1d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: 
         .collect()
 }
 
-/// Kensler's grid for `spp` samples: m = ⌊√spp⌋ columns, n = ⌈spp/m⌉ rows.
+/// The sampler's grid for `spp` samples ([`strata::sampling::cmj_grid`]), checked here to be
+/// a grid that holds spp samples: exact when spp has a factorisation of aspect at most 2,
+/// Kensler's ⌊√spp⌋ × ⌈spp/⌊√spp⌋⌉ otherwise.
 fn kensler_grid(spp: u32) -> (u32, u32) {
-    let mut m = 1;
-    while (m + 1) * (m + 1) <= spp {
-        m += 1;
+    let (m, n) = strata::sampling::cmj_grid(spp);
+    assert!(m * n >= spp && m <= n, "{spp}: grid {m}x{n}");
+    let kensler = (spp as f64).sqrt().floor() as u32;
+    if m != kensler {
+        assert!(m * n == spp && n <= 2 * m, "{spp}: grid {m}x{n}");
+    } else {
+        assert_eq!(n, spp.div_ceil(m), "{spp}: grid {m}x{n}");
     }
-    (m, spp.div_ceil(m))
+    (m, n)
 }
 
 /// Counts of points in each box of a `cols × rows` grid over [0, 1)². The box index is exact:

@@ -77,6 +77,24 @@ pub struct PixelSampler {
     slot: u32,
 }
 
+/// The m × n grid of the correlated multi-jittered pattern for `spp` samples.
+///
+/// An exact factorisation spp = m·n with m ≤ n ≤ 2m when there is one (512 = 16 × 32,
+/// 500 = 20 × 25), so every cell holds a sample. Otherwise Kensler's (2013) grid for a
+/// square pixel, m = ⌊√spp⌋ and n = ⌈spp/m⌉, with m·n − spp cells left empty at random:
+/// the empty cells cost stratification (measured on a disk-indicator integrand, 512 samples
+/// in Kensler's 22 × 24 grid gave 1.5× the RMSE of 484 in 22 × 22), so they are the
+/// fallback, for sample counts such as primes.
+pub fn cmj_grid(spp: u32) -> (u32, u32) {
+    let spp = spp.max(1);
+    let root = ((spp as f64).sqrt().floor() as u32).max(1);
+    let low = ((spp as f64 / 2.0).sqrt().ceil() as u32).max(1);
+    if let Some(m) = (low..=root).rev().find(|m| spp % m == 0) {
+        return (m, spp / m);
+    }
+    (root, spp.div_ceil(root))
+}
+
 /// Dimension-slot keys kept per pixel: enough for path tracing to depth 7.
 const CACHED_SLOTS: usize = 16;
 
@@ -84,9 +102,7 @@ impl PixelSampler {
     /// A sampler for `spp` samples per pixel.
     pub fn new(kind: SamplerKind, spp: u32, seed: u64) -> PixelSampler {
         let spp = spp.max(1);
-        // Kensler's grid for a square pixel: m = ⌊√N⌋ columns, n = ⌈N/m⌉ rows.
-        let m = ((spp as f64).sqrt().floor() as u32).max(1);
-        let n = spp.div_ceil(m);
+        let (m, n) = cmj_grid(spp);
         PixelSampler {
             kind,
             seed,
