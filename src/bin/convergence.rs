@@ -77,6 +77,10 @@ struct Cli {
     /// The render binary [default: `render` next to this program].
     #[arg(long, value_name = "PATH")]
     render: Option<PathBuf>,
+
+    /// Redraw the plots from `convergence.csv` in `--out` without rendering.
+    #[arg(long)]
+    replot: bool,
 }
 
 /// One configuration to climb the ladder with.
@@ -332,6 +336,7 @@ fn plot(
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
@@ -345,8 +350,82 @@ fn plot(
         .with_context(|| format!("{}: cannot write the plot", path.display()))
 }
 
+/// Redraws both plots from a CSV this tool wrote.
+fn replot(out: &Path) -> Result<()> {
+    let path = out.join("convergence.csv");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let col = |name: &str| {
+        head.iter()
+            .position(|c| *c == name)
+            .ok_or_else(|| anyhow!("{}: no column {name}", path.display()))
+    };
+    let (c_name, c_s, c_h, c_st) = (
+        col("reference")?,
+        col("sampler")?,
+        col("hemisphere")?,
+        col("strategy")?,
+    );
+    let (c_spp, c_sec, c_rmse, c_var) = (
+        col("spp")?,
+        col("seconds")?,
+        col("rmse")?,
+        col("reference_variance")?,
+    );
+    let mut by_spp: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let mut by_time: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let (mut name, mut floor) = (String::new(), 0.0f64);
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |c: usize| -> Result<f64> {
+            f.get(c)
+                .and_then(|v| v.parse().ok())
+                .ok_or_else(|| anyhow!("{}: bad row {line}", path.display()))
+        };
+        let config = Config {
+            sampler: f[c_s].to_string(),
+            hemisphere: Some(f[c_h]).filter(|v| !v.is_empty()).map(str::to_string),
+            strategy: Some(f[c_st]).filter(|v| !v.is_empty()).map(str::to_string),
+        };
+        let label = config.label();
+        if by_spp.last().is_none_or(|(l, _)| *l != label) {
+            by_spp.push((label.clone(), Vec::new()));
+            by_time.push((label, Vec::new()));
+        }
+        let (rmse, var) = (num(c_rmse)?, num(c_var)?);
+        by_spp.last_mut().unwrap().1.push((num(c_spp)?, rmse));
+        by_time
+            .last_mut()
+            .unwrap()
+            .1
+            .push((num(c_sec)?.max(1e-4), rmse));
+        name = f[c_name].to_string();
+        floor = var.sqrt();
+    }
+    plot(
+        &out.join("error_vs_spp.png"),
+        &format!("{name}: error against samples per pixel"),
+        "samples per pixel",
+        &by_spp,
+        floor,
+    )?;
+    plot(
+        &out.join("error_vs_time.png"),
+        &format!("{name}: error against render time"),
+        "render seconds",
+        &by_time,
+        floor,
+    )
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
+    if cli.replot {
+        register_font()?;
+        return replot(&cli.out);
+    }
     if cli.max_spp == 0 || cli.seeds == 0 {
         bail!("--max-spp and --seeds must be at least 1");
     }
