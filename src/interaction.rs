@@ -1,8 +1,9 @@
 //! Surface points and the one way secondary rays leave them.
 //!
-//! The hit point is rebuilt from the triangle's vertices and barycentrics, together with a
-//! conservative bound on its floating-point error (pbrt-v4 §6.8.5: barycentric interpolation
-//! is exact to γ₇·Σ|bᵢ·pᵢ|). [`SurfaceInteraction::spawn_ray`] moves the origin along the
+//! The hit point is rebuilt from the triangle's vertices and barycentrics as
+//! p₀ + b₁·(p₁ − p₀) + b₂·(p₂ − p₀), together with a conservative bound on its floating-point
+//! error (γ₂·|p| + γ₄·(|b₁·(p₁ − p₀)| + |b₂·(p₂ − p₀)|); pbrt-v4 §6.8.5 interpolates
+//! Σbᵢ·pᵢ, exact only to γ₇·Σ|bᵢ·pᵢ|). [`SurfaceInteraction::spawn_ray`] moves the origin along the
 //! geometric normal just past that error bound, on the side the new ray leaves, and rounds
 //! away from the surface (pbrt-v4 §6.8.6 `OffsetRayOrigin`). No epsilon in scene units: the
 //! offset scales with the coordinates' magnitude, so a scene 10⁵ units from the origin shows
@@ -47,19 +48,28 @@ impl SurfaceInteraction {
     pub fn from_hit(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let [p0, p1, p2] = scene.triangle_positions(hit.prim);
         let (b1, b2) = (hit.u, hit.v);
-        let b0 = 1.0 - b1 - b2;
-        let p = b0 * p0 + b1 * p1 + b2 * p2;
-        // pbrt's bound covers the error of p itself. Embree's ray–triangle test computes t from
-        // vertex-minus-origin differences, whose rounding grows with the triangle's extent
-        // around p: a second, isotropic term keeps the spawned origin beyond that error too
-        // (without it a ray leaving a large triangle can report a hit on it at t ≈ 0).
+        // p = p0 + b1·(p1 − p0) + b2·(p2 − p0): the edge terms are small next to p0 when the
+        // triangle is far from the origin, so p is within about half an ulp of |p| of the
+        // exact point (the pbrt form b0·p0 + b1·p1 + b2·p2 rounds three terms of size |p|:
+        // up to γ₇·|p|, several ulps). A floor point a hair right of a wall standing at a
+        // representable x then never rounds to the wall's left (tests/stress_numerics.rs:
+        // the light leak at a wall's foot 10³–10⁵ units from the origin).
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let (d1, d2) = (b1 * e1, b2 * e2);
+        let p = p0 + (d1 + d2);
+        // Its error: the final sum's rounding, γ₁·|p| (γ₂ for margin), and the edge terms'
+        // (subtraction, product, sum: γ₃, γ₄ for margin). Embree's ray–triangle test computes
+        // t from vertex-minus-origin differences, whose rounding grows with the triangle's
+        // extent around p: a second, isotropic term keeps the spawned origin beyond that
+        // error too (without it a ray leaving a large triangle can report a hit on it at
+        // t ≈ 0).
         let extent = (p0 - p)
             .abs()
             .max((p1 - p).abs())
             .max((p2 - p).abs())
             .max_element();
-        let p_error = gamma(7) * ((b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs())
-            + Vec3::splat(gamma(7) * extent);
+        let p_error =
+            gamma(2) * p.abs() + gamma(4) * (d1.abs() + d2.abs()) + Vec3::splat(gamma(7) * extent);
         let front_face = hit.ng.dot(ray.dir) < 0.0;
         let ng = if front_face { hit.ng } else { -hit.ng };
         // Two-sided shading: the shading normal faces the side the ray arrives from. Where
@@ -88,7 +98,21 @@ impl SurfaceInteraction {
     /// surface, if it has one): `dir` spans the whole segment, `t_max` stops just short.
     #[inline]
     pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
-        let org = offset_ray_origin(self.p, self.p_error, self.ng, target - self.p);
+        self.spawn_ray_to_with(target, true)
+    }
+
+    /// A ray leaving the surface in direction `dir`, reaching up to `t_max`.
+    #[inline]
+    pub fn spawn_ray(&self, dir: Vec3, t_max: f32) -> Ray {
+        self.spawn_ray_with(dir, t_max, true)
+    }
+
+    /// [`Self::spawn_ray_to`], or with `ray_offset = false` the same ray from the hit point
+    /// itself (no error-bound offset): a deliberately wrong mode that shows self-intersection
+    /// ("acne"), kept so tests can prove they detect it (see `integrators::Context::ray_offset`).
+    #[inline]
+    pub fn spawn_ray_to_with(&self, target: Vec3, ray_offset: bool) -> Ray {
+        let org = self.origin(target - self.p, ray_offset);
         Ray {
             org,
             dir: target - org,
@@ -97,14 +121,26 @@ impl SurfaceInteraction {
         }
     }
 
-    /// A ray leaving the surface in direction `dir`, reaching up to `t_max`.
+    /// [`Self::spawn_ray`], or with `ray_offset = false` from the hit point itself (see
+    /// [`Self::spawn_ray_to_with`]).
     #[inline]
-    pub fn spawn_ray(&self, dir: Vec3, t_max: f32) -> Ray {
+    pub fn spawn_ray_with(&self, dir: Vec3, t_max: f32, ray_offset: bool) -> Ray {
         Ray {
-            org: offset_ray_origin(self.p, self.p_error, self.ng, dir),
+            org: self.origin(dir, ray_offset),
             dir,
             t_min: 0.0,
             t_max,
+        }
+    }
+
+    /// The origin of a ray leaving toward `w`: past the error bound, or `p` itself when
+    /// `ray_offset` is false (one predictable branch; the default path always takes the first).
+    #[inline(always)]
+    fn origin(&self, w: Vec3, ray_offset: bool) -> Vec3 {
+        if ray_offset {
+            offset_ray_origin(self.p, self.p_error, self.ng, w)
+        } else {
+            self.p
         }
     }
 }

@@ -67,7 +67,7 @@ impl EmbreeAccel {
             prim: h.prim_id,
             u: h.u,
             v: h.v,
-            ng: Vec3::from_array(h.ng).normalize_or_zero(),
+            ng: super::unit_normal(Vec3::from_array(h.ng)),
         })
     }
 

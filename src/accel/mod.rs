@@ -63,6 +63,15 @@ pub struct Hit {
     pub ng: Vec3,
 }
 
+/// `n / |n|`, or zero for a zero (or non-finite) `n`. Scaled by its largest component first:
+/// |n|² overflows f32 for a cross product above 1.8e19 (triangles with edges of ~4e9 units)
+/// and flushes to zero below 1.1e-19 under FTZ/DAZ (edges of ~3e-10), and
+/// `normalize_or_zero` then returns zero.
+#[inline]
+pub(crate) fn unit_normal(n: Vec3) -> Vec3 {
+    (n / n.abs().max_element()).normalize_or_zero()
+}
+
 /// Which BVH library traces the rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {

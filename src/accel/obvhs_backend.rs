@@ -103,7 +103,7 @@ impl ObvhsAccel {
         let mut exact = r;
         exact.tmax = hit.t;
         let (t, u, v) = intersect_triangle(tri, &exact).unwrap_or((hit.t, 0.0, 0.0));
-        let ng = Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0)).normalize_or_zero();
+        let ng = super::unit_normal(Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0)));
         Some(Hit {
             t,
             prim: self.ids[slot],

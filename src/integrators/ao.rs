@@ -20,12 +20,11 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::accel::{Accel, Ray};
-use crate::integrators::RayCounts;
+use crate::accel::Ray;
+use crate::integrators::{Context, RayCounts};
 use crate::interaction::SurfaceInteraction;
 use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
 use crate::sampling::{Onb, PixelSampler};
-use crate::scene::Scene;
 
 /// How AO directions are sampled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -84,13 +83,13 @@ impl Default for AoSettings {
 /// One AO estimate along the camera ray.
 #[inline]
 pub fn li(
-    scene: &Scene,
-    accel: &Accel,
+    ctx: &Context,
     ray: &Ray,
     sampler: &mut PixelSampler,
     settings: &AoSettings,
     rays: &mut RayCounts,
 ) -> f32 {
+    let (scene, accel) = (ctx.scene, ctx.accel);
     rays.camera += 1;
     let Some(hit) = accel.intersect(ray) else {
         return 0.0;
@@ -112,12 +111,15 @@ pub fn li(
             Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
         };
         let wi = onb.to_world(local);
-        // A direction below the geometric surface enters the object: occluded.
-        if wi.dot(si.ng) <= 0.0 || weight == 0.0 {
+        // A direction below the geometric surface enters the object: occluded. One exactly in
+        // the tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim)
+        // is traced: the offset origin lies above the surface, so on an open plane it escapes,
+        // as every other sample does.
+        if wi.dot(si.ng) < 0.0 || weight == 0.0 {
             continue;
         }
         rays.shadow += 1;
-        if !accel.occluded(&si.spawn_ray(wi, settings.max_distance)) {
+        if !accel.occluded(&si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset)) {
             sum += weight;
         }
     }

@@ -27,6 +27,10 @@ pub struct Context<'a> {
     pub accel: &'a Accel,
     pub materials: &'a Materials,
     pub lights: &'a LightSet,
+    /// Secondary rays leave surfaces past the hit point's error bound (true, the default and
+    /// the only correct setting). False spawns them from the hit point itself: a negative
+    /// control for tests/stress_numerics.rs, which must then see self-intersection (acne).
+    pub ray_offset: bool,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -62,6 +66,7 @@ impl Prepared {
             accel,
             materials: &self.materials,
             lights: &self.lights,
+            ray_offset: true,
         }
     }
 }
@@ -160,9 +165,7 @@ impl Integrator {
         rays: &mut RayCounts,
     ) -> Vec3 {
         match self {
-            Integrator::Ao(settings) => {
-                Vec3::splat(ao::li(ctx.scene, ctx.accel, ray, sampler, settings, rays))
-            }
+            Integrator::Ao(settings) => Vec3::splat(ao::li(ctx, ray, sampler, settings, rays)),
             Integrator::Direct(settings) | Integrator::Path(settings) => {
                 if ctx.lights.is_empty() {
                     // Nothing emits: the image is black; skip the work.

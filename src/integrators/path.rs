@@ -163,9 +163,9 @@ pub fn li(
                     power_heuristic(pdf_light, bsdf.pdf(ls.wi))
                 };
                 let shadow = if ls.infinite {
-                    si.spawn_ray(ls.wi, f32::INFINITY)
+                    si.spawn_ray_with(ls.wi, f32::INFINITY, ctx.ray_offset)
                 } else {
-                    si.spawn_ray_to(ls.p_light)
+                    si.spawn_ray_to_with(ls.p_light, ctx.ray_offset)
                 };
                 rays.shadow += 1;
                 if !ctx.accel.occluded(&shadow) {
@@ -197,7 +197,7 @@ pub fn li(
             beta /= q;
         }
         prev = Some((pdf, si.p));
-        ray = si.spawn_ray(wi, f32::INFINITY);
+        ray = si.spawn_ray_with(wi, f32::INFINITY, ctx.ray_offset);
         rays.extension += 1;
     }
     l
