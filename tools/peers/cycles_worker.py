@@ -1,0 +1,240 @@
+"""Blender/Cycles side of tools/peers/run_peers.py: run as
+
+    blender -b --factory-startup -P tools/peers/cycles_worker.py -- SCENE.gltf MODE WxH BOUNCES THREADS
+
+MODE is 'ao' or 'shaded'; BOUNCES is Cycles' max_bounces. The scene is imported and set up
+once (strata's contract, see below); then the worker reads one request per stdin line,
+"SPP SEED OUT.exr", renders, writes a linear float32 EXR and answers with one line
+"PEER_JSON {...}" holding the wall-clock and CPU seconds of the render call alone.
+
+Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
+- every material becomes a Lambertian Diffuse BSDF (roughness 0) with the glTF base colour
+  factor, plus, for emissive materials, an Emission of emissiveFactor x emissive strength
+  that is zeroed on back faces (Geometry > Backfacing) unless the material is doubleSided:
+  Cycles' mesh emission is two-sided, glTF's (and strata's) is front-face only;
+- camera: the imported glTF camera with the vertical field of view forced (sensor fit
+  VERTICAL, angle_y = yfov), the requested resolution at 100 %;
+- box pixel filter of width 1 (a sample counts in its own pixel), no adaptive sampling,
+  no denoising, no clamping, light threshold 0, no motion blur, CPU, fixed thread count;
+- the scene is scaled uniformly to a unit bounding box (largest |coordinate| 1): Cycles 3.4
+  samples triangle lights imprecisely at large coordinates (cornell-box is in millimetres:
+  direct light on surfaces near its ceiling light came out 2-5 % dark, 0.7 % over the image;
+  BSDF sampling alone agreed within its noise, the scene scaled by 1e-3 to 0.01 %). Radiance
+  is invariant under a uniform scale while there are no punctual lights (refused here);
+- 'shaded': black world unless extras.strata.background; 'ao': every surface white
+  diffuse (rho = 1), no emission, a world of constant radiance 1 hidden from camera rays,
+  so a pixel is (1/pi) * integral of V cos (the Mitsuba AO contract).
+"""
+import json
+import resource
+import sys
+import time
+
+import numpy
+
+numpy.bool = bool  # Blender 3.4's glTF importer still uses the removed numpy.bool alias
+
+import bpy  # noqa: E402
+from mathutils import Matrix  # noqa: E402
+
+
+def cpu_seconds():
+    r = resource.getrusage(resource.RUSAGE_SELF)  # all threads of this process
+    return r.ru_utime + r.ru_stime
+
+
+def diffuse_material(name, rgb, emission=None, double_sided=False):
+    """Diffuse(rgb) [+ Emission(emission), front face only unless double_sided]."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    dif = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    dif.inputs["Color"].default_value = (*rgb, 1.0)
+    dif.inputs["Roughness"].default_value = 0.0  # Lambert, not Oren-Nayar
+    shader = dif.outputs["BSDF"]
+    if emission is not None:
+        em = nt.nodes.new("ShaderNodeEmission")
+        em.inputs["Color"].default_value = (*emission, 1.0)
+        em.inputs["Strength"].default_value = 1.0
+        if not double_sided:
+            # strength = 1 - backfacing: the back face emits nothing
+            geo = nt.nodes.new("ShaderNodeNewGeometry")
+            inv = nt.nodes.new("ShaderNodeMath")
+            inv.operation = "SUBTRACT"
+            inv.inputs[0].default_value = 1.0
+            nt.links.new(geo.outputs["Backfacing"], inv.inputs[1])
+            nt.links.new(inv.outputs["Value"], em.inputs["Strength"])
+        add = nt.nodes.new("ShaderNodeAddShader")
+        nt.links.new(shader, add.inputs[0])
+        nt.links.new(em.outputs["Emission"], add.inputs[1])
+        shader = add.outputs["Shader"]
+    nt.links.new(shader, out.inputs["Surface"])
+    return m
+
+
+def gltf_materials(doc, mode):
+    """glTF material name -> our Blender material."""
+    out = {}
+    for i, mat in enumerate(doc.get("materials", [])):
+        name = mat.get("name", f"material{i}")
+        pbr = mat.get("pbrMetallicRoughness", {})
+        if mode == "ao":
+            out[name] = diffuse_material("peer_white", (1.0, 1.0, 1.0))
+            continue
+        if "baseColorTexture" in pbr or "emissiveTexture" in mat:
+            sys.exit(f"cycles_worker: material '{name}': textures are not supported by this set-up")
+        rgb = tuple(pbr.get("baseColorFactor", [1, 1, 1, 1])[:3])
+        strength = mat.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+        e = [c * strength for c in mat.get("emissiveFactor", [0, 0, 0])]
+        out[name] = diffuse_material("peer_" + name, rgb, e if any(c > 0 for c in e) else None,
+                                     mat.get("doubleSided", False))
+    return out
+
+
+def normalise_scale(s):
+    """Bakes every mesh into world space scaled by k = 1 / (largest |world coordinate| of the
+    meshes and the camera), moves the camera by k, and returns k."""
+    obs = [o for o in s.objects if o.type in ("MESH", "CAMERA")]
+    world = {o.name: o.matrix_world.copy() for o in obs}
+    extent = 0.0
+    for o in obs:
+        extent = max(extent, *(abs(c) for c in world[o.name].translation))
+        if o.type == "MESH" and len(o.data.vertices):
+            co = numpy.empty(3 * len(o.data.vertices))
+            o.data.vertices.foreach_get("co", co)
+            m = numpy.array(world[o.name])
+            extent = max(extent, float(numpy.abs(co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]).max()))
+    k = 1.0 / extent if extent > 0 else 1.0
+    for o in obs:
+        o.parent = None
+        if o.type == "MESH":
+            o.data = o.data.copy()  # single user: a shared mesh must not be transformed twice
+            o.data.transform(Matrix.Scale(k, 4) @ world[o.name])
+            o.matrix_world = Matrix.Identity(4)
+        else:
+            loc, rot, _ = world[o.name].decompose()
+            o.matrix_world = Matrix.Translation(loc * k) @ rot.to_matrix().to_4x4()
+    return k
+
+
+def setup(scene_path, mode, width, height, bounces, threads):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
+    with open(scene_path) as f:
+        doc = json.load(f)
+    if doc.get("extensions", {}).get("KHR_lights_punctual") and mode != "ao":
+        sys.exit("cycles_worker: punctual lights are not set up here (only emissive meshes)")
+    s = bpy.context.scene
+
+    # materials: replace what the importer made (Principled) by ours, matched by name
+    ours = gltf_materials(doc, mode)
+    white = diffuse_material("peer_default", (1.0, 1.0, 1.0))  # glTF's default material
+    for ob in s.objects:
+        if ob.type != "MESH":
+            continue
+        if not ob.material_slots:
+            ob.data.materials.append(white)
+        for slot in ob.material_slots:
+            if slot.material is None:
+                slot.material = white
+            elif slot.material.name in ours:
+                slot.material = ours[slot.material.name]
+            elif not slot.material.name.startswith("peer_"):
+                sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
+
+    # camera: the first glTF camera; force the vertical fov (aspect from the resolution)
+    cams = [o for o in s.objects if o.type == "CAMERA"]
+    if not cams:
+        sys.exit("cycles_worker: the scene has no camera")
+    gcam = doc["cameras"][0]["perspective"]
+    s.camera = cams[0]
+    cams[0].data.sensor_fit = "VERTICAL"
+    cams[0].data.angle_y = gcam["yfov"]
+    k = normalise_scale(s)
+    cams[0].data.clip_start = gcam.get("znear", 0.01) * k
+    cams[0].data.clip_end = 1e9
+    if len(cams) > 1:
+        print("cycles_worker: several cameras; using", cams[0].name, file=sys.stderr)
+
+    # world
+    world = bpy.data.worlds.new("peer_world")
+    world.use_nodes = True
+    bg = world.node_tree.nodes["Background"]
+    if mode == "ao":
+        bg.inputs["Color"].default_value = (1, 1, 1, 1)
+        world.cycles_visibility.camera = False  # camera rays that miss give 0
+    else:
+        c = doc.get("extras", {}).get("strata", {}).get("background", [0, 0, 0])
+        bg.inputs["Color"].default_value = (*c, 1)
+    bg.inputs["Strength"].default_value = 1.0
+    s.world = world
+
+    # renderer
+    s.render.engine = "CYCLES"
+    cy = s.cycles
+    cy.device = "CPU"
+    cy.use_adaptive_sampling = False
+    cy.use_denoising = False
+    cy.use_preview_denoising = False
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.light_sampling_threshold = 0.0
+    cy.pixel_filter_type = "BOX"
+    cy.filter_width = 1.0
+    cy.max_bounces = bounces
+    cy.diffuse_bounces = bounces
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.blur_glossy = 0.0
+    cy.use_auto_tile = False
+    s.render.use_motion_blur = False
+    s.render.threads_mode = "FIXED"
+    s.render.threads = threads
+    s.render.use_persistent_data = True  # keep the synced scene and BVH between renders
+    s.render.resolution_x, s.render.resolution_y = width, height
+    s.render.resolution_percentage = 100
+    s.render.pixel_aspect_x = s.render.pixel_aspect_y = 1.0
+    s.render.film_transparent = False
+    s.view_settings.view_transform = "Standard"
+    s.view_settings.look = "None"
+    s.view_settings.exposure = 0.0
+    s.view_settings.gamma = 1.0
+    im = s.render.image_settings
+    im.file_format = "OPEN_EXR"
+    im.color_mode = "RGB"
+    im.color_depth = "32"
+    im.exr_codec = "ZIP"
+    s["peer_scale"] = k
+    return s
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:]
+    scene_path, mode, res, bounces, threads = argv[0], argv[1], argv[2], int(argv[3]), int(argv[4])
+    width, height = (int(v) for v in res.split("x"))
+    s = setup(scene_path, mode, width, height, bounces, threads)
+    s.cycles.samples = 1
+    t0 = time.perf_counter()
+    bpy.ops.render.render()  # warm-up: kernels, scene sync, BVH (kept: persistent data)
+    warmup = time.perf_counter() - t0
+    info = {"blender": bpy.app.version_string, "sampling_pattern": s.cycles.sampling_pattern,
+            "max_bounces": s.cycles.max_bounces, "threads": s.render.threads,
+            "scale": s["peer_scale"], "warmup_seconds": warmup}
+    print("PEER_JSON " + json.dumps({"ready": True, **info}), flush=True)
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        spp, seed, out = line.split(maxsplit=2)
+        s.cycles.samples = int(spp)
+        s.cycles.seed = int(seed)
+        s.update_tag()  # without it, persistent data keeps the previous render's sample count
+        c0, t0 = cpu_seconds(), time.perf_counter()
+        bpy.ops.render.render()
+        t1, c1 = time.perf_counter(), cpu_seconds()
+        bpy.data.images["Render Result"].save_render(filepath=out.strip(), scene=s)
+        print("PEER_JSON " + json.dumps({"seconds": t1 - t0, "cpu_seconds": c1 - c0}), flush=True)
+
+
+main()
