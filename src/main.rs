@@ -17,10 +17,10 @@ use strata::integrators::{
 };
 use strata::lights::TriangleSampling;
 use strata::render::output::{self, Attr};
-use strata::render::{self, RenderSettings};
+use strata::render::{self, Checkpoint, Film, RenderSettings, RenderStats};
 use strata::sampling::sampler::SOBOL_MAX_SPP;
 use strata::sampling::SamplerKind;
-use strata::scene::{self, Camera, LoadOptions};
+use strata::scene::{self, format_bytes, Camera, LoadOptions};
 
 /// Render a glTF 2.0 scene to a linear float32 EXR (and an sRGB PNG preview).
 #[derive(Parser, Debug)]
@@ -122,6 +122,18 @@ struct Cli {
     #[arg(long)]
     stats: bool,
 
+    /// Refuse a scene whose estimated memory (geometry, BVH and image, from the file's
+    /// declared counts, before loading) exceeds this: bytes, or with a suffix K, M, G, T
+    /// (powers of 1024), e.g. 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical
+    /// memory].
+    #[arg(long, value_name = "BYTES", value_parser = parse_memory)]
+    max_memory: Option<MemoryLimit>,
+
+    /// Write the running image (and the variance image) to the output path(s) at most every
+    /// SECONDS during the render, atomically, so a crash or kill loses at most that much.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    checkpoint: Option<f64>,
+
     /// Tile edge in pixels.
     #[arg(long, default_value_t = 16, hide = true)]
     tile_size: u32,
@@ -158,6 +170,70 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
+/// `--max-memory`: a number of bytes, or no limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct MemoryLimit(Option<u64>);
+
+fn parse_memory(s: &str) -> Result<MemoryLimit, String> {
+    let t = s.trim().to_ascii_lowercase();
+    if t == "unlimited" || t == "none" {
+        return Ok(MemoryLimit(None));
+    }
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, suffix) = t.split_at(split);
+    let unit: u64 = match suffix.trim() {
+        "" | "b" => 1,
+        "k" | "kb" | "kib" => 1 << 10,
+        "m" | "mb" | "mib" => 1 << 20,
+        "g" | "gb" | "gib" => 1 << 30,
+        "t" | "tb" | "tib" => 1 << 40,
+        _ => {
+            return Err(format!(
+                "'{s}': expected bytes with an optional suffix K, M, G or T (e.g. 512M, 4G), or 'unlimited'"
+            ))
+        }
+    };
+    let n: f64 = number
+        .parse()
+        .map_err(|_| format!("'{s}': expected a number of bytes, e.g. 512M, 4G, or 'unlimited'"))?;
+    let bytes = n * unit as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!(
+            "'{s}': must be at least 1 byte (or 'unlimited' for no limit)"
+        ));
+    }
+    Ok(MemoryLimit(Some(bytes as u64)))
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() && v < 1e9 => Ok(v),
+        _ => Err(format!("'{s}': expected a positive number of seconds")),
+    }
+}
+
+/// The default `--max-memory`: 3/4 of physical memory (`MemTotal` in /proc/meminfo, or the
+/// cgroup v2 `memory.max` of a container when that is lower).
+fn default_memory_limit() -> Result<u64, String> {
+    let text = std::fs::read_to_string("/proc/meminfo")
+        .map_err(|e| format!("cannot read /proc/meminfo: {e}"))?;
+    let kib = text
+        .lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().strip_suffix("kB"))
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .ok_or("no MemTotal line in /proc/meminfo")?;
+    let mut total = kib.saturating_mul(1024);
+    if let Ok(max) = std::fs::read_to_string("/sys/fs/cgroup/memory.max") {
+        if let Ok(m) = max.trim().parse::<u64>() {
+            total = total.min(m);
+        }
+    }
+    Ok(total / 4 * 3)
+}
+
 fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let (x, y) = s
         .split_once(',')
@@ -187,12 +263,16 @@ fn main() -> ExitCode {
 }
 
 /// Ctrl-C: the first stops the render after the tiles in flight and saves the image; the
-/// second exits at once.
-fn install_interrupt_handler() -> Arc<AtomicBool> {
+/// second exits at once, removing the temporary files of a write in progress (`temporaries`)
+/// so nothing half-written is left; a file already in place (a checkpoint) stays.
+fn install_interrupt_handler(temporaries: Vec<PathBuf>) -> Arc<AtomicBool> {
     let cancel = Arc::new(AtomicBool::new(false));
     let flag = cancel.clone();
     let installed = ctrlc::set_handler(move || {
         if flag.swap(true, Ordering::SeqCst) {
+            for t in &temporaries {
+                let _ = std::fs::remove_file(t);
+            }
             eprintln!("\ninterrupted twice: exiting without saving");
             std::process::exit(130);
         }
@@ -238,11 +318,35 @@ fn run(cli: Cli) -> Result<Outcome> {
         Some(d) if d > 0.0 => d,
         Some(d) => bail!("--ao-distance must be positive (got {d})"),
     };
-    let cancel = install_interrupt_handler();
+    let memory_limit = match cli.max_memory {
+        Some(MemoryLimit(limit)) => limit,
+        None => match default_memory_limit() {
+            Ok(limit) => Some(limit),
+            Err(e) => {
+                eprintln!("warning: {e}; no memory limit (set one with --max-memory)");
+                None
+            }
+        },
+    };
+    let mut temporaries = vec![
+        output::temp_path(&output),
+        output::temp_path(&output.with_extension("png")),
+    ];
+    temporaries.extend(cli.variance.as_deref().map(output::temp_path));
+    let cancel = install_interrupt_handler(temporaries);
 
     // Load.
     let t_load = Instant::now();
-    let scene = scene::load(&cli.scene, &LoadOptions::default())?;
+    // The film, plus the variance image (float32 RGB) when one is written.
+    let image_memory = |(w, h): (u32, u32)| {
+        let variance = if cli.variance.is_some() { 12 } else { 0 };
+        Film::memory_estimate(w, h) + w as u64 * h as u64 * variance
+    };
+    let load_options = LoadOptions {
+        memory_limit,
+        other_memory: cli.resolution.map_or(0, image_memory),
+    };
+    let scene = scene::load(&cli.scene, &load_options)?;
     let load_time = t_load.elapsed();
     for w in &scene.load_warnings {
         eprintln!("warning: {}: {w}", cli.scene.display());
@@ -265,6 +369,18 @@ fn run(cli: Cli) -> Result<Outcome> {
                 Some(a) => (640, ((640.0 / a).round() as u32).clamp(1, 65536)),
                 None => (640, 480),
             });
+    let scene_memory = scene.memory_estimate.bytes();
+    let memory_needed = scene_memory.saturating_add(image_memory((width, height)));
+    if let Some(limit) = memory_limit.filter(|&l| memory_needed > l) {
+        bail!(
+            "{}: rendering needs an estimated {} of memory (scene and BVH {}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
+            cli.scene.display(),
+            format_bytes(memory_needed),
+            format_bytes(scene_memory),
+            format_bytes(image_memory((width, height))),
+            format_bytes(limit)
+        );
+    }
     let camera = match chosen {
         Some(c) => c.clone(),
         None => {
@@ -354,12 +470,7 @@ fn run(cli: Cli) -> Result<Outcome> {
     } else {
         ProgressBar::hidden()
     };
-    let result = render::render(&ctx, &settings, &pool, &progress, &cancel);
-    progress.finish_and_clear();
-
-    // Write.
-    let t_write = Instant::now();
-    let (spp_min, spp_max) = result.film.count_range();
+    // The header attributes that do not change during the render.
     let mut attrs = vec![
         (
             "strata:scene".to_string(),
@@ -371,18 +482,8 @@ fn run(cli: Cli) -> Result<Outcome> {
         ),
         ("strata:sampler".into(), Attr::Text(cli.sampler.to_string())),
         ("strata:spp".into(), Attr::Int(cli.spp as i32)),
-        ("strata:spp_min".into(), Attr::Int(spp_min as i32)),
-        ("strata:spp_max".into(), Attr::Int(spp_max as i32)),
         ("strata:seed".into(), Attr::Text(cli.seed.to_string())),
         ("strata:backend".into(), Attr::Text(accel.describe())),
-        (
-            "strata:render_seconds".into(),
-            Attr::Float(result.stats.seconds as f32),
-        ),
-        (
-            "strata:interrupted".into(),
-            Attr::Int(result.interrupted as i32),
-        ),
     ];
     match integrator {
         Integrator::Ao(ao) => {
@@ -410,11 +511,57 @@ fn run(cli: Cli) -> Result<Outcome> {
             ));
         }
     }
-    output::write_exr(&output, &result.film, &attrs)?;
-    if let Some(v) = &cli.variance {
-        let film = &result.film;
-        output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
-    }
+    // Plus the ones that do: samples per pixel so far, time, and how the image ended.
+    let header = |film: &Film, seconds: f64, interrupted: bool, checkpoint: bool| {
+        let (spp_min, spp_max) = film.count_range();
+        let mut all = attrs.clone();
+        all.extend([
+            ("strata:spp_min".to_string(), Attr::Int(spp_min as i32)),
+            ("strata:spp_max".into(), Attr::Int(spp_max as i32)),
+            ("strata:render_seconds".into(), Attr::Float(seconds as f32)),
+            ("strata:interrupted".into(), Attr::Int(interrupted as i32)),
+            ("strata:checkpoint".into(), Attr::Int(checkpoint as i32)),
+        ]);
+        all
+    };
+    let write_images = |film: &Film, attrs: &[(String, Attr)]| -> Result<()> {
+        output::write_exr(&output, film, attrs)?;
+        if let Some(v) = &cli.variance {
+            output::write_rgb_exr(v, film.width, film.height, &film.variances(), attrs)?;
+        }
+        Ok(())
+    };
+
+    let mut checkpoints = 0u32;
+    let mut checkpoint_seconds = 0.0;
+    let mut save_checkpoint = |film: &Film, stats: &RenderStats| {
+        let t = Instant::now();
+        match write_images(film, &header(film, stats.seconds, false, true)) {
+            Ok(()) => checkpoints += 1,
+            Err(e) => eprintln!("warning: checkpoint not written: {e:#}"),
+        }
+        checkpoint_seconds += t.elapsed().as_secs_f64();
+    };
+    let checkpoint = cli.checkpoint.map(|secs| Checkpoint {
+        every: Duration::from_secs_f64(secs),
+        save: &mut save_checkpoint,
+    });
+    let result =
+        render::render_with_checkpoints(&ctx, &settings, &pool, &progress, &cancel, checkpoint);
+    progress.finish_and_clear();
+
+    // Write.
+    let t_write = Instant::now();
+    let (spp_min, spp_max) = result.film.count_range();
+    write_images(
+        &result.film,
+        &header(
+            &result.film,
+            result.stats.seconds,
+            result.interrupted,
+            false,
+        ),
+    )?;
     if !cli.no_png {
         output::write_png(&output.with_extension("png"), &result.film)?;
     }
@@ -482,6 +629,18 @@ fn run(cli: Cli) -> Result<Outcome> {
             stats.seconds,
             write_time.as_secs_f64()
         );
+        println!(
+            "memory estimate: {} (scene and BVH {}, image {}), limit {}",
+            format_bytes(memory_needed),
+            format_bytes(scene_memory),
+            format_bytes(image_memory((width, height))),
+            memory_limit.map_or("none".to_string(), format_bytes)
+        );
+        if cli.checkpoint.is_some() {
+            println!(
+                "checkpoints: {checkpoints} written, {checkpoint_seconds:.3} s (within the render time)"
+            );
+        }
         println!(
             "shading: {} textures decoded, {} emitters",
             prepared.materials.decoded_images(),

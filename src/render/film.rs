@@ -26,6 +26,17 @@ pub struct Film {
 }
 
 impl Film {
+    /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), the
+    /// per-pass tile sums collected before they are merged (48 bytes), and the float32 RGB
+    /// image made for output (12 bytes).
+    pub const BYTES_PER_PIXEL: u64 = 52 + 48 + 12;
+
+    /// The memory a `width` × `height` render needs for its image ([`Film::BYTES_PER_PIXEL`]
+    /// per pixel), for checks before anything is allocated.
+    pub fn memory_estimate(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * Self::BYTES_PER_PIXEL
+    }
+
     pub fn new(width: u32, height: u32) -> Film {
         let n = width as usize * height as usize;
         Film {

@@ -5,12 +5,16 @@
 //! Passes split the samples per pixel into ranges of doubling size ([`passes`]). Between
 //! passes (and before each tile) the render checks its cancel flag, so an interrupted render
 //! still holds a usable image, with the number of samples each pixel received.
+//!
+//! With a [`Checkpoint`], each pass renders its tiles in groups and hands the running film to
+//! a callback between groups, at most once per period. The groups are merged in tile order,
+//! and every pixel still receives its passes in order, so the image is the same bit for bit.
 
 pub mod film;
 pub mod output;
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use indicatif::ProgressBar;
@@ -169,6 +173,15 @@ fn render_tile(
     }
 }
 
+/// Periodic snapshots of a running render (`--checkpoint`).
+pub struct Checkpoint<'a> {
+    /// Least time between two calls of `save` (measured from the end of the previous one).
+    pub every: Duration,
+    /// Called on the render's thread between groups of tiles with the film so far and the
+    /// statistics so far (`seconds` set); the render continues when it returns.
+    pub save: &'a mut dyn FnMut(&Film, &RenderStats),
+}
+
 /// Renders the scene of `ctx` as `settings` say, on `pool`. The progress bar counts tile
 /// passes; `cancel` stops the render between tiles.
 pub fn render(
@@ -177,6 +190,19 @@ pub fn render(
     pool: &rayon::ThreadPool,
     progress: &ProgressBar,
     cancel: &AtomicBool,
+) -> RenderResult {
+    render_with_checkpoints(ctx, settings, pool, progress, cancel, None)
+}
+
+/// [`render`], handing the running film to `checkpoint` (if any) periodically. The image is
+/// the same, bit for bit, with or without checkpoints.
+pub fn render_with_checkpoints(
+    ctx: &Context,
+    settings: &RenderSettings,
+    pool: &rayon::ThreadPool,
+    progress: &ProgressBar,
+    cancel: &AtomicBool,
+    mut checkpoint: Option<Checkpoint>,
 ) -> RenderResult {
     let start = Instant::now();
     let window = settings.crop.map_or(
@@ -196,48 +222,68 @@ pub fn render(
     let mut film = Film::new(settings.width, settings.height);
     let mut stats = RenderStats::default();
     let mut interrupted = false;
+    // Without checkpoints a pass is one group of all tiles. With them, groups of at least
+    // four tiles per thread (so the barrier between groups costs little), at most 16 per pass.
+    let group = match checkpoint {
+        Some(_) => (pool.current_num_threads() * 4)
+            .max(tiles.len().div_ceil(16))
+            .max(1),
+        None => tiles.len().max(1),
+    };
+    let mut last_checkpoint = Instant::now();
 
-    for &pass in &passes {
-        if cancel.load(Ordering::Relaxed) {
-            interrupted = true;
-            break;
-        }
-        let results: Vec<Option<TileResult>> = pool.install(|| {
-            tiles
-                .par_iter()
-                .map(|&tile| {
-                    if cancel.load(Ordering::Relaxed) {
-                        return None;
-                    }
-                    let r = render_tile(ctx, settings, tile, pass);
-                    progress.inc(1);
-                    Some(r)
-                })
-                .collect()
-        });
-        // Merge in tile order: each pixel's sum grows pass by pass in sample order.
-        for (tile, result) in tiles.iter().zip(results) {
-            let Some(result) = result else {
+    'passes: for (pass_index, &pass) in passes.iter().enumerate() {
+        for (group_index, chunk) in tiles.chunks(group).enumerate() {
+            if cancel.load(Ordering::Relaxed) {
                 interrupted = true;
-                continue;
-            };
-            let mut sums = result.sums.into_iter();
-            for y in tile.y0..tile.y1 {
-                for x in tile.x0..tile.x1 {
-                    let (sum, sq) = sums.next().expect("one sum per tile pixel");
-                    film.add(x, y, sum, sq, pass.1 - pass.0);
+                break 'passes;
+            }
+            let results: Vec<Option<TileResult>> = pool.install(|| {
+                chunk
+                    .par_iter()
+                    .map(|&tile| {
+                        if cancel.load(Ordering::Relaxed) {
+                            return None;
+                        }
+                        let r = render_tile(ctx, settings, tile, pass);
+                        progress.inc(1);
+                        Some(r)
+                    })
+                    .collect()
+            });
+            // Merge in tile order: each pixel's sum grows pass by pass in sample order.
+            for (tile, result) in chunk.iter().zip(results) {
+                let Some(result) = result else {
+                    interrupted = true;
+                    continue;
+                };
+                let mut sums = result.sums.into_iter();
+                for y in tile.y0..tile.y1 {
+                    for x in tile.x0..tile.x1 {
+                        let (sum, sq) = sums.next().expect("one sum per tile pixel");
+                        film.add(x, y, sum, sq, pass.1 - pass.0);
+                    }
+                }
+                stats.rays.add(&result.rays);
+                stats.bad_samples += result.bad;
+                for b in result.first_bad {
+                    if stats.first_bad.len() < BAD_SAMPLES_KEPT {
+                        stats.first_bad.push(b);
+                    }
                 }
             }
-            stats.rays.add(&result.rays);
-            stats.bad_samples += result.bad;
-            for b in result.first_bad {
-                if stats.first_bad.len() < BAD_SAMPLES_KEPT {
-                    stats.first_bad.push(b);
+            if interrupted {
+                break 'passes;
+            }
+            let last_group =
+                pass_index + 1 == passes.len() && (group_index + 1) * group >= tiles.len();
+            if let Some(c) = checkpoint.as_mut() {
+                if !last_group && last_checkpoint.elapsed() >= c.every {
+                    stats.seconds = start.elapsed().as_secs_f64();
+                    (c.save)(&film, &stats);
+                    last_checkpoint = Instant::now();
                 }
             }
-        }
-        if interrupted {
-            break;
         }
     }
     stats.seconds = start.elapsed().as_secs_f64();

@@ -34,7 +34,7 @@ fn err(path: &Path, message: impl Into<String>) -> OutputError {
 }
 
 /// The temporary file an output is written to before it is renamed to `path`.
-fn temp_path(path: &Path) -> PathBuf {
+pub fn temp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -35,7 +35,61 @@ const MAX_NODE_DEPTH: usize = 256;
 
 /// Options for [`load`].
 #[derive(Clone, Debug, Default)]
-pub struct LoadOptions {}
+pub struct LoadOptions {
+    /// Refuse a scene whose estimated memory ([`MemoryEstimate::bytes`] plus `other_memory`)
+    /// exceeds this many bytes. Checked after the JSON is parsed and before any buffer is
+    /// read or any geometry is allocated. `None`: no limit.
+    pub memory_limit: Option<u64>,
+    /// Memory the caller will need besides the scene (e.g. the film), counted against
+    /// `memory_limit`.
+    pub other_memory: u64,
+}
+
+/// What loading a scene will allocate, estimated from the file's accessor counts and buffer
+/// lengths before anything is read. Every mesh instance counts (meshes are flattened).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// Vertices of the flattened scene (POSITION counts of triangle primitives).
+    pub vertices: u64,
+    /// Triangles of the flattened scene (index counts / 3, or − 2 for strips and fans).
+    pub triangles: u64,
+    /// The file itself and the buffers it declares, held while loading.
+    pub input_bytes: u64,
+}
+
+impl MemoryEstimate {
+    /// Per vertex: the scene's position, normal and UV (32 bytes) and the loader's decoded
+    /// copies of them while a primitive is converted (32 bytes).
+    pub const BYTES_PER_VERTEX: u64 = 64;
+    /// Per triangle: the scene's indices and material (16 bytes), the loader's index list and
+    /// assembled triangles (16 bytes), and the BVH: Embree keeps about 85 bytes per triangle
+    /// (BVH and its geometry buffers, BENCHMARKS.md "BVH memory per backend"), obvhs about 64;
+    /// 90 covers either.
+    pub const BYTES_PER_TRIANGLE: u64 = 32 + 90;
+
+    /// The estimate in bytes (saturating: absurd counts give `u64::MAX`, never wrap).
+    pub fn bytes(&self) -> u64 {
+        self.vertices
+            .saturating_mul(Self::BYTES_PER_VERTEX)
+            .saturating_add(self.triangles.saturating_mul(Self::BYTES_PER_TRIANGLE))
+            .saturating_add(self.input_bytes)
+    }
+}
+
+/// `bytes` for people: "1.5 GiB", "512.0 KiB", "100 bytes".
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    if bytes < 1024 {
+        return format!("{bytes} bytes");
+    }
+    let mut v = bytes as f64 / 1024.0;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    format!("{v:.1} {}", UNITS[unit])
+}
 
 /// A scene file that cannot be loaded, with the reason.
 #[derive(Debug, thiserror::Error)]
@@ -49,18 +103,48 @@ type Result<T> = std::result::Result<T, String>;
 
 /// Loads a `.gltf` or `.glb` file. Warnings (skipped primitives, repaired data) are stored in
 /// [`Scene::load_warnings`].
-pub fn load(path: &Path, _options: &LoadOptions) -> std::result::Result<Scene, LoadError> {
-    load_inner(path).map_err(|message| LoadError {
+pub fn load(path: &Path, options: &LoadOptions) -> std::result::Result<Scene, LoadError> {
+    let error = |message| LoadError {
+        path: path.to_path_buf(),
+        message,
+    };
+    let bytes = read_scene_file(path).map_err(error)?;
+    load_from_bytes(path, &bytes, options)
+}
+
+/// Loads a scene from `bytes`, the contents of a `.gltf` or `.glb` file, as if read from
+/// `path`: errors name `path`, and relative URIs resolve against its directory. (The fuzz
+/// target's entry point; [`load`] reads the file and calls this.)
+pub fn load_from_bytes(
+    path: &Path,
+    bytes: &[u8],
+    options: &LoadOptions,
+) -> std::result::Result<Scene, LoadError> {
+    load_inner(path, bytes, options).map_err(|message| LoadError {
         path: path.to_path_buf(),
         message,
     })
 }
 
-fn load_inner(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+fn read_scene_file(path: &Path) -> Result<Vec<u8>> {
+    let file = std::fs::File::open(path).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => "no such file".to_string(),
         _ => format!("cannot read the file: {e}"),
     })?;
+    // A FIFO or a device (/dev/zero) would block or never end.
+    match file.metadata() {
+        Ok(m) if m.is_file() => {}
+        Ok(m) if m.is_dir() => return Err("is a directory, not a glTF file".into()),
+        Ok(_) => return Err("not a regular file".into()),
+        Err(e) => return Err(format!("cannot read the file: {e}")),
+    }
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut &file, &mut bytes)
+        .map_err(|e| format!("cannot read the file: {e}"))?;
+    Ok(bytes)
+}
+
+fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene> {
     if bytes.is_empty() {
         return Err("the file is empty".into());
     }
@@ -69,7 +153,10 @@ fn load_inner(path: &Path) -> Result<Scene> {
     if !is_glb && first != Some(b'{') {
         return Err("not a glTF file (neither glTF JSON nor binary glTF with 'glTF' magic)".into());
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
+    if is_glb {
+        check_glb_header(bytes).map_err(|e| format!("invalid binary glTF: {e}"))?;
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
         format!(
             "invalid {}: {e}",
             if is_glb { "binary glTF" } else { "glTF" }
@@ -83,8 +170,54 @@ fn load_inner(path: &Path) -> Result<Scene> {
             ));
         }
     }
+    check_before_validation(gltf.document.as_json())?;
     // Validation checks every index reference in the document (accessors, views, nodes...).
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| format!("invalid glTF: {e}"))?;
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
+        gltf::Error::Validation(errors) => {
+            let shown: Vec<String> = errors
+                .iter()
+                .take(3)
+                .map(|(path, e)| format!("{path}: {}", e.to_string().to_lowercase()))
+                .collect();
+            let more = match errors.len() {
+                n if n > 3 => format!(" (and {} more)", n - 3),
+                _ => String::new(),
+            };
+            format!("invalid glTF: {}{more}", shown.join("; "))
+        }
+        e => format!("invalid glTF: {e}"),
+    })?;
+    let root_scene = gltf
+        .document
+        .default_scene()
+        .or_else(|| gltf.document.scenes().next())
+        .ok_or("the file has no scene to render")?;
+
+    // Before reading a buffer or allocating geometry: the node graph must be a forest, and
+    // what the scene would need must fit the memory limit.
+    let mut estimate = estimate_memory(&root_scene)?;
+    estimate.input_bytes = gltf.document.buffers().fold(bytes.len() as u64, |sum, b| {
+        sum.saturating_add(b.length() as u64)
+    });
+    if let Some(limit) = options.memory_limit {
+        let need = estimate.bytes().saturating_add(options.other_memory);
+        if need > limit {
+            return Err(format!(
+                "the scene needs an estimated {} of memory ({} vertices, {} triangles, {} of file and buffers{}), more than the limit of {} (--max-memory)",
+                format_bytes(need),
+                estimate.vertices,
+                estimate.triangles,
+                format_bytes(estimate.input_bytes),
+                if options.other_memory > 0 {
+                    format!(", {} for the image", format_bytes(options.other_memory))
+                } else {
+                    String::new()
+                },
+                format_bytes(limit)
+            ));
+        }
+    }
+
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir)?;
 
@@ -103,15 +236,10 @@ fn load_inner(path: &Path) -> Result<Scene> {
         loader.scene.materials.push(material);
     }
     for img in gltf.document.images() {
-        let source = loader.image(&img, &base_dir)?;
+        let source = loader.image(&gltf.document, img.index(), &base_dir)?;
         loader.scene.images.push(source);
     }
 
-    let root_scene = gltf
-        .document
-        .default_scene()
-        .or_else(|| gltf.document.scenes().next())
-        .ok_or("the file has no scene to render")?;
     for node in root_scene.nodes() {
         loader.visit(&node, DMat4::IDENTITY, &mut Vec::new())?;
     }
@@ -145,7 +273,138 @@ fn load_inner(path: &Path) -> Result<Scene> {
     }
     scene.update_summary();
     scene.load_warnings = warnings;
+    scene.memory_estimate = estimate;
     Ok(scene)
+}
+
+/// The 12-byte header of a binary glTF: version 2, and a total length the file really has
+/// (so a truncated file says so, rather than failing somewhere in a chunk).
+fn check_glb_header(bytes: &[u8]) -> Result<()> {
+    if bytes.len() < 12 {
+        return Err(format!(
+            "truncated: {} bytes, shorter than the 12-byte header",
+            bytes.len()
+        ));
+    }
+    let word = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+    let (version, length) = (word(4), word(8) as usize);
+    if version != 2 {
+        return Err(format!(
+            "version {version} (strata reads binary glTF version 2)"
+        ));
+    }
+    if length > bytes.len() {
+        return Err(format!(
+            "truncated: the header declares {length} bytes, the file has {}",
+            bytes.len()
+        ));
+    }
+    // The chunks (JSON, then optionally BIN) must lie inside the declared length.
+    let mut offset = 12;
+    let mut index = 0;
+    while offset < length {
+        if offset + 8 > length {
+            return Err(format!(
+                "truncated: chunk {index} at byte {offset} has no room for its 8-byte header (file length {length})"
+            ));
+        }
+        let chunk = word(offset) as usize;
+        let kind = String::from_utf8_lossy(&bytes[offset + 4..offset + 8]).into_owned();
+        if index == 0 && kind != "JSON" {
+            return Err(format!("the first chunk is {kind:?}, not \"JSON\""));
+        }
+        if chunk > length - offset - 8 {
+            return Err(format!(
+                "truncated: chunk {index} ({kind:?}) declares {chunk} bytes at byte {}, past the end of the file ({length} bytes)",
+                offset + 8
+            ));
+        }
+        offset += 8 + chunk;
+        index += 1;
+    }
+    if index == 0 {
+        return Err("no JSON chunk".into());
+    }
+    Ok(())
+}
+
+/// Checks that the `gltf` crate's validation assumes rather than checks (it would panic):
+/// a primitive's POSITION accessor index must exist.
+fn check_before_validation(root: &gltf::json::Root) -> Result<()> {
+    use gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive
+                .attributes
+                .get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(i) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(format!(
+                    "mesh {m} primitive {p}: POSITION refers to accessor {}, but the file has {} accessor(s)",
+                    i.value(),
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Walks the node graph of `scene` once: refuses cycles, nodes with more than one parent (glTF
+/// requires disjoint trees; shared subtrees would be flattened once per path, exponentially
+/// often) and hierarchies deeper than [`MAX_NODE_DEPTH`], and sums the vertex and triangle
+/// counts of every mesh instance from the accessors' declared counts.
+fn estimate_memory(scene: &gltf::Scene) -> Result<MemoryEstimate> {
+    fn walk(
+        node: &gltf::Node,
+        path: &mut Vec<usize>,
+        seen: &mut std::collections::HashSet<usize>,
+        est: &mut MemoryEstimate,
+    ) -> Result<()> {
+        let index = node.index();
+        if path.contains(&index) {
+            return Err(format!(
+                "node {index} is its own ancestor (the node graph has a cycle)"
+            ));
+        }
+        if !seen.insert(index) {
+            return Err(format!(
+                "node {index} has more than one parent or appears twice in the scene (glTF requires the node hierarchy to be disjoint trees)"
+            ));
+        }
+        if path.len() >= MAX_NODE_DEPTH {
+            return Err(format!(
+                "the node hierarchy is deeper than {MAX_NODE_DEPTH} levels"
+            ));
+        }
+        if let Some(mesh) = node.mesh() {
+            for primitive in mesh.primitives() {
+                let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                    continue;
+                };
+                let vertices = positions.count() as u64;
+                let indices = primitive.indices().map_or(vertices, |a| a.count() as u64);
+                let triangles = match primitive.mode() {
+                    Mode::Triangles => indices / 3,
+                    Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+                    _ => continue,
+                };
+                est.vertices = est.vertices.saturating_add(vertices);
+                est.triangles = est.triangles.saturating_add(triangles);
+            }
+        }
+        path.push(index);
+        for child in node.children() {
+            walk(&child, path, seen, est)?;
+        }
+        path.pop();
+        Ok(())
+    }
+    let mut est = MemoryEstimate::default();
+    let mut seen = std::collections::HashSet::new();
+    for node in scene.nodes() {
+        walk(&node, &mut Vec::new(), &mut seen, &mut est)?;
+    }
+    Ok(est)
 }
 
 fn load_buffers(
@@ -162,8 +421,12 @@ fn load_buffers(
                     format!("buffer {i} refers to the binary chunk, but the file has none")
                 })?
                 .to_vec(),
-            gltf::buffer::Source::Uri(uri) => {
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
                 read_uri(uri, base_dir).map_err(|e| format!("buffer {i}: {e}"))?
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let file = resolve_uri(uri, base_dir).map_err(|e| format!("buffer {i}: {e}"))?;
+                read_buffer_file(&file, buffer.length()).map_err(|e| format!("buffer {i}: {e}"))?
             }
         };
         if data.len() < buffer.length() {
@@ -190,6 +453,28 @@ fn read_uri(uri: &str, base_dir: &Path) -> Result<Vec<u8>> {
     }
     let file = resolve_uri(uri, base_dir)?;
     std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
+}
+
+/// Reads the first `len` bytes of a buffer file: only a regular file (a FIFO or a device such
+/// as /dev/zero would block or never end), and no more than the buffer declares.
+fn read_buffer_file(file: &Path, len: usize) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| format!("cannot read '{}': {e}", file.display());
+    let f = std::fs::File::open(file).map_err(cannot)?;
+    let meta = f.metadata().map_err(cannot)?;
+    if !meta.is_file() {
+        return Err(format!("'{}' is not a regular file", file.display()));
+    }
+    if meta.len() < len as u64 {
+        return Err(format!(
+            "'{}' holds {} bytes but the buffer declares byteLength {len}",
+            file.display(),
+            meta.len()
+        ));
+    }
+    let mut data = Vec::with_capacity(len);
+    f.take(len as u64).read_to_end(&mut data).map_err(cannot)?;
+    Ok(data)
 }
 
 fn resolve_uri(uri: &str, base_dir: &Path) -> Result<PathBuf> {
@@ -305,36 +590,48 @@ impl Loader<'_> {
         })
     }
 
-    fn image(&self, img: &gltf::Image, base_dir: &Path) -> Result<ImageSource> {
-        let i = img.index();
-        match img.source() {
-            gltf::image::Source::View { view, mime_type } => {
-                let bytes =
-                    view_bytes(self.buffers, &view).map_err(|e| format!("image {i}: {e}"))?;
-                Ok(ImageSource::Bytes {
-                    data: Arc::from(bytes),
-                    mime: Some(mime_type.to_string()),
-                })
-            }
-            gltf::image::Source::Uri { uri, mime_type } => {
-                if uri.starts_with("data:") {
-                    let data = read_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
-                    Ok(ImageSource::Bytes {
-                        data: Arc::from(data),
-                        mime: mime_type.map(str::to_string),
-                    })
-                } else {
-                    let file = resolve_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
-                    if !file.is_file() {
-                        return Err(format!(
-                            "image {i}: file '{}' does not exist",
-                            file.display()
-                        ));
-                    }
-                    Ok(ImageSource::File(file))
-                }
-            }
+    /// Where image `i`'s bytes are. Read from the JSON rather than through
+    /// `gltf::Image::source`, which panics on an image with neither `uri` nor `bufferView`, or
+    /// with a `bufferView` but no `mimeType` (found by fuzzing). A missing `mimeType` is
+    /// tolerated: the decoder recognises PNG and JPEG by their bytes.
+    fn image(&self, doc: &gltf::Document, i: usize, base_dir: &Path) -> Result<ImageSource> {
+        let json = &doc.as_json().images[i];
+        let mime = json.mime_type.as_ref().map(|m| m.0.clone());
+        if let Some(v) = &json.buffer_view {
+            let view = doc
+                .views()
+                .nth(v.value())
+                .ok_or_else(|| format!("image {i}: bufferView {} does not exist", v.value()))?;
+            let bytes = view_bytes(self.buffers, &view).map_err(|e| format!("image {i}: {e}"))?;
+            return Ok(ImageSource::Bytes {
+                data: Arc::from(bytes),
+                mime,
+            });
         }
+        let Some(uri) = json.uri.as_deref() else {
+            return Err(format!("image {i} has neither a uri nor a bufferView"));
+        };
+        if uri.starts_with("data:") {
+            let data = read_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+            return Ok(ImageSource::Bytes {
+                data: Arc::from(data),
+                mime,
+            });
+        }
+        let file = resolve_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+        if !file.exists() {
+            return Err(format!(
+                "image {i}: file '{}' does not exist",
+                file.display()
+            ));
+        }
+        if !file.is_file() {
+            return Err(format!(
+                "image {i}: '{}' is not a regular file",
+                file.display()
+            ));
+        }
+        Ok(ImageSource::File(file))
     }
 
     /// Visits `node` and its subtree; `path` holds the indices of the ancestors (cycle check).
@@ -355,6 +652,11 @@ impl Loader<'_> {
             return Err(format!("node {index} has a non-finite transform"));
         }
         let world = parent * local;
+        if !world.is_finite() {
+            return Err(format!(
+                "node {index}: its transform composed with its ancestors' is not finite"
+            ));
+        }
 
         if let Some(mesh) = node.mesh() {
             for primitive in mesh.primitives() {
@@ -403,10 +705,16 @@ impl Loader<'_> {
                 (Projection::Orthographic { ymag }, Some(xmag / ymag))
             }
         };
+        let to_world = world.as_mat4();
+        if !to_world.is_finite() {
+            return Err(format!(
+                "{label}: its world transform overflows single precision"
+            ));
+        }
         Ok(Camera {
             name: camera.name().map(str::to_string),
             projection,
-            to_world: world.as_mat4(),
+            to_world,
             aspect_ratio,
         })
     }
@@ -424,6 +732,12 @@ impl Loader<'_> {
             .transform_vector3(DVec3::NEG_Z)
             .normalize_or_zero()
             .as_vec3();
+        if !position.is_finite() {
+            return Err(format!(
+                "light {}: its world position overflows single precision",
+                light.index()
+            ));
+        }
         let range = light.range().filter(|r| *r > 0.0);
         let l = match light.kind() {
             gltf::khr_lights_punctual::Kind::Point => Light::Point {
@@ -477,6 +791,16 @@ impl Loader<'_> {
             "POSITION",
         )?;
         check_accessor(self.buffers, &pos_acc).map_err(|e| format!("{label} POSITION: {e}"))?;
+        // Before reading: a sparse accessor without a bufferView is bounded by no buffer.
+        let before = self.scene.positions.len() as u64;
+        if before.saturating_add(pos_acc.count() as u64) > u32::MAX as u64 {
+            return Err(format!(
+                "{label}: POSITION accessor {} has {} vertices, which with the {before} before it is more than strata's 32-bit vertex indices allow ({})",
+                pos_acc.index(),
+                pos_acc.count(),
+                u32::MAX
+            ));
+        }
         let normal_acc = primitive.get(&gltf::Semantic::Normals);
         if let Some(acc) = &normal_acc {
             expect_format(acc, Dimensions::Vec3, &[DataType::F32], label, "NORMAL")?;
@@ -502,6 +826,15 @@ impl Loader<'_> {
                 "indices",
             )?;
             check_accessor(self.buffers, &acc).map_err(|e| format!("{label} indices: {e}"))?;
+        }
+        for (what, acc) in [("NORMAL", &normal_acc), ("TEXCOORD_0", &uv_acc)] {
+            if let Some(acc) = acc.as_ref().filter(|a| a.count() != pos_acc.count()) {
+                return Err(format!(
+                    "{label}: the {what} accessor has {} elements, the POSITION accessor {}",
+                    acc.count(),
+                    pos_acc.count()
+                ));
+            }
         }
 
         let buffers = self.buffers;
@@ -763,24 +1096,29 @@ fn check_accessor(buffers: &[Vec<u8>], acc: &gltf::Accessor) -> Result<()> {
     }
     if let Some(sparse) = acc.sparse() {
         let sc = sparse.count();
+        if sc == 0 {
+            // glTF requires at least one; the gltf crate computes `count - 1` (found by
+            // fuzzing: an overflow panic in builds with overflow checks).
+            return Err(format!("accessor {}: sparse count is 0", acc.index()));
+        }
         let idx = sparse.indices();
-        let idx_bytes = view_bytes(buffers, &idx.view())?;
         let idx_size = match idx.index_type() {
             gltf::accessor::sparse::IndexType::U8 => 1,
             gltf::accessor::sparse::IndexType::U16 => 2,
             gltf::accessor::sparse::IndexType::U32 => 4,
         };
         let val = sparse.values();
-        let val_bytes = view_bytes(buffers, &val.view())?;
-        let idx_end = sc
-            .checked_mul(idx_size)
-            .and_then(|x| x.checked_add(idx.offset()));
-        let val_end = sc
-            .checked_mul(elem)
-            .and_then(|x| x.checked_add(val.offset()));
-        if idx_end.is_none_or(|e| e > idx_bytes.len())
-            || val_end.is_none_or(|e| e > val_bytes.len())
-        {
+        // The extent the gltf crate's reader will slice: offset + stride·(count − 1) + size.
+        let fits = |view: gltf::buffer::View, offset: usize, size: usize| -> Result<bool> {
+            let bytes = view_bytes(buffers, &view)?;
+            let stride = view.stride().unwrap_or(size).max(size);
+            let end = stride
+                .checked_mul(sc - 1)
+                .and_then(|x| x.checked_add(size))
+                .and_then(|x| x.checked_add(offset));
+            Ok(end.is_some_and(|e| e <= bytes.len()))
+        };
+        if !fits(idx.view(), idx.offset(), idx_size)? || !fits(val.view(), val.offset(), elem)? {
             return Err(format!(
                 "accessor {}: sparse data runs past its bufferView",
                 acc.index()
@@ -823,6 +1161,26 @@ mod tests {
             let [a, b, c] = t.map(|i| fan_pts[i as usize]);
             assert!((b - a).cross(c - a).z > 0.0);
         }
+    }
+
+    #[test]
+    fn memory_estimates_saturate_and_format() {
+        let huge = MemoryEstimate {
+            vertices: u64::MAX / 2,
+            triangles: u64::MAX / 2,
+            input_bytes: u64::MAX,
+        };
+        assert_eq!(huge.bytes(), u64::MAX);
+        let small = MemoryEstimate {
+            vertices: 8,
+            triangles: 4,
+            input_bytes: 1000,
+        };
+        assert_eq!(small.bytes(), 8 * 64 + 4 * 122 + 1000);
+        assert_eq!(format_bytes(100), "100 bytes");
+        assert_eq!(format_bytes(64 << 10), "64.0 KiB");
+        assert_eq!(format_bytes(3 << 29), "1.5 GiB");
+        assert_eq!(format_bytes(u64::MAX), "16.0 EiB");
     }
 
     #[test]

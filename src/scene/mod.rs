@@ -8,7 +8,9 @@ mod camera;
 mod gltf_loader;
 
 pub use camera::{Camera, Projection, RayGenerator};
-pub use gltf_loader::{load, percent_decode, LoadError, LoadOptions};
+pub use gltf_loader::{
+    format_bytes, load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
+};
 
 use glam::{Vec2, Vec3, Vec4};
 
@@ -143,6 +145,9 @@ pub struct Scene {
     pub summary: SceneSummary,
     /// What the loader skipped or repaired, one line each.
     pub load_warnings: Vec<String>,
+    /// The loader's estimate of the memory the scene needs (geometry and BVH), made from the
+    /// file's declared counts before loading.
+    pub memory_estimate: MemoryEstimate,
 }
 
 impl Scene {

@@ -1,0 +1,187 @@
+//! Helpers shared by the hostile-input tests (`bad_input.rs`, `losing_nothing.rs`): run the
+//! `render` binary, check its one-line errors, and build broken variants of a small scene.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+/// A finished run of the binary.
+pub struct Run {
+    pub status: ExitStatus,
+    pub stdout: String,
+    pub stderr: String,
+    pub elapsed: Duration,
+}
+
+pub fn repo_path(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+pub fn render_bin() -> &'static str {
+    env!("CARGO_BIN_EXE_render")
+}
+
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("test paths are UTF-8")
+}
+
+/// Runs `render` with `args` in `cwd`.
+pub fn render(cwd: &Path, args: &[&str]) -> Run {
+    run_command(Command::new(render_bin()).args(args), cwd)
+}
+
+/// Runs `render` with `args` in `cwd` through `sh -c '<shell_prefix>; exec render "$@"'`, e.g.
+/// with a `ulimit` in force.
+pub fn render_under_shell(cwd: &Path, shell_prefix: &str, args: &[&str]) -> Run {
+    let script = format!("{shell_prefix}; exec \"$0\" \"$@\"");
+    run_command(
+        Command::new("sh")
+            .arg("-c")
+            .arg(script)
+            .arg(render_bin())
+            .args(args),
+        cwd,
+    )
+}
+
+fn run_command(cmd: &mut Command, cwd: &Path) -> Run {
+    let t0 = Instant::now();
+    let out = cmd
+        .current_dir(cwd)
+        .stdin(Stdio::null())
+        .output()
+        .expect("cannot start the render binary");
+    Run {
+        status: out.status,
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        elapsed: t0.elapsed(),
+    }
+}
+
+/// The names in `dir`, hidden ones included, sorted.
+pub fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+pub fn assert_entries(dir: &Path, expected: &[&str]) {
+    let mut want: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
+    want.sort();
+    assert_eq!(
+        entries(dir),
+        want,
+        "unexpected contents of {} (an output or a leftover temporary file?)",
+        dir.display()
+    );
+}
+
+pub fn assert_no_panic(stderr: &str) {
+    assert!(
+        !stderr.contains("panicked"),
+        "the binary panicked:\n{stderr}"
+    );
+}
+
+/// Asserts that stderr is exactly one line, `error: ...`, mentioning every word of `words`
+/// (case-insensitively); returns that line.
+pub fn assert_one_error_line(stderr: &str, words: &[&str]) -> String {
+    assert_no_panic(stderr);
+    let text = stderr.strip_suffix('\n').unwrap_or(stderr);
+    assert!(
+        !text.is_empty() && !text.contains('\n'),
+        "stderr should be exactly one line, got:\n{stderr}"
+    );
+    assert!(
+        text.starts_with("error:"),
+        "stderr should start with 'error:', got:\n{stderr}"
+    );
+    let lower = text.to_lowercase();
+    for w in words {
+        assert!(
+            lower.contains(&w.to_lowercase()),
+            "stderr should mention {w:?}, got:\n{stderr}"
+        );
+    }
+    text.to_string()
+}
+
+/// ao-wall.gltf (two quads, one camera, one embedded 240-byte buffer) as JSON.
+pub fn ao_wall_json() -> Value {
+    serde_json::from_slice(&std::fs::read(repo_path("scenes/ao-wall.gltf")).unwrap()).unwrap()
+}
+
+/// The decoded bytes of ao-wall's embedded buffer.
+pub fn ao_wall_buffer() -> Vec<u8> {
+    use base64::Engine;
+    let doc = ao_wall_json();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+    let payload = uri.split_once(";base64,").unwrap().1;
+    base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .unwrap()
+}
+
+pub fn data_uri(bytes: &[u8]) -> String {
+    use base64::Engine;
+    format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+/// A binary glTF container: header, the JSON chunk (space-padded) and a BIN chunk
+/// (zero-padded). `doc`'s buffer 0 should have no `uri`.
+pub fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = serde_json::to_vec(doc).unwrap();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+/// ao-wall as a valid .glb.
+pub fn ao_wall_glb() -> Vec<u8> {
+    let mut doc = ao_wall_json();
+    let bin = ao_wall_buffer();
+    doc["buffers"][0] = serde_json::json!({ "byteLength": bin.len() });
+    glb(&doc, &bin)
+}
+
+/// Waits up to `limit` for `child` to exit; kills it and panics if it does not.
+pub fn wait_with_limit(child: &mut std::process::Child, limit: Duration, what: &str) -> ExitStatus {
+    let t0 = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}

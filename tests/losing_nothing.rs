@@ -1,0 +1,494 @@
+//! Losing nothing: interrupts, checkpoints and failed writes through the `render` binary.
+//!
+//! - A second Ctrl-C exits at once, without saving and without leaving a temporary file
+//!   (the first Ctrl-C saving the image is tests/cli.rs::interrupt_saves_the_image; the
+//!   header of that image is checked here).
+//! - `--checkpoint`: a valid image is at the output path while the render runs, replaced
+//!   atomically by later checkpoints and by the final image; checkpoints do not change the
+//!   image.
+//! - A write that fails (file size limit, full disk) leaves no partial file, keeps an older
+//!   file at the output path intact, and reports one clear error.
+
+mod common;
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::*;
+use exr::meta::attribute::AttributeValue;
+use strata::render::output::read_exr_rgb;
+
+/// The `strata:*` integer attributes of an EXR header.
+fn int_attrs(path: &Path) -> HashMap<String, i32> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .unwrap_or_else(|e| panic!("cannot read the header of {}: {e}", path.display()));
+    meta.headers[0]
+        .own_attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            AttributeValue::I32(i) => Some((k.to_string(), *i)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn attr(attrs: &HashMap<String, i32>, name: &str) -> i32 {
+    *attrs
+        .get(name)
+        .unwrap_or_else(|| panic!("no {name} in the EXR header: {attrs:?}"))
+}
+
+/// A render child whose stderr lines are collected by a thread as they arrive.
+struct Running {
+    child: Child,
+    stderr: Arc<Mutex<Vec<String>>>,
+}
+
+impl Running {
+    fn start(cwd: &Path, args: &[&str]) -> Running {
+        let mut child = Command::new(render_bin())
+            .args(args)
+            .current_dir(cwd)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("cannot start the render binary");
+        let pipe = child.stderr.take().unwrap();
+        let stderr = Arc::new(Mutex::new(Vec::new()));
+        let lines = stderr.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(pipe).lines() {
+                match line {
+                    Ok(l) => lines.lock().unwrap().push(l),
+                    Err(_) => break,
+                }
+            }
+        });
+        Running { child, stderr }
+    }
+
+    fn sigint(&self) {
+        let ok = Command::new("kill")
+            .args(["-INT", &self.child.id().to_string()])
+            .status()
+            .expect("cannot run kill")
+            .success();
+        assert!(ok, "kill -INT failed");
+    }
+
+    fn stderr_text(&self) -> String {
+        self.stderr.lock().unwrap().join("\n")
+    }
+
+    /// Waits until a line of stderr contains `needle`.
+    fn wait_for_stderr(&mut self, needle: &str, limit: Duration) {
+        let t0 = Instant::now();
+        while !self.stderr_text().contains(needle) {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                panic!(
+                    "the render exited ({status}) before printing {needle:?}:\n{}",
+                    self.stderr_text()
+                );
+            }
+            assert!(
+                t0.elapsed() < limit,
+                "no {needle:?} on stderr after {limit:?}:\n{}",
+                self.stderr_text()
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    fn is_running(&mut self) -> bool {
+        self.child.try_wait().unwrap().is_none()
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn ao_wall() -> std::path::PathBuf {
+    repo_path("scenes/ao-wall.gltf")
+}
+
+// ---------------------------------------------------------------------------------------
+// Ctrl-C.
+
+#[test]
+fn second_interrupt_exits_at_once_without_saving() {
+    // One 128x128 tile on one thread: the pass in flight when the first SIGINT arrives runs
+    // to its end (hundreds of milliseconds or more, pass sizes double), so the second SIGINT,
+    // sent as soon as the first is acknowledged, lands while the render is still finishing.
+    // Should the pass end within those few milliseconds anyway, the image is saved and the
+    // attempt is repeated (at most three times).
+    for attempt in 1..=3 {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("long.exr");
+        let wall = ao_wall();
+        let mut run = Running::start(
+            tmp.path(),
+            &[
+                s(&wall),
+                "-o",
+                s(&out),
+                "--spp",
+                "1000000",
+                "--resolution",
+                "128x128",
+                "--tile-size",
+                "128",
+                "--threads",
+                "1",
+                "--sampler",
+                "random",
+            ],
+        );
+        std::thread::sleep(Duration::from_millis(1500));
+        assert!(run.is_running(), "the render ended before the interrupt");
+        run.sigint();
+        run.wait_for_stderr("interrupted:", Duration::from_secs(10));
+        run.sigint();
+        let t0 = Instant::now();
+        let status = wait_with_limit(&mut run.child, Duration::from_secs(10), "second SIGINT");
+        let exit_time = t0.elapsed();
+        std::thread::sleep(Duration::from_millis(100)); // let the reader thread drain
+        let stderr = run.stderr_text();
+        assert_no_panic(&stderr);
+        assert_eq!(status.code(), Some(130), "{stderr}");
+        if !stderr.contains("interrupted twice") && stderr.contains("saved") {
+            eprintln!("attempt {attempt}: the pass ended before the second SIGINT; again");
+            continue;
+        }
+        assert!(stderr.contains("interrupted twice"), "{stderr}");
+        assert!(
+            exit_time < Duration::from_secs(2),
+            "exit took {exit_time:?} after the second SIGINT"
+        );
+        // Nothing written, nothing half-written.
+        assert_entries(tmp.path(), &[]);
+        return;
+    }
+    panic!("three attempts in a row finished their pass between two SIGINTs");
+}
+
+#[test]
+fn interrupted_image_records_its_samples_per_pixel() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("long.exr");
+    let wall = ao_wall();
+    let mut run = Running::start(
+        tmp.path(),
+        &[
+            s(&wall),
+            "-o",
+            s(&out),
+            "--spp",
+            "1000000",
+            "--resolution",
+            "64x64",
+            "--sampler",
+            "random",
+            "--no-png",
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(1000));
+    assert!(run.is_running());
+    run.sigint();
+    let status = wait_with_limit(&mut run.child, Duration::from_secs(60), "after SIGINT");
+    assert_eq!(status.code(), Some(130), "{}", run.stderr_text());
+    let a = int_attrs(&out);
+    let (lo, hi) = (attr(&a, "strata:spp_min"), attr(&a, "strata:spp_max"));
+    assert_eq!(attr(&a, "strata:interrupted"), 1);
+    assert_eq!(attr(&a, "strata:checkpoint"), 0);
+    assert_eq!(attr(&a, "strata:spp"), 1_000_000, "the requested spp");
+    assert!(1 <= lo && lo <= hi && hi < 1_000_000, "spp {lo}..{hi}");
+    // Passes double in size: a pixel has the samples of all finished passes, or those plus
+    // the interrupted pass, so the two counts are powers of two.
+    assert!((lo as u32).is_power_of_two() && (hi as u32).is_power_of_two());
+    let text = run.stderr_text();
+    assert!(
+        text.contains(&format!("({lo}-{hi} samples per pixel)")),
+        "{text}"
+    );
+    assert_entries(tmp.path(), &["long.exr"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// --checkpoint.
+
+#[test]
+fn checkpoints_leave_a_valid_image_during_the_render() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out.exr");
+    let var = tmp.path().join("var.exr");
+    let wall = ao_wall();
+    let mut run = Running::start(
+        tmp.path(),
+        &[
+            s(&wall),
+            "-o",
+            s(&out),
+            "--variance",
+            s(&var),
+            "--spp",
+            "1000000",
+            "--resolution",
+            "64x64",
+            "--sampler",
+            "random",
+            "--checkpoint",
+            "0.2",
+        ],
+    );
+    // Poll the output path: every read must find a whole image (written to a temporary name
+    // and renamed), and the samples per pixel must grow from checkpoint to checkpoint.
+    let t0 = Instant::now();
+    let mut seen: Vec<(i32, i32)> = Vec::new();
+    while seen.len() < 3 || seen.last().unwrap().0 <= seen[0].1 {
+        assert!(run.is_running(), "the render ended: {}", run.stderr_text());
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "checkpoints seen in 60 s: {seen:?}"
+        );
+        if out.exists() {
+            let (w, h, px) = read_exr_rgb(&out).expect("a checkpoint is a whole EXR");
+            assert_eq!((w, h), (64, 64));
+            assert!(px.iter().flatten().all(|v| v.is_finite()));
+            let a = int_attrs(&out);
+            assert_eq!(attr(&a, "strata:checkpoint"), 1);
+            assert_eq!(attr(&a, "strata:interrupted"), 0);
+            let spp = (attr(&a, "strata:spp_min"), attr(&a, "strata:spp_max"));
+            assert!(1 <= spp.0 && spp.0 <= spp.1 && spp.1 < 1_000_000, "{spp:?}");
+            if seen.last() != Some(&spp) {
+                assert!(
+                    seen.last().is_none_or(|last| spp.0 >= last.0),
+                    "the samples went down: {seen:?} then {spp:?}"
+                );
+                seen.push(spp);
+                // The variance image is checkpointed with it.
+                let (vw, vh, _) = read_exr_rgb(&var).expect("the variance checkpoint");
+                assert_eq!((vw, vh), (64, 64));
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Stop it: the final image replaces the last checkpoint.
+    run.sigint();
+    let status = wait_with_limit(&mut run.child, Duration::from_secs(60), "after SIGINT");
+    assert_eq!(status.code(), Some(130), "{}", run.stderr_text());
+    let a = int_attrs(&out);
+    assert_eq!(attr(&a, "strata:checkpoint"), 0);
+    assert_eq!(attr(&a, "strata:interrupted"), 1);
+    assert!(attr(&a, "strata:spp_min") >= seen.last().unwrap().0);
+    assert_no_panic(&run.stderr_text());
+    assert!(!run.stderr_text().contains("checkpoint not written"));
+    assert_entries(tmp.path(), &["out.exr", "out.png", "var.exr"]);
+    eprintln!("checkpoints seen (spp min, max): {seen:?}");
+}
+
+#[test]
+fn checkpoints_do_not_change_the_image() {
+    let tmp = tempfile::tempdir().unwrap();
+    let wall = ao_wall();
+    let render_to = |name: &str, extra: &[&str]| {
+        let out = tmp.path().join(name);
+        let mut args = vec![
+            s(&wall),
+            "-o",
+            s(&out),
+            "--resolution",
+            "48x40",
+            "--spp",
+            "256",
+            "--threads",
+            "2",
+            "--stats",
+            "--no-png",
+        ];
+        args.extend_from_slice(extra);
+        let run = render(tmp.path(), &args);
+        assert!(run.status.success(), "{}", run.stderr);
+        assert_no_panic(&run.stderr);
+        (read_exr_rgb(&out).unwrap().2, run.stdout)
+    };
+    let (plain, _) = render_to("plain.exr", &[]);
+    let (checked, stdout) = render_to("checked.exr", &["--checkpoint", "0.0001"]);
+    let written: u32 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("checkpoints: "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no checkpoint count in:\n{stdout}"));
+    assert!(written >= 2, "{stdout}");
+    let bits =
+        |px: &[[f32; 3]]| -> Vec<[u32; 3]> { px.iter().map(|p| p.map(f32::to_bits)).collect() };
+    assert_eq!(
+        bits(&plain),
+        bits(&checked),
+        "the checkpointed render differs"
+    );
+    let a = int_attrs(&tmp.path().join("checked.exr"));
+    assert_eq!(attr(&a, "strata:checkpoint"), 0);
+    assert_eq!(
+        (attr(&a, "strata:spp_min"), attr(&a, "strata:spp_max")),
+        (256, 256)
+    );
+    assert_entries(tmp.path(), &["checked.exr", "plain.exr"]);
+}
+
+#[test]
+fn checkpoint_values_are_checked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let wall = ao_wall();
+    let out = tmp.path().join("out.exr");
+    for bad in ["0", "-1", "soon", "inf", "NaN"] {
+        let option = format!("--checkpoint={bad}");
+        let run = render(tmp.path(), &[s(&wall), "-o", s(&out), &option]);
+        assert!(!run.status.success(), "--checkpoint {bad} accepted");
+        assert_no_panic(&run.stderr);
+        assert!(run.stderr.contains("--checkpoint"), "{}", run.stderr);
+    }
+    assert_entries(tmp.path(), &[]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Failed writes.
+
+/// Render arguments whose EXR (256x256 noisy float RGB, about 90 KB; the PNG 55 KB) cannot
+/// fit in the limits below.
+fn noisy_args<'a>(scene: &'a str, out: &'a str, spp: &'a str) -> Vec<&'a str> {
+    vec![
+        scene,
+        "-o",
+        out,
+        "--resolution",
+        "256x256",
+        "--spp",
+        spp,
+        "--sampler",
+        "random",
+    ]
+}
+
+const OLD: &[u8] = b"an older image that must survive a failed write";
+
+#[test]
+fn write_past_the_file_size_limit_leaves_no_partial_file() {
+    // `ulimit -f 20`: at most 10 KiB (dash counts 512-byte blocks, bash 1 KiB). The kernel
+    // then sends SIGXFSZ, which would kill the process; `trap '' XFSZ` ignores it, and an
+    // ignored signal stays ignored across exec, so the write fails with EFBIG instead.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out.exr");
+    std::fs::write(&out, OLD).unwrap();
+    let wall = ao_wall();
+    let run = render_under_shell(
+        tmp.path(),
+        "trap '' XFSZ; ulimit -f 20",
+        &noisy_args(s(&wall), s(&out), "2"),
+    );
+    assert_eq!(run.status.code(), Some(1), "{}", run.stderr);
+    let line = assert_one_error_line(
+        &run.stderr,
+        &[s(&out), "cannot write the EXR", "file too large"],
+    );
+    eprintln!("{line}");
+    assert_eq!(std::fs::read(&out).unwrap(), OLD, "the older file changed");
+    assert_entries(tmp.path(), &["out.exr"]);
+
+    // With checkpoints: each failed checkpoint is a warning (the render goes on), the final
+    // write is the error, and nothing partial is left either. Early checkpoints, with most
+    // pixels still black, compress below the limit and are written: such a file is a whole
+    // image, the last checkpoint that fitted.
+    std::fs::remove_file(&out).unwrap();
+    let mut args = noisy_args(s(&wall), s(&out), "64");
+    args.extend_from_slice(&["--checkpoint", "0.0001"]);
+    let run = render_under_shell(tmp.path(), "trap '' XFSZ; ulimit -f 20", &args);
+    assert_eq!(run.status.code(), Some(1), "{}", run.stderr);
+    assert_no_panic(&run.stderr);
+    let lines: Vec<&str> = run.stderr.lines().collect();
+    assert!(
+        lines.len() >= 2
+            && lines[..lines.len() - 1]
+                .iter()
+                .all(|l| l.starts_with("warning: checkpoint not written")),
+        "{}",
+        run.stderr
+    );
+    assert!(
+        lines.last().unwrap().starts_with("error:"),
+        "{}",
+        run.stderr
+    );
+    if out.exists() {
+        let (w, h, _) = read_exr_rgb(&out).expect("a checkpoint left behind is a whole EXR");
+        assert_eq!((w, h), (256, 256));
+        assert_eq!(attr(&int_attrs(&out), "strata:checkpoint"), 1);
+        assert_entries(tmp.path(), &["out.exr"]);
+    } else {
+        assert_entries(tmp.path(), &[]);
+    }
+}
+
+/// A tmpfs mounted for the test, unmounted on drop.
+struct Tmpfs {
+    dir: tempfile::TempDir,
+}
+
+impl Tmpfs {
+    fn mount(size: &str) -> Result<Tmpfs, String> {
+        let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+        let out = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(dir.path())
+            .output()
+            .map_err(|e| format!("cannot run mount: {e}"))?;
+        if !out.status.success() {
+            return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
+        }
+        Ok(Tmpfs { dir })
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(self.dir.path()).status();
+    }
+}
+
+#[test]
+fn write_to_a_full_disk_leaves_no_partial_file() {
+    let fs = match Tmpfs::mount("64k") {
+        Ok(fs) => fs,
+        Err(e) => {
+            if std::env::var_os("STRATA_REQUIRE_TMPFS").is_some() {
+                panic!("cannot mount a tmpfs ({e}) and STRATA_REQUIRE_TMPFS is set");
+            }
+            eprintln!(
+                "\n*** SKIPPED: write_to_a_full_disk_leaves_no_partial_file: cannot mount a tmpfs ({e}); needs root ***\n"
+            );
+            return;
+        }
+    };
+    let out = fs.dir.path().join("out.exr");
+    std::fs::write(&out, OLD).unwrap();
+    let wall = ao_wall();
+    let run = render(fs.dir.path(), &noisy_args(s(&wall), s(&out), "2"));
+    assert_eq!(run.status.code(), Some(1), "{}", run.stderr);
+    let line = assert_one_error_line(
+        &run.stderr,
+        &[s(&out), "cannot write the EXR", "no space left on device"],
+    );
+    eprintln!("{line}");
+    assert_eq!(std::fs::read(&out).unwrap(), OLD, "the older file changed");
+    assert_entries(fs.dir.path(), &["out.exr"]);
+}
