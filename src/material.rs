@@ -74,7 +74,7 @@ impl Materials {
                 let slot = match image_slot[t.image] {
                     Some(s) => s,
                     None => {
-                        images.push(Image::decode(src, scene_path)?);
+                        images.push(Image::decode(src, t.image, scene_path)?);
                         image_slot[t.image] = Some(images.len() - 1);
                         images.len() - 1
                     }

@@ -28,18 +28,19 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 
 impl Image {
     /// Decodes PNG or JPEG bytes; colour channels are sRGB-decoded, alpha kept linear.
-    pub fn decode(source: &ImageSource, scene_path: &Path) -> Result<Image, String> {
+    /// `index` is the image's index in the glTF file, for the error message.
+    pub fn decode(source: &ImageSource, index: usize, scene_path: &Path) -> Result<Image, String> {
         let decoded = match source {
             ImageSource::File(path) => image::open(path).map_err(|e| {
                 format!(
-                    "{}: cannot decode image '{}': {e}",
+                    "{}: cannot decode image {index} ('{}'): {e}",
                     scene_path.display(),
                     path.display()
                 )
             })?,
             ImageSource::Bytes { data, .. } => image::load_from_memory(data).map_err(|e| {
                 format!(
-                    "{}: cannot decode an embedded image: {e}",
+                    "{}: cannot decode embedded image {index}: {e}",
                     scene_path.display()
                 )
             })?,

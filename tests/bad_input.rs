@@ -584,7 +584,7 @@ fn texture_that_does_not_decode() {
     expect_json_refused(
         with_broken_texture,
         &["--integrator", "direct", "--background", "1"],
-        &["cannot decode", "image"],
+        &["cannot decode embedded image 0"],
     );
 }
 
