@@ -4,37 +4,15 @@
 //! Every test runs the real binary in its own temporary directory (also its working
 //! directory, so a file written anywhere unexpected shows up in the directory listings).
 
-use std::collections::BTreeSet;
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::*;
+
 use strata::render::output::read_exr_rgb;
-
-/// A finished run of the binary.
-struct Run {
-    status: ExitStatus,
-    stdout: String,
-    stderr: String,
-}
-
-impl Run {
-    fn assert_success(&self) {
-        assert!(
-            self.status.success(),
-            "render failed ({}):\nstdout:\n{}\nstderr:\n{}",
-            self.status,
-            self.stdout,
-            self.stderr
-        );
-        assert_no_panic(&self.stderr);
-    }
-}
-
-fn repo_path(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
 
 fn ao_wall() -> PathBuf {
     repo_path("scenes/ao-wall.gltf")
@@ -42,75 +20,6 @@ fn ao_wall() -> PathBuf {
 
 fn bad(name: &str) -> PathBuf {
     repo_path("tests/data/bad").join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("test paths are UTF-8")
-}
-
-/// Runs `render` with `args` in the working directory `cwd`.
-fn render(cwd: &Path, args: &[&str]) -> Run {
-    let out = Command::new(env!("CARGO_BIN_EXE_render"))
-        .args(args)
-        .current_dir(cwd)
-        .stdin(Stdio::null())
-        .output()
-        .expect("cannot start the render binary");
-    Run {
-        status: out.status,
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
-
-/// The names in `dir`, hidden ones included, sorted.
-fn entries(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
-
-fn assert_entries(dir: &Path, expected: &[&str]) {
-    let got: BTreeSet<String> = entries(dir).into_iter().collect();
-    let want: BTreeSet<String> = expected.iter().map(|s| s.to_string()).collect();
-    assert_eq!(
-        got,
-        want,
-        "unexpected contents of {} (a leftover temporary file?)",
-        dir.display()
-    );
-}
-
-fn assert_no_panic(stderr: &str) {
-    assert!(
-        !stderr.contains("panicked"),
-        "the binary panicked:\n{stderr}"
-    );
-}
-
-/// Asserts that stderr is exactly one line, `error: ...`, that mentions every word of `words`
-/// (case-insensitively).
-fn assert_one_error_line(stderr: &str, words: &[&str]) {
-    assert_no_panic(stderr);
-    let text = stderr.strip_suffix('\n').unwrap_or(stderr);
-    assert!(
-        !text.is_empty() && !text.contains('\n'),
-        "stderr should be exactly one line, got:\n{stderr}"
-    );
-    assert!(
-        text.starts_with("error:"),
-        "stderr should start with 'error:', got:\n{stderr}"
-    );
-    let lower = text.to_lowercase();
-    for w in words {
-        assert!(
-            lower.contains(&w.to_lowercase()),
-            "stderr should mention {w:?}, got:\n{stderr}"
-        );
-    }
 }
 
 /// Runs a render that must fail with a one-line error mentioning `words`, and leave the

@@ -1,4 +1,4 @@
-//! Helpers shared by the hostile-input tests (`bad_input.rs`, `losing_nothing.rs`): run the
+//! Helpers shared by the CLI tests (`cli.rs`, `bad_input.rs`, `losing_nothing.rs`): run the
 //! `render` binary, check its one-line errors, and build broken variants of a small scene.
 #![allow(dead_code)]
 
@@ -14,6 +14,19 @@ pub struct Run {
     pub stdout: String,
     pub stderr: String,
     pub elapsed: Duration,
+}
+
+impl Run {
+    pub fn assert_success(&self) {
+        assert!(
+            self.status.success(),
+            "render failed ({}):\nstdout:\n{}\nstderr:\n{}",
+            self.status,
+            self.stdout,
+            self.stderr
+        );
+        assert_no_panic(&self.stderr);
+    }
 }
 
 pub fn repo_path(rel: &str) -> PathBuf {
