@@ -94,6 +94,7 @@ fn bench(c: &mut Criterion) {
     let settings = RenderSettings {
         camera: scene.cameras[0].clone(),
         crop: None,
+        stopping: Default::default(),
         width: W,
         height: H,
         spp: 4,

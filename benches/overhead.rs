@@ -110,6 +110,7 @@ fn main() {
     let settings = RenderSettings {
         camera: scene.cameras[0].clone(),
         crop: None,
+        stopping: Default::default(),
         width: W,
         height: H,
         spp: SPP,

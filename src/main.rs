@@ -16,8 +16,9 @@ use strata::integrators::{
     AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, Prepared, Strategy,
 };
 use strata::lights::TriangleSampling;
+use strata::render::adaptive::ErrorMetric;
 use strata::render::output::{self, Attr};
-use strata::render::{self, Checkpoint, Film, RenderSettings, RenderStats};
+use strata::render::{self, Checkpoint, Film, RenderSettings, RenderStats, Stopping};
 use strata::sampling::sampler::SOBOL_MAX_SPP;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, format_bytes, Camera, LoadOptions};
@@ -69,9 +70,36 @@ struct Cli {
     #[arg(long, default_value = "sobol", value_name = "random|stratified|sobol")]
     sampler: SamplerKind,
 
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64)]
-    spp: u32,
+    /// Samples per pixel; with --target-error or --time-limit, the most a pixel takes
+    /// [default: 64; with --target-error or --time-limit, 65536].
+    #[arg(long)]
+    spp: Option<u32>,
+
+    /// Adaptive sampling: stop sampling a pixel once the estimated relative standard error of
+    /// its value (and of its eight neighbours') is at most this, e.g. 0.01 for 1%.
+    #[arg(long, value_name = "E", value_parser = parse_target_error)]
+    target_error: Option<f32>,
+
+    /// Adaptive sampling: the samples every pixel takes before its error is judged.
+    #[arg(long, value_name = "N", requires = "target_error")]
+    min_spp: Option<u32>,
+
+    /// Adaptive sampling: --target-error is relative to the pixel's value (what a tone-mapped
+    /// image shows), or absolute, in radiance units (what RMSE measures). With --time-limit it
+    /// also decides where the samples go: where they lower this error most.
+    #[arg(
+        long,
+        default_value = "relative",
+        value_name = "relative|absolute",
+        requires = "target_error"
+    )]
+    error_metric: ErrorMetric,
+
+    /// Stop the render after this many seconds of rendering (loading and the BVH build not
+    /// counted), keeping every sample taken so far; exits with success. The image then
+    /// depends on the machine's speed.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    time_limit: Option<f64>,
 
     /// Random seed; the same seed, scene and settings give the same image on any thread count.
     #[arg(long, default_value_t = 0)]
@@ -113,6 +141,10 @@ struct Cli {
     /// an RGB EXR, for statistical comparisons.
     #[arg(long, value_name = "FILE.exr")]
     variance: Option<PathBuf>,
+
+    /// Also write each pixel's number of samples as a grey EXR (useful with --target-error).
+    #[arg(long, value_name = "FILE.exr")]
+    spp_image: Option<PathBuf>,
 
     /// Do not write the PNG preview beside the EXR.
     #[arg(long)]
@@ -170,6 +202,10 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
+/// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
+/// has, so the target error or the time limit is what stops it.
+const PROGRESSIVE_MAX_SPP: u32 = SOBOL_MAX_SPP;
+
 /// `--max-memory`: a number of bytes, or no limit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct MemoryLimit(Option<u64>);
@@ -205,6 +241,15 @@ fn parse_memory(s: &str) -> Result<MemoryLimit, String> {
         ));
     }
     Ok(MemoryLimit(Some(bytes as u64)))
+}
+
+fn parse_target_error(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!(
+            "'{s}': expected a positive relative error, e.g. 0.01 for 1%"
+        )),
+    }
 }
 
 fn parse_seconds(s: &str) -> Result<f64, String> {
@@ -298,16 +343,28 @@ fn run(cli: Cli) -> Result<Outcome> {
         .clone()
         .unwrap_or_else(|| default_output(&cli.scene));
     output::check_output_path(&output)?;
-    if let Some(v) = &cli.variance {
-        output::check_output_path(v)?;
+    for extra in [&cli.variance, &cli.spp_image].into_iter().flatten() {
+        output::check_output_path(extra)?;
     }
-    if cli.spp == 0 {
+    let progressive = cli.target_error.is_some() || cli.time_limit.is_some();
+    let spp = cli
+        .spp
+        .unwrap_or(if progressive { PROGRESSIVE_MAX_SPP } else { 64 });
+    if spp == 0 {
         bail!("--spp must be at least 1");
     }
-    if cli.sampler == SamplerKind::Sobol && cli.spp > SOBOL_MAX_SPP {
+    if cli.sampler == SamplerKind::Sobol && spp > SOBOL_MAX_SPP {
         bail!(
-            "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {})",
-            cli.spp
+            "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {spp})"
+        );
+    }
+    let min_spp = cli.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
+    if min_spp == 0 || min_spp > spp {
+        bail!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
+    }
+    if cli.target_error.is_some() && min_spp < 2 {
+        bail!(
+            "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance"
         );
     }
     if cli.ao_samples == 0 {
@@ -333,14 +390,17 @@ fn run(cli: Cli) -> Result<Outcome> {
         output::temp_path(&output.with_extension("png")),
     ];
     temporaries.extend(cli.variance.as_deref().map(output::temp_path));
+    temporaries.extend(cli.spp_image.as_deref().map(output::temp_path));
     let cancel = install_interrupt_handler(temporaries);
 
     // Load.
     let t_load = Instant::now();
     // The film, plus the variance image (float32 RGB) when one is written.
     let image_memory = |(w, h): (u32, u32)| {
-        let variance = if cli.variance.is_some() { 12 } else { 0 };
-        Film::memory_estimate(w, h) + w as u64 * h as u64 * variance
+        let extra = 12 * (cli.variance.is_some() as u64 + cli.spp_image.is_some() as u64);
+        // Adaptive sampling keeps a mask and the errors of the last judgement.
+        let adaptive = if cli.target_error.is_some() { 9 } else { 0 };
+        Film::memory_estimate(w, h) + w as u64 * h as u64 * (extra + adaptive)
     };
     let load_options = LoadOptions {
         memory_limit,
@@ -451,11 +511,17 @@ fn run(cli: Cli) -> Result<Outcome> {
         crop: cli.pixel.map(|(x, y)| (x, y, x + 1, y + 1)),
         width,
         height,
-        spp: cli.spp,
+        spp,
         seed: cli.seed,
         sampler: cli.sampler,
         integrator,
         tile_size: cli.tile_size,
+        stopping: Stopping {
+            target_error: cli.target_error,
+            min_spp,
+            metric: cli.error_metric,
+            time_limit: cli.time_limit.map(Duration::from_secs_f64),
+        },
     };
     let progress = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
@@ -481,10 +547,21 @@ fn run(cli: Cli) -> Result<Outcome> {
             Attr::Text(integrator.kind().to_string()),
         ),
         ("strata:sampler".into(), Attr::Text(cli.sampler.to_string())),
-        ("strata:spp".into(), Attr::Int(cli.spp as i32)),
+        ("strata:spp".into(), Attr::Int(spp as i32)),
         ("strata:seed".into(), Attr::Text(cli.seed.to_string())),
         ("strata:backend".into(), Attr::Text(accel.describe())),
     ];
+    if let Some(e) = cli.target_error {
+        attrs.push(("strata:target_error".into(), Attr::Float(e)));
+        attrs.push(("strata:min_spp".into(), Attr::Int(min_spp as i32)));
+        attrs.push((
+            "strata:error_metric".into(),
+            Attr::Text(cli.error_metric.to_string()),
+        ));
+    }
+    if let Some(t) = cli.time_limit {
+        attrs.push(("strata:time_limit".into(), Attr::Float(t as f32)));
+    }
     match integrator {
         Integrator::Ao(ao) => {
             attrs.push((
@@ -518,6 +595,10 @@ fn run(cli: Cli) -> Result<Outcome> {
         all.extend([
             ("strata:spp_min".to_string(), Attr::Int(spp_min as i32)),
             ("strata:spp_max".into(), Attr::Int(spp_max as i32)),
+            (
+                "strata:spp_mean".into(),
+                Attr::Float(film.count_mean() as f32),
+            ),
             ("strata:render_seconds".into(), Attr::Float(seconds as f32)),
             ("strata:interrupted".into(), Attr::Int(interrupted as i32)),
             ("strata:checkpoint".into(), Attr::Int(checkpoint as i32)),
@@ -528,6 +609,9 @@ fn run(cli: Cli) -> Result<Outcome> {
         output::write_exr(&output, film, attrs)?;
         if let Some(v) = &cli.variance {
             output::write_rgb_exr(v, film.width, film.height, &film.variances(), attrs)?;
+        }
+        if let Some(p) = &cli.spp_image {
+            output::write_rgb_exr(p, film.width, film.height, &film.count_image(), attrs)?;
         }
         Ok(())
     };
@@ -553,15 +637,25 @@ fn run(cli: Cli) -> Result<Outcome> {
     // Write.
     let t_write = Instant::now();
     let (spp_min, spp_max) = result.film.count_range();
-    write_images(
+    let mut final_attrs = header(
         &result.film,
-        &header(
-            &result.film,
-            result.stats.seconds,
-            result.interrupted,
-            false,
-        ),
-    )?;
+        result.stats.seconds,
+        result.interrupted,
+        false,
+    );
+    if cli.time_limit.is_some() {
+        final_attrs.push((
+            "strata:time_limit_reached".into(),
+            Attr::Int(result.time_limit_reached as i32),
+        ));
+    }
+    if let Some(u) = result.unconverged_pixels {
+        final_attrs.push((
+            "strata:unconverged_pixels".into(),
+            Attr::Int(u.min(i32::MAX as u64) as i32),
+        ));
+    }
+    write_images(&result.film, &final_attrs)?;
     if !cli.no_png {
         output::write_png(&output.with_extension("png"), &result.film)?;
     }
@@ -586,17 +680,39 @@ fn run(cli: Cli) -> Result<Outcome> {
         if spp_min == spp_max {
             spp_max.to_string()
         } else {
-            format!("{spp_min}-{spp_max}")
+            format!("{spp_min}-{spp_max} (mean {:.1})", result.film.count_mean())
         },
         stats.seconds,
         rays as f64 * 1e-6,
         rays_per_s * 1e-6,
         if result.interrupted {
             " (interrupted)"
+        } else if result.time_limit_reached {
+            " (time limit reached)"
         } else {
             ""
         }
     );
+    if let (Some(e), Some(u)) = (cli.target_error, result.unconverged_pixels) {
+        let (x0, y0, x1, y1) = settings.crop.unwrap_or((0, 0, width, height));
+        let rendered = (x1 - x0) as u64 * (y1 - y0) as u64;
+        let reached = rendered.saturating_sub(u);
+        let why = if result.time_limit_reached || result.interrupted {
+            "stopped early".to_string()
+        } else {
+            format!("took the most, {spp} spp (--spp)")
+        };
+        println!(
+            "adaptive: {reached} of {rendered} pixels reached the {} target error {e} ({:.1}%){}",
+            cli.error_metric,
+            100.0 * reached as f64 / rendered.max(1) as f64,
+            if u > 0 {
+                format!("; {u} {why}")
+            } else {
+                String::new()
+            }
+        );
+    }
     if cli.stats {
         let s = &scene.summary;
         println!(

@@ -41,6 +41,7 @@ fn render_ao(
     let settings = RenderSettings {
         camera: scene.cameras[0].clone(),
         crop: None,
+        stopping: Default::default(),
         width: SIZE,
         height: SIZE,
         spp: SPP,

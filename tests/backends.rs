@@ -128,6 +128,7 @@ fn ao_images_agree_between_backends() {
         let settings = RenderSettings {
             camera: scene.cameras[0].clone(),
             crop: None,
+            stopping: Default::default(),
             width: 160,
             height: 120,
             spp: 64,

@@ -111,6 +111,7 @@ fn render_film(
     let settings = RenderSettings {
         camera,
         crop: None,
+        stopping: Default::default(),
         width: setup.size,
         height: setup.size,
         spp: setup.spp,

@@ -11,7 +11,6 @@
 
 mod common;
 
-use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -19,29 +18,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::*;
-use exr::meta::attribute::AttributeValue;
 use strata::render::output::read_exr_rgb;
-
-/// The `strata:*` integer attributes of an EXR header.
-fn int_attrs(path: &Path) -> HashMap<String, i32> {
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .unwrap_or_else(|e| panic!("cannot read the header of {}: {e}", path.display()));
-    meta.headers[0]
-        .own_attributes
-        .other
-        .iter()
-        .filter_map(|(k, v)| match v {
-            AttributeValue::I32(i) => Some((k.to_string(), *i)),
-            _ => None,
-        })
-        .collect()
-}
-
-fn attr(attrs: &HashMap<String, i32>, name: &str) -> i32 {
-    *attrs
-        .get(name)
-        .unwrap_or_else(|| panic!("no {name} in the EXR header: {attrs:?}"))
-}
 
 /// A render child whose stderr lines are collected by a thread as they arrive.
 struct Running {

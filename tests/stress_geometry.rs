@@ -259,6 +259,7 @@ fn render_checked(scene: &Scene, integrator: Integrator, background: Vec3) -> Ve
     let settings = RenderSettings {
         camera,
         crop: None,
+        stopping: Default::default(),
         width: 24,
         height: 24,
         spp: 16,

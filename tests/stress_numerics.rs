@@ -334,6 +334,7 @@ fn render_raw(scene: &Scene, cam: &Camera, integrator: Integrator, o: Opts) -> R
     let settings = RenderSettings {
         camera: cam.clone(),
         crop: None,
+        stopping: Default::default(),
         width: o.width,
         height: o.height,
         spp: o.spp,

@@ -100,6 +100,16 @@ impl Film {
         (min, max)
     }
 
+    /// The mean number of samples per pixel over the whole film.
+    pub fn count_mean(&self) -> f64 {
+        self.counts.iter().map(|&c| c as f64).sum::<f64>() / self.counts.len().max(1) as f64
+    }
+
+    /// Every pixel's sample count as a grey value, row-major from the top row.
+    pub fn count_image(&self) -> Vec<Vec3> {
+        self.counts.iter().map(|&c| Vec3::splat(c as f32)).collect()
+    }
+
     /// The pixel's estimate: the mean of its samples (0 for a pixel with none).
     pub fn pixel(&self, x: u32, y: u32) -> Vec3 {
         let i = self.index(x, y);

@@ -9,7 +9,15 @@
 //! With a [`Checkpoint`], each pass renders its tiles in groups and hands the running film to
 //! a callback between groups, at most once per period. The groups are merged in tile order,
 //! and every pixel still receives its passes in order, so the image is the same bit for bit.
+//!
+//! [`Stopping`] ends sampling early. With a target error (adaptive sampling), the film is
+//! examined between passes and pixels whose estimated relative error has reached the target
+//! receive no further samples ([`adaptive`]); the decision reads only the film, which is the
+//! same on any thread count, so an adaptive image is bit-identical across thread counts too.
+//! A time limit stops the render between tiles; how far it got depends on the machine's
+//! speed, so a time-limited image is not reproducible (each pixel's samples still are).
 
+pub mod adaptive;
 pub mod film;
 pub mod output;
 
@@ -40,6 +48,47 @@ pub struct RenderSettings {
     pub tile_size: u32,
     /// Render only pixels x0 ≤ x < x1, y0 ≤ y < y1 (the rest of the film stays empty).
     pub crop: Option<(u32, u32, u32, u32)>,
+    /// When to stop before `spp` samples per pixel.
+    pub stopping: Stopping,
+}
+
+/// Early stopping: adaptive sampling per pixel, and a time limit for the whole render. With
+/// neither (the default), every pixel receives exactly `spp` samples. Either way every pixel
+/// receives at least one sample (unless the render is cancelled).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stopping {
+    /// Adaptive sampling: a pixel stops once its estimated standard error (and that of its
+    /// eight neighbours) is at most this ([`adaptive::pixel_error`]).
+    pub target_error: Option<f32>,
+    /// Adaptive sampling: the samples every pixel takes before its error is judged.
+    pub min_spp: u32,
+    /// Adaptive sampling: what the target error is measured against.
+    pub metric: adaptive::ErrorMetric,
+    /// Stop the whole render after this much time (checked between tiles, from the second
+    /// round of samples on).
+    pub time_limit: Option<Duration>,
+}
+
+impl Stopping {
+    /// The default `min_spp`: enough samples for a variance estimate that rarely mistakes a
+    /// pixel for converged (see [`adaptive`]).
+    pub const DEFAULT_MIN_SPP: u32 = 16;
+
+    /// Whether anything can stop a pixel before `spp`.
+    pub fn is_progressive(&self) -> bool {
+        self.target_error.is_some() || self.time_limit.is_some()
+    }
+}
+
+impl Default for Stopping {
+    fn default() -> Stopping {
+        Stopping {
+            target_error: None,
+            min_spp: Self::DEFAULT_MIN_SPP,
+            metric: adaptive::ErrorMetric::Relative,
+            time_limit: None,
+        }
+    }
 }
 
 /// What a render did, besides the image.
@@ -58,6 +107,11 @@ pub struct RenderResult {
     pub stats: RenderStats,
     /// True when the cancel flag stopped the render early.
     pub interrupted: bool,
+    /// True when the time limit stopped the render before every pixel was done.
+    pub time_limit_reached: bool,
+    /// Adaptive sampling: the pixels (of the rendered window) still sampling at the end,
+    /// i.e. those that reached `spp` or the time limit before the target error.
+    pub unconverged_pixels: Option<u64>,
 }
 
 /// A rayon pool whose workers all run with flush-to-zero and denormals-are-zero, as Embree
@@ -113,20 +167,67 @@ pub fn passes(spp: u32) -> Vec<(u32, u32)> {
     out
 }
 
+/// The end of the next pass of a pixel that has `count` samples, in a progressive render
+/// (adaptive or time-limited): doubling as in [`passes`] up to `min_spp` samples, then
+/// growing by about a quarter (a power of two, at least 8, dividing `count`, so passes end
+/// on round numbers), so a pixel overshoots the count at which it converged by at most
+/// ~25%, and the film is judged about 3 log2(spp) times. Never past `spp`.
+pub fn progressive_next(count: u32, min_spp: u32, spp: u32) -> u32 {
+    let min_spp = min_spp.clamp(1, spp.max(1));
+    let end = if count < min_spp {
+        count.saturating_mul(2).max(1).min(min_spp)
+    } else {
+        let quarter = (count / 4).max(8);
+        let grow =
+            (1u32 << (31 - quarter.leading_zeros())).min(1u32 << count.trailing_zeros().min(31));
+        count.saturating_add(grow.max(1))
+    };
+    end.min(spp)
+}
+
+/// Which samples a round renders: every pixel of the window that the selection (if any)
+/// marks takes the samples from its count up to `next(count)`.
+struct Round<'a> {
+    film: &'a Film,
+    /// Indexed like the film; `None`: every pixel of the window.
+    selection: Option<&'a [bool]>,
+    next: &'a (dyn Fn(u32) -> u32 + Sync),
+}
+
+impl Round<'_> {
+    #[inline]
+    fn samples(&self, x: u32, y: u32) -> (u32, u32) {
+        let width = self.film.width as usize;
+        if self
+            .selection
+            .is_some_and(|s| !s[y as usize * width + x as usize])
+        {
+            return (0, 0);
+        }
+        let c = self.film.count(x, y);
+        (c, (self.next)(c).max(c))
+    }
+
+    fn tile_has_work(&self, t: &Tile) -> bool {
+        (t.y0..t.y1).any(|y| {
+            (t.x0..t.x1).any(|x| {
+                let (a, b) = self.samples(x, y);
+                b > a
+            })
+        })
+    }
+}
+
 struct TileResult {
-    /// Per pixel: (sum, sum of squares) of the pass's samples.
-    sums: Vec<([f64; 3], [f64; 3])>,
+    /// Per pixel: (sum, sum of squares, number) of the round's samples.
+    sums: Vec<([f64; 3], [f64; 3], u32)>,
     rays: RayCounts,
     bad: u64,
     first_bad: Vec<BadSample>,
 }
 
-fn render_tile(
-    ctx: &Context,
-    settings: &RenderSettings,
-    tile: Tile,
-    samples: (u32, u32),
-) -> TileResult {
+/// Renders the round's samples of every pixel of `tile`.
+fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Round) -> TileResult {
     let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
     let camera = settings
         .camera
@@ -139,6 +240,7 @@ fn render_tile(
         for x in tile.x0..tile.x1 {
             let mut sum = [0f64; 3];
             let mut sq = [0f64; 3];
+            let samples = round.samples(x, y);
             for index in samples.0..samples.1 {
                 sampler.start(x, y, index);
                 // The first two dimensions place the sample on the film.
@@ -162,7 +264,7 @@ fn render_tile(
                     }
                 }
             }
-            sums.push((sum, sq));
+            sums.push((sum, sq, samples.1 - samples.0));
         }
     }
     TileResult {
@@ -217,13 +319,60 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
-    let passes = passes(settings.spp);
-    progress.set_length((tiles.len() * passes.len()) as u64);
+    let stopping = settings.stopping;
+    let spp = settings.spp;
+    // Each round takes every pixel from its count to the next pass end.
+    let fixed = passes(spp);
+    let next_fixed = |c: u32| fixed.iter().find(|p| p.0 == c).map_or(c, |p| p.1);
+    let next_progressive = |c: u32| progressive_next(c, stopping.min_spp, spp);
+    let next: &(dyn Fn(u32) -> u32 + Sync) = if stopping.is_progressive() {
+        &next_progressive
+    } else {
+        &next_fixed
+    };
+    let deadline = stopping.time_limit.map(|t| start + t);
+    // The progress bar counts tile rounds, or milliseconds when a time limit is set; an
+    // adaptive render may end sooner, and the bar then jumps to the end.
+    let bar_length = match stopping.time_limit {
+        Some(t) => t.as_millis().max(1) as u64,
+        None => {
+            let mut rounds = 0u64;
+            let mut c = 0;
+            while c < spp {
+                c = next(c).max(c + 1);
+                rounds += 1;
+            }
+            tiles.len() as u64 * rounds
+        }
+    };
+    progress.set_length(bar_length);
+    let tick = || match stopping.time_limit {
+        Some(_) => progress.set_position((start.elapsed().as_millis() as u64).min(bar_length)),
+        None => progress.inc(1),
+    };
+    // The first round (one sample per pixel) always completes, so even a time limit shorter
+    // than one sample per pixel gives a whole image rather than a partly black one.
+    let mut first_round = true;
+    let time_is_up =
+        |first_round: bool| !first_round && deadline.is_some_and(|d| Instant::now() >= d);
     let mut film = Film::new(settings.width, settings.height);
+    // Adaptive sampling: which pixels have not converged (all of the window at first), and
+    // which of them sample in the current round.
+    let in_window = || {
+        let mut a = vec![false; settings.width as usize * settings.height as usize];
+        for y in window.1..window.3 {
+            let row = y as usize * settings.width as usize;
+            a[row + window.0 as usize..row + window.2 as usize].fill(true);
+        }
+        a
+    };
+    let mut active: Option<Vec<bool>> = stopping.target_error.map(|_| in_window());
+    let mut selected: Option<Vec<bool>> = None;
     let mut stats = RenderStats::default();
     let mut interrupted = false;
-    // Without checkpoints a pass is one group of all tiles. With them, groups of at least
-    // four tiles per thread (so the barrier between groups costs little), at most 16 per pass.
+    let mut time_limit_reached = false;
+    // Without checkpoints a round is one group of all tiles. With them, groups of at least
+    // four tiles per thread (so the barrier between groups costs little), at most 16 per round.
     let group = match checkpoint {
         Some(_) => (pool.current_num_threads() * 4)
             .max(tiles.len().div_ceil(16))
@@ -232,65 +381,153 @@ pub fn render_with_checkpoints(
     };
     let mut last_checkpoint = Instant::now();
 
-    'passes: for (pass_index, &pass) in passes.iter().enumerate() {
-        for (group_index, chunk) in tiles.chunks(group).enumerate() {
+    'rounds: loop {
+        // Adaptive sampling: judge the film, and with a time limit pick the pixels whose next
+        // samples lower the error most.
+        if let (Some(target), Some(mask)) = (stopping.target_error, active.as_mut()) {
+            let judged = pool.install(|| {
+                adaptive::judge(
+                    &film,
+                    window,
+                    mask,
+                    stopping.metric,
+                    target,
+                    stopping.min_spp,
+                )
+            });
+            if judged.active == 0 {
+                break 'rounds;
+            }
+            if stopping.time_limit.is_some() {
+                let s = selected.get_or_insert_with(|| vec![false; mask.len()]);
+                pool.install(|| adaptive::select_most_useful(&film, window, mask, &judged, s));
+            }
+        }
+        let round = Round {
+            film: &film,
+            selection: selected.as_deref().or(active.as_deref()),
+            next,
+        };
+        let work: Vec<bool> =
+            pool.install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect());
+        if !work.iter().any(|&w| w) {
+            break 'rounds;
+        }
+        let mut merged: Vec<(Tile, TileResult)> = Vec::new();
+        let mut groups = tiles.chunks(group).zip(work.chunks(group)).peekable();
+        while let Some((chunk, chunk_work)) = groups.next() {
             if cancel.load(Ordering::Relaxed) {
                 interrupted = true;
-                break 'passes;
+                break;
+            }
+            if time_is_up(first_round) {
+                time_limit_reached = true;
+                break;
             }
             let results: Vec<Option<TileResult>> = pool.install(|| {
                 chunk
                     .par_iter()
-                    .map(|&tile| {
-                        if cancel.load(Ordering::Relaxed) {
+                    .zip(chunk_work)
+                    .map(|(&tile, &has_work)| {
+                        if !has_work {
+                            tick();
                             return None;
                         }
-                        let r = render_tile(ctx, settings, tile, pass);
-                        progress.inc(1);
+                        if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
+                            return None;
+                        }
+                        let r = render_tile(ctx, settings, tile, &round);
+                        tick();
                         Some(r)
                     })
                     .collect()
             });
-            // Merge in tile order: each pixel's sum grows pass by pass in sample order.
-            for (tile, result) in chunk.iter().zip(results) {
-                let Some(result) = result else {
-                    interrupted = true;
-                    continue;
-                };
-                let mut sums = result.sums.into_iter();
-                for y in tile.y0..tile.y1 {
-                    for x in tile.x0..tile.x1 {
-                        let (sum, sq) = sums.next().expect("one sum per tile pixel");
-                        film.add(x, y, sum, sq, pass.1 - pass.0);
-                    }
-                }
-                stats.rays.add(&result.rays);
-                stats.bad_samples += result.bad;
-                for b in result.first_bad {
-                    if stats.first_bad.len() < BAD_SAMPLES_KEPT {
-                        stats.first_bad.push(b);
-                    }
+            for ((tile, &has_work), result) in chunk.iter().zip(chunk_work).zip(results) {
+                match result {
+                    Some(r) => merged.push((*tile, r)),
+                    None if !has_work => {}
+                    None if cancel.load(Ordering::Relaxed) => interrupted = true,
+                    None => time_limit_reached = true,
                 }
             }
-            if interrupted {
-                break 'passes;
+            if interrupted || time_limit_reached {
+                break;
             }
-            let last_group =
-                pass_index + 1 == passes.len() && (group_index + 1) * group >= tiles.len();
+            // Checkpoints see the film as of the last full round plus the groups so far.
             if let Some(c) = checkpoint.as_mut() {
-                if !last_group && last_checkpoint.elapsed() >= c.every {
+                if groups.peek().is_some() && last_checkpoint.elapsed() >= c.every {
+                    let mut snapshot = film.clone();
+                    for (tile, r) in &merged {
+                        merge_tile(&mut snapshot, tile, r);
+                    }
                     stats.seconds = start.elapsed().as_secs_f64();
-                    (c.save)(&film, &stats);
+                    (c.save)(&snapshot, &stats);
                     last_checkpoint = Instant::now();
                 }
             }
         }
+        // Merge in tile order: each pixel's sum grows round by round in sample order.
+        for (tile, r) in merged {
+            merge_tile(&mut film, &tile, &r);
+            stats.rays.add(&r.rays);
+            stats.bad_samples += r.bad;
+            for b in r.first_bad {
+                if stats.first_bad.len() < BAD_SAMPLES_KEPT {
+                    stats.first_bad.push(b);
+                }
+            }
+        }
+        if interrupted || time_limit_reached {
+            break 'rounds;
+        }
+        first_round = false;
+        if let Some(c) = checkpoint.as_mut() {
+            let done = film.count_range().0 >= spp;
+            if !done && last_checkpoint.elapsed() >= c.every {
+                stats.seconds = start.elapsed().as_secs_f64();
+                (c.save)(&film, &stats);
+                last_checkpoint = Instant::now();
+            }
+        }
     }
     stats.seconds = start.elapsed().as_secs_f64();
+    // Judge the last round too, so pixels that converged in it are not reported as still
+    // sampling (this changes no pixel).
+    let unconverged_pixels = match (stopping.target_error, active.as_mut()) {
+        (Some(target), Some(mask)) => Some(
+            pool.install(|| {
+                adaptive::judge(
+                    &film,
+                    window,
+                    mask,
+                    stopping.metric,
+                    target,
+                    stopping.min_spp,
+                )
+            })
+            .active as u64,
+        ),
+        _ => None,
+    };
     RenderResult {
         film,
         stats,
         interrupted,
+        time_limit_reached,
+        unconverged_pixels,
+    }
+}
+
+/// Adds a tile's round to the film.
+fn merge_tile(film: &mut Film, tile: &Tile, result: &TileResult) {
+    let mut sums = result.sums.iter();
+    for y in tile.y0..tile.y1 {
+        for x in tile.x0..tile.x1 {
+            let (sum, sq, n) = sums.next().expect("one sum per tile pixel");
+            if *n > 0 {
+                film.add(x, y, *sum, *sq, *n);
+            }
+        }
     }
 }
 
@@ -311,6 +548,51 @@ mod tests {
                 assert_eq!(w[0].1, w[1].0);
             }
         }
+    }
+
+    #[test]
+    fn progressive_passes_double_to_the_minimum_then_grow_by_a_quarter() {
+        for (min_spp, spp) in [
+            (16u32, 65536u32),
+            (16, 100),
+            (5, 37),
+            (1, 1),
+            (64, 64),
+            (16, 8),
+        ] {
+            let mut c = 0;
+            let mut ends = Vec::new();
+            while c < spp {
+                let next = progressive_next(c, min_spp, spp);
+                assert!(next > c, "{min_spp}/{spp}: stuck at {c}");
+                if c >= min_spp.min(spp) {
+                    // At most a quarter more (or 8), a power of two dividing the count.
+                    let grow = next - c;
+                    assert!(grow <= (c / 4).max(8), "{c} -> {next}");
+                    assert!(
+                        next == spp || (grow.is_power_of_two() && c % grow == 0),
+                        "{c} -> {next}"
+                    );
+                }
+                ends.push(next);
+                c = next;
+            }
+            assert_eq!(c, spp);
+            // The minimum is a pass end, so every pixel is judged with exactly min_spp.
+            assert!(
+                ends.contains(&min_spp.min(spp)),
+                "{min_spp}/{spp}: {ends:?}"
+            );
+            // About 3 log2(spp) judgements at most.
+            assert!(
+                ends.len() as f64 <= 4.0 * (spp as f64).log2() + 8.0,
+                "{}",
+                ends.len()
+            );
+        }
+        assert_eq!(progressive_next(0, 16, 65536), 1);
+        assert_eq!(progressive_next(16, 16, 65536), 24);
+        assert_eq!(progressive_next(1024, 16, 65536), 1280);
     }
 
     #[test]

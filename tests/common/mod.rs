@@ -198,3 +198,24 @@ pub fn wait_with_limit(child: &mut std::process::Child, limit: Duration, what: &
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+/// The `strata:*` integer attributes of an EXR header.
+pub fn int_attrs(path: &Path) -> std::collections::HashMap<String, i32> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .unwrap_or_else(|e| panic!("cannot read the header of {}: {e}", path.display()));
+    meta.headers[0]
+        .own_attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            exr::meta::attribute::AttributeValue::I32(i) => Some((k.to_string(), *i)),
+            _ => None,
+        })
+        .collect()
+}
+
+pub fn attr(attrs: &std::collections::HashMap<String, i32>, name: &str) -> i32 {
+    *attrs
+        .get(name)
+        .unwrap_or_else(|| panic!("no {name} in the EXR header: {attrs:?}"))
+}

@@ -1,0 +1,435 @@
+//! Adaptive sampling (`--target-error`) and time limits (`--time-limit`): the stopping rule
+//! is safe against the references, easy regions stop early, the image is bit-identical
+//! across thread counts, and a time limit always yields a whole image.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use common::*;
+use glam::Vec3;
+use indicatif::ProgressBar;
+use strata::accel::{Accel, AccelOptions};
+use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared};
+use strata::render::adaptive::ErrorMetric;
+use strata::render::output::read_exr_rgb;
+use strata::render::{self, Film, RenderResult, RenderSettings, Stopping};
+use strata::sampling::SamplerKind;
+use strata::scene::{self, LoadOptions};
+
+/// Renders a bundled scene through the library as `render` would, with its first camera.
+fn render_scene(
+    scene_file: &str,
+    integrator: Integrator,
+    background: Vec3,
+    (width, height): (u32, u32),
+    spp: u32,
+    stopping: Stopping,
+    threads: usize,
+) -> RenderResult {
+    let path = repo_path(scene_file);
+    let scene = scene::load(&path, &LoadOptions::default()).unwrap();
+    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
+    let prepared = Prepared::new(&scene, &path, &integrator, background).unwrap();
+    let ctx = prepared.context(&scene, &accel);
+    let settings = RenderSettings {
+        camera: scene.cameras[0].clone(),
+        width,
+        height,
+        spp,
+        seed: 7,
+        sampler: SamplerKind::Sobol,
+        integrator,
+        tile_size: 16,
+        crop: None,
+        stopping,
+    };
+    let pool = render::thread_pool(threads).unwrap();
+    render::render(
+        &ctx,
+        &settings,
+        &pool,
+        &ProgressBar::hidden(),
+        &AtomicBool::new(false),
+    )
+}
+
+fn ao() -> Integrator {
+    Integrator::Ao(AoSettings {
+        max_distance: f32::INFINITY,
+        hemisphere: Default::default(),
+        samples: 1,
+    })
+}
+
+fn path() -> Integrator {
+    Integrator::Path(PathSettings {
+        max_depth: 8,
+        rr_depth: 5,
+        strategy: Default::default(),
+    })
+}
+
+fn adaptive(target: f32, metric: ErrorMetric) -> Stopping {
+    Stopping {
+        target_error: Some(target),
+        metric,
+        ..Default::default()
+    }
+}
+
+fn reference(name: &str) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let (_, _, px) = read_exr_rgb(&repo_path(&format!("scenes/references/{name}.exr"))).unwrap();
+    let (_, _, var) =
+        read_exr_rgb(&repo_path(&format!("scenes/references/{name}.var.exr"))).unwrap();
+    (px, var)
+}
+
+fn mse(film: &[Vec3], reference: &[[f32; 3]]) -> f64 {
+    film.iter()
+        .zip(reference)
+        .map(|(p, r)| {
+            (0..3)
+                .map(|c| (p[c] as f64 - r[c] as f64).powi(2))
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / (3 * film.len()) as f64
+}
+
+/// The fraction of the pixels `which` selects whose error against the reference exceeds `k`
+/// standard deviations, the standard deviation being what a pixel that met the relative
+/// `target` may have (target × (value + floor) per channel of a grey image), combined with
+/// the reference's own noise.
+fn fraction_beyond(
+    film: &Film,
+    (reference, variance): &(Vec<[f32; 3]>, Vec<[f32; 3]>),
+    target: f64,
+    k: f64,
+    which: impl Fn(u32, u32) -> bool,
+) -> f64 {
+    let mean: f64 = reference
+        .iter()
+        .map(|r| r.iter().map(|&v| v as f64).sum::<f64>())
+        .sum::<f64>()
+        / reference.len() as f64;
+    let floor = strata::render::adaptive::FLOOR_FRACTION * mean / 3.0;
+    let (mut seen, mut bad) = (0, 0);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            if !which(x, y) {
+                continue;
+            }
+            let i = (y * film.width + x) as usize;
+            let (p, r, v) = (film.pixel(x, y), reference[i], variance[i]);
+            seen += 1;
+            bad += (0..3).any(|c| {
+                let allowed = (target * (r[c] as f64 + floor)).powi(2) + v[c] as f64;
+                (p[c] as f64 - r[c] as f64).abs() > k * allowed.sqrt()
+            }) as usize;
+        }
+    }
+    assert!(seen > 0, "no pixel to check");
+    bad as f64 / seen as f64
+}
+
+#[test]
+fn pixels_that_stopped_meet_their_target_against_the_reference() {
+    // Cornell box AO at 10% relative error. A pixel that stopped has an estimated standard
+    // error ≤ 10% of its value; with the reference's noise added, errors beyond 4σ should be
+    // rare (Gaussian: 6e-5; allow 1% for the estimate's own noise at 16+ samples).
+    let (target, spp) = (0.1, 4096);
+    let reference = reference("cornell-box.ao");
+    let result = render_scene(
+        "scenes/cornell-box.gltf",
+        ao(),
+        Vec3::ZERO,
+        (160, 160),
+        spp,
+        adaptive(target, ErrorMetric::Relative),
+        0,
+    );
+    let film = &result.film;
+    let (lo, hi) = film.count_range();
+    assert!(lo >= Stopping::DEFAULT_MIN_SPP, "counts {lo}..{hi}");
+    assert!(hi >= 8 * lo, "counts {lo}..{hi}: the rule adapts");
+    let unconverged = result.unconverged_pixels.unwrap();
+    assert!(
+        unconverged < 160 * 160 / 20,
+        "{unconverged} pixels did not converge"
+    );
+    let stopped = |x, y| film.count(x, y) < spp;
+    let beyond = fraction_beyond(film, &reference, target as f64, 4.0, stopped);
+    assert!(
+        beyond < 0.01,
+        "{:.2}% of the pixels that stopped are more than 4σ from the reference",
+        100.0 * beyond
+    );
+    // Negative control: a uniform render with the adaptive render's smallest count fails.
+    let uniform = render_scene(
+        "scenes/cornell-box.gltf",
+        ao(),
+        Vec3::ZERO,
+        (160, 160),
+        lo,
+        Stopping::default(),
+        0,
+    );
+    let beyond = fraction_beyond(&uniform.film, &reference, target as f64, 4.0, |_, _| true);
+    assert!(
+        beyond > 0.05,
+        "the check cannot tell: {lo} spp everywhere has only {:.2}% beyond 4σ",
+        100.0 * beyond
+    );
+}
+
+#[test]
+fn constant_regions_stop_at_the_minimum() {
+    // Suzanne under a constant white sky: pixels that see only the sky have zero variance
+    // and stop after the minimum; the head keeps sampling.
+    let result = render_scene(
+        "scenes/suzanne.gltf",
+        path(),
+        Vec3::ONE,
+        (96, 72),
+        1024,
+        adaptive(0.02, ErrorMetric::Relative),
+        0,
+    );
+    let film = &result.film;
+    let (mut sky, mut busy) = (0, 0);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            // A pixel whose neighbourhood has only seen the sky.
+            let all_sky = (y.saturating_sub(1)..(y + 2).min(film.height)).all(|yy| {
+                (x.saturating_sub(1)..(x + 2).min(film.width)).all(|xx| {
+                    film.variance_of_mean(xx, yy) == Vec3::ZERO && film.pixel(xx, yy) == Vec3::ONE
+                })
+            });
+            if all_sky {
+                sky += 1;
+                assert_eq!(
+                    film.count(x, y),
+                    Stopping::DEFAULT_MIN_SPP,
+                    "sky pixel ({x}, {y})"
+                );
+            } else if film.count(x, y) > 4 * Stopping::DEFAULT_MIN_SPP {
+                busy += 1;
+            }
+        }
+    }
+    let n = film.width * film.height;
+    assert!(sky > n / 4, "only {sky} of {n} pixels see only the sky");
+    assert!(
+        busy > n / 10,
+        "only {busy} of {n} pixels took more than 4× the minimum"
+    );
+}
+
+#[test]
+fn at_equal_samples_adaptive_sampling_lowers_the_error_of_an_image_with_easy_regions() {
+    // Deterministic stand-in for equal time (BENCHMARKS.md has the timed comparison): the
+    // adaptive render's total samples, spread uniformly, give a larger error.
+    let reference = reference("suzanne.direct");
+    let integrator = Integrator::Direct(PathSettings {
+        max_depth: 1,
+        ..PathSettings::default()
+    });
+    let size = (192, 144);
+    let adaptive = render_scene(
+        "scenes/suzanne.gltf",
+        integrator,
+        Vec3::ONE,
+        size,
+        4096,
+        adaptive(0.01, ErrorMetric::Absolute),
+        0,
+    );
+    let mean_spp = adaptive.film.count_mean();
+    let uniform = render_scene(
+        "scenes/suzanne.gltf",
+        integrator,
+        Vec3::ONE,
+        size,
+        mean_spp.round() as u32,
+        Stopping::default(),
+        0,
+    );
+    let (a, u) = (
+        mse(&adaptive.film.pixels(), &reference.0),
+        mse(&uniform.film.pixels(), &reference.0),
+    );
+    assert!(
+        a < 0.7 * u,
+        "at {mean_spp:.1} spp on average, adaptive MSE {a:.3e} is not well below uniform's {u:.3e}"
+    );
+}
+
+#[test]
+fn adaptive_images_are_bit_identical_across_thread_counts() {
+    let run = |threads, metric| {
+        render_scene(
+            "scenes/cornell-box.gltf",
+            path(),
+            Vec3::ZERO,
+            (48, 48),
+            256,
+            adaptive(0.1, metric),
+            threads,
+        )
+    };
+    for metric in [ErrorMetric::Relative, ErrorMetric::Absolute] {
+        let (one, two) = (run(1, metric), run(2, metric));
+        let (lo, hi) = one.film.count_range();
+        assert!(lo < hi, "{metric}: counts {lo}..{hi}: nothing adapted");
+        assert_eq!(
+            one.film.count_image(),
+            two.film.count_image(),
+            "{metric}: counts"
+        );
+        let bits = |r: &RenderResult| -> Vec<[u32; 3]> {
+            r.film
+                .pixels()
+                .iter()
+                .map(|p| p.to_array().map(f32::to_bits))
+                .collect()
+        };
+        assert!(bits(&one) == bits(&two), "{metric}: pixels differ");
+    }
+}
+
+#[test]
+fn a_time_limit_ends_the_render_with_a_whole_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    for (limit, name) in [("0.4", "short.exr"), ("0.000001", "tiny.exr")] {
+        let run = render(
+            dir.path(),
+            &[
+                s(&scene),
+                "--integrator",
+                "path",
+                "--resolution",
+                "64x64",
+                "--time-limit",
+                limit,
+                "--no-png",
+                "-o",
+                name,
+            ],
+        );
+        run.assert_success();
+        assert!(
+            run.stdout.contains("(time limit reached)"),
+            "{limit}: {}",
+            run.stdout
+        );
+        // A generous bound: this is a hang detector, not a timing test.
+        assert!(
+            run.elapsed.as_secs() < 60,
+            "{limit}: took {:?}",
+            run.elapsed
+        );
+        let a = int_attrs(&dir.path().join(name));
+        assert_eq!(attr(&a, "strata:time_limit_reached"), 1);
+        assert_eq!(
+            attr(&a, "strata:spp"),
+            65536,
+            "the default most with a time limit"
+        );
+        // Every pixel has a sample, even when the limit is shorter than one sample each.
+        assert!(attr(&a, "strata:spp_min") >= 1, "{limit}: {a:?}");
+        let (_, _, px) = read_exr_rgb(&dir.path().join(name)).unwrap();
+        let lit = px.iter().filter(|p| p.iter().any(|&c| c > 0.0)).count();
+        assert!(lit > px.len() / 2, "{limit}: only {lit} lit pixels");
+    }
+}
+
+#[test]
+fn the_sample_count_image_matches_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let run = render(
+        dir.path(),
+        &[
+            s(&scene),
+            "--resolution",
+            "32x32",
+            "--target-error",
+            "0.05",
+            "--min-spp",
+            "8",
+            "--spp",
+            "512",
+            "--spp-image",
+            "spp.exr",
+            "--no-png",
+            "-o",
+            "out.exr",
+        ],
+    );
+    run.assert_success();
+    assert!(run.stdout.contains("adaptive: "), "{}", run.stdout);
+    let a = int_attrs(&dir.path().join("out.exr"));
+    let (_, _, counts) = read_exr_rgb(&dir.path().join("spp.exr")).unwrap();
+    let min = counts.iter().map(|c| c[0] as i32).min().unwrap();
+    let max = counts.iter().map(|c| c[0] as i32).max().unwrap();
+    assert_eq!(
+        (min, max),
+        (attr(&a, "strata:spp_min"), attr(&a, "strata:spp_max"))
+    );
+    assert_eq!(min, 8, "easy pixels stop at --min-spp");
+    assert!(max > min);
+    assert_eq!(attr(&a, "strata:min_spp"), 8);
+}
+
+#[test]
+fn bad_adaptive_options_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let cases: &[(&[&str], &str)] = &[
+        (&["--target-error", "0"], "--target-error"),
+        (&["--target-error=-0.1"], "--target-error"),
+        (&["--target-error", "nan"], "--target-error"),
+        (&["--min-spp", "8"], "--target-error"),
+        (&["--error-metric", "absolute"], "--target-error"),
+        (&["--target-error", "0.1", "--error-metric", "loud"], "loud"),
+        (
+            &["--target-error", "0.1", "--min-spp", "100", "--spp", "64"],
+            "--min-spp",
+        ),
+        (&["--target-error", "0.1", "--min-spp", "1"], "--min-spp"),
+        (&["--time-limit", "0"], "--time-limit"),
+        (&["--time-limit", "soon"], "--time-limit"),
+    ];
+    for (extra, word) in cases {
+        let mut args = vec![s(&scene), "--resolution", "8x8", "-o", "out.exr"];
+        args.extend_from_slice(extra);
+        let run = render(dir.path(), &args);
+        assert!(!run.status.success(), "{extra:?} was accepted");
+        assert_no_panic(&run.stderr);
+        assert!(
+            run.stderr.contains(word),
+            "{extra:?}: the error does not name {word}:\n{}",
+            run.stderr
+        );
+        assert_entries(dir.path(), &[]);
+    }
+}
+
+#[test]
+fn stopping_defaults_change_nothing() {
+    // Without a target or a limit, every pixel takes exactly spp samples.
+    let result = render_scene(
+        "scenes/cornell-box.gltf",
+        ao(),
+        Vec3::ZERO,
+        (24, 24),
+        37,
+        Stopping::default(),
+        0,
+    );
+    assert_eq!(result.film.count_range(), (37, 37));
+    assert!(!result.time_limit_reached);
+    assert_eq!(result.unconverged_pixels, None);
+}
