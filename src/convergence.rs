@@ -33,6 +33,21 @@ impl ImageError {
     pub fn rmse_corrected(&self) -> f64 {
         self.mse_corrected.max(0.0).sqrt()
     }
+
+    /// The field-wise mean of `errors` (e.g. over seeds), or `None` for none. The reference
+    /// variance is the same for all; the first one's is kept.
+    pub fn mean(errors: &[ImageError]) -> Option<ImageError> {
+        let first = errors.first()?;
+        let k = errors.len() as f64;
+        let avg = |f: fn(&ImageError) -> f64| errors.iter().map(f).sum::<f64>() / k;
+        Some(ImageError {
+            mse: avg(|e| e.mse),
+            mse_corrected: avg(|e| e.mse_corrected),
+            relmse: avg(|e| e.relmse),
+            mae: avg(|e| e.mae),
+            reference_variance: first.reference_variance,
+        })
+    }
 }
 
 /// The ε of relative MSE, which keeps dark pixels from dominating (as in Rousselle et al.
@@ -120,6 +135,20 @@ pub fn reach(slope: f64, intercept: f64, target: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_mean_of_errors_averages_every_field() {
+        let e = |k: f64| ImageError {
+            mse: k,
+            mse_corrected: k - 1.0,
+            relmse: 2.0 * k,
+            mae: 3.0 * k,
+            reference_variance: 1.0,
+        };
+        let m = ImageError::mean(&[e(1.0), e(2.0), e(6.0)]).unwrap();
+        assert_eq!(m, e(3.0));
+        assert_eq!(ImageError::mean(&[]), None);
+    }
 
     #[test]
     fn errors_of_a_known_difference() {

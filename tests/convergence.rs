@@ -98,3 +98,70 @@ fn convergence_tool_writes_csv_plots_and_slopes() {
         assert!(ink > 5000, "{plot}: only {ink} non-white pixels");
     }
 }
+
+#[test]
+fn convergence_tool_compares_uniform_and_adaptive_at_equal_time() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
+        .current_dir(root)
+        .args([
+            "--reference",
+            "scenes/references/cornell-box.ao.exr",
+            "--samplers",
+            "sobol",
+            "--hemispheres",
+            "cosine",
+            "--adaptive",
+            "none,absolute",
+            "--time-limits",
+            "0.2,0.6",
+            "--render",
+            env!("CARGO_BIN_EXE_render"),
+            "--out",
+        ])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // Two modes × two time limits, in that order.
+    let modes: Vec<(&str, &str)> = rows
+        .iter()
+        .map(|r| (r[col("adaptive")], r[col("time_limit")]))
+        .collect();
+    assert_eq!(
+        modes,
+        [
+            ("", "0.2"),
+            ("", "0.6"),
+            ("absolute", "0.2"),
+            ("absolute", "0.6")
+        ],
+        "{csv}"
+    );
+    for pair in rows.chunks(2) {
+        let spp = |r: &Vec<&str>| r[col("spp")].parse::<f64>().unwrap();
+        let seconds = |r: &Vec<&str>| r[col("seconds")].parse::<f64>().unwrap();
+        // The render stops at its limit (loosely: this is not a timing test) …
+        assert!(
+            seconds(&pair[0]) >= 0.2 && seconds(&pair[1]) >= 0.6,
+            "{csv}"
+        );
+        assert!(seconds(&pair[1]) < 30.0, "{csv}");
+        // … and three times the time buys more samples.
+        assert!(spp(&pair[1]) > spp(&pair[0]), "{csv}");
+    }
+}

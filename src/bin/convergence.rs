@@ -18,6 +18,10 @@
 //! allows). The fit uses the points whose MSE is at least 4× the reference's noise floor.
 //! The render time is the renderer's own (`--stats`: rendering only, not loading or the BVH).
 //!
+//! With `--time-limits`, the ladder is one of `render --time-limit` budgets instead of spp
+//! (its spp column is then the mean spp the render reached), and `--adaptive` adds adaptive
+//! sampling to the configurations: an equal-time comparison of uniform and adaptive sampling.
+//!
 //! Plot labels need a TrueType font: `$STRATA_FONT`, else DejaVu Sans from Debian's
 //! `fonts-dejavu-core` (installed by tools/setup.sh).
 
@@ -58,6 +62,20 @@ struct Cli {
     #[arg(long, default_value_t = 1024)]
     max_spp: u32,
 
+    /// A ladder of render time limits (seconds, comma-separated) instead of the spp ladder.
+    #[arg(long, value_name = "SECONDS,...", value_delimiter = ',')]
+    time_limits: Vec<f64>,
+
+    /// Sampling modes to compare, comma-separated: none (every pixel alike), relative or
+    /// absolute (adaptive sampling with that --error-metric and --target-error).
+    #[arg(long, default_value = "none", value_delimiter = ',')]
+    adaptive: Vec<String>,
+
+    /// The --target-error of the adaptive modes. With --time-limits, a small one lets the
+    /// time limit decide (samples then go where they lower the error most).
+    #[arg(long, default_value_t = 1e-4)]
+    target_error: f64,
+
     /// Stop a configuration's ladder after a render that took longer than this (seconds).
     #[arg(long, value_name = "SECONDS")]
     time_budget: Option<f64>,
@@ -89,6 +107,8 @@ struct Config {
     sampler: String,
     hemisphere: Option<String>,
     strategy: Option<String>,
+    /// Adaptive sampling's error metric; `None`: uniform.
+    adaptive: Option<String>,
 }
 
 impl Config {
@@ -100,10 +120,13 @@ impl Config {
         if let Some(st) = &self.strategy {
             write!(s, ", {st}").unwrap();
         }
+        if let Some(m) = &self.adaptive {
+            write!(s, ", adaptive {m}").unwrap();
+        }
         s
     }
 
-    fn args(&self) -> Vec<String> {
+    fn args(&self, target_error: f64) -> Vec<String> {
         let mut a = vec!["--sampler".to_string(), self.sampler.clone()];
         if let Some(h) = &self.hemisphere {
             a.extend(["--hemisphere".into(), h.clone()]);
@@ -111,13 +134,22 @@ impl Config {
         if let Some(st) = &self.strategy {
             a.extend(["--strategy".into(), st.clone()]);
         }
+        if let Some(m) = &self.adaptive {
+            a.extend([
+                "--target-error".into(),
+                target_error.to_string(),
+                "--error-metric".into(),
+                m.clone(),
+            ]);
+        }
         a
     }
 }
 
 /// One point of a ladder.
 struct Point {
-    spp: u32,
+    /// Samples per pixel (the mean, for time-limited and adaptive renders).
+    spp: f64,
     seconds: f64,
     rays: f64,
     error: ImageError,
@@ -184,8 +216,16 @@ fn read_manifest(cli: &Cli) -> Result<Reference> {
     })
 }
 
-/// Runs `render` once; returns (render seconds, rays).
-fn run_render(render: &Path, scene: &Path, args: &[String], output: &Path) -> Result<(f64, f64)> {
+/// What one run of `render` reported.
+struct Run {
+    seconds: f64,
+    rays: f64,
+    /// Mean samples per pixel.
+    spp: f64,
+}
+
+/// Runs `render` once.
+fn run_render(render: &Path, scene: &Path, args: &[String], output: &Path) -> Result<Run> {
     let out = Command::new(render)
         .arg(scene)
         .args(args)
@@ -218,29 +258,42 @@ fn run_render(render: &Path, scene: &Path, args: &[String], output: &Path) -> Re
             rest[..at].rsplit(' ').next()?.parse().ok()
         })
         .ok_or_else(|| anyhow!("no ray count in the output of render --stats"))?;
-    Ok((seconds, rays))
+    // The first line: "out.exr: WxH, N spp, …" or "…, MIN-MAX (mean M) spp, …".
+    let first = stdout.lines().next().unwrap_or_default();
+    let spp = first
+        .split_once(" (mean ")
+        .and_then(|(_, r)| r.split(')').next())
+        .or_else(|| first.split(", ").nth(1)?.strip_suffix(" spp"))
+        .and_then(|v| v.trim().parse().ok())
+        .ok_or_else(|| anyhow!("no spp in the first line of render's output: {first}"))?;
+    Ok(Run { seconds, rays, spp })
 }
 
 fn configs(cli: &Cli, integrator: &str) -> Vec<Config> {
     let mut out = Vec::new();
     for s in &cli.samplers {
-        match integrator {
-            "ao" => {
-                for h in &cli.hemispheres {
-                    out.push(Config {
-                        sampler: s.clone(),
-                        hemisphere: Some(h.clone()),
-                        strategy: None,
-                    });
+        for a in &cli.adaptive {
+            let adaptive = Some(a.clone()).filter(|a| a != "none");
+            match integrator {
+                "ao" => {
+                    for h in &cli.hemispheres {
+                        out.push(Config {
+                            sampler: s.clone(),
+                            hemisphere: Some(h.clone()),
+                            strategy: None,
+                            adaptive: adaptive.clone(),
+                        });
+                    }
                 }
-            }
-            _ => {
-                for st in &cli.strategies {
-                    out.push(Config {
-                        sampler: s.clone(),
-                        hemisphere: None,
-                        strategy: Some(st.clone()),
-                    });
+                _ => {
+                    for st in &cli.strategies {
+                        out.push(Config {
+                            sampler: s.clone(),
+                            hemisphere: None,
+                            strategy: Some(st.clone()),
+                            adaptive: adaptive.clone(),
+                        });
+                    }
                 }
             }
         }
@@ -374,6 +427,8 @@ fn replot(out: &Path) -> Result<()> {
         col("rmse")?,
         col("reference_variance")?,
     );
+    // Absent from CSVs written before adaptive sampling.
+    let c_ad = col("adaptive").ok();
     let mut by_spp: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut by_time: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let (mut name, mut floor) = (String::new(), 0.0f64);
@@ -388,6 +443,10 @@ fn replot(out: &Path) -> Result<()> {
             sampler: f[c_s].to_string(),
             hemisphere: Some(f[c_h]).filter(|v| !v.is_empty()).map(str::to_string),
             strategy: Some(f[c_st]).filter(|v| !v.is_empty()).map(str::to_string),
+            adaptive: c_ad
+                .and_then(|c| f.get(c))
+                .filter(|v| !v.is_empty())
+                .map(|v| v.to_string()),
         };
         let label = config.label();
         if by_spp.last().is_none_or(|(l, _)| *l != label) {
@@ -429,6 +488,20 @@ fn main() -> Result<()> {
     if cli.max_spp == 0 || cli.seeds == 0 {
         bail!("--max-spp and --seeds must be at least 1");
     }
+    if let Some(t) = cli
+        .time_limits
+        .iter()
+        .find(|t| !(**t > 0.0 && t.is_finite()))
+    {
+        bail!("--time-limits: {t} is not a positive number of seconds");
+    }
+    if let Some(a) = cli
+        .adaptive
+        .iter()
+        .find(|a| !["none", "relative", "absolute"].contains(&a.as_str()))
+    {
+        bail!("--adaptive: '{a}': expected none, relative or absolute");
+    }
     let reference = read_manifest(&cli)?;
     let (rw, rh, ref_pixels) = read_exr_rgb(&cli.reference)
         .with_context(|| format!("{}: cannot read the reference", cli.reference.display()))?;
@@ -458,70 +531,67 @@ fn main() -> Result<()> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut csv = String::from(
-        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance\n",
+        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance,adaptive,time_limit\n",
     );
     let mut by_spp = Vec::new();
     let mut by_time = Vec::new();
     println!("{name}: {} ({rw}x{rh})", reference.scene.display());
     for config in configs(&cli, &reference.integrator) {
         let mut points: Vec<Point> = Vec::new();
-        for spp in spp_ladder(cli.max_spp) {
-            let (mut seconds, mut rays) = (0.0, 0.0);
-            let mut sum: Option<ImageError> = None;
+        // Rungs: (spp, time limit); with time limits the spp is the most a pixel may take.
+        let rungs: Vec<(Option<u32>, Option<f64>)> = if cli.time_limits.is_empty() {
+            spp_ladder(cli.max_spp)
+                .into_iter()
+                .map(|spp| (Some(spp), None))
+                .collect()
+        } else {
+            cli.time_limits.iter().map(|&t| (None, Some(t))).collect()
+        };
+        for (spp, time_limit) in rungs {
+            let (mut seconds, mut rays, mut mean_spp) = (0.0, 0.0, 0.0);
+            let mut errors = Vec::new();
             for seed in 0..cli.seeds {
                 let mut args = reference.args.clone();
-                args.extend(config.args());
+                args.extend(config.args(cli.target_error));
+                if let Some(spp) = spp {
+                    args.extend(["--spp".into(), spp.to_string()]);
+                }
+                if let Some(t) = time_limit {
+                    args.extend(["--time-limit".into(), t.to_string()]);
+                }
                 args.extend([
-                    "--spp".into(),
-                    spp.to_string(),
                     "--seed".into(),
                     seed.to_string(),
                     "--threads".into(),
                     cli.threads.to_string(),
                 ]);
                 let img = scratch.join("image.exr");
-                let (s, r) = run_render(&render, &reference.scene, &args, &img)?;
+                let run = run_render(&render, &reference.scene, &args, &img)?;
                 let (w, h, px) = read_exr_rgb(&img)?;
                 if (w, h) != (rw, rh) {
                     bail!("render gave {w}x{h}, the reference is {rw}x{rh}");
                 }
-                let e = image_error(&px, &ref_pixels, ref_var.as_deref());
-                seconds += s;
-                rays += r;
-                sum = Some(match sum {
-                    None => e,
-                    Some(a) => ImageError {
-                        mse: a.mse + e.mse,
-                        mse_corrected: a.mse_corrected + e.mse_corrected,
-                        relmse: a.relmse + e.relmse,
-                        mae: a.mae + e.mae,
-                        reference_variance: e.reference_variance,
-                    },
-                });
+                errors.push(image_error(&px, &ref_pixels, ref_var.as_deref()));
+                seconds += run.seconds;
+                rays += run.rays;
+                mean_spp += run.spp;
             }
             let k = cli.seeds as f64;
-            let s = sum.expect("at least one seed");
-            let error = ImageError {
-                mse: s.mse / k,
-                mse_corrected: s.mse_corrected / k,
-                relmse: s.relmse / k,
-                mae: s.mae / k,
-                reference_variance: s.reference_variance,
-            };
+            let error = ImageError::mean(&errors).expect("at least one seed");
             let point = Point {
-                spp,
+                spp: mean_spp / k,
                 seconds: seconds / k,
                 rays: rays / k,
                 error,
             };
             writeln!(
                 csv,
-                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}",
+                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{}",
                 reference.integrator,
                 config.sampler,
                 config.hemisphere.as_deref().unwrap_or(""),
                 config.strategy.as_deref().unwrap_or(""),
-                spp,
+                point.spp,
                 cli.seeds,
                 point.seconds,
                 point.rays,
@@ -529,14 +599,18 @@ fn main() -> Result<()> {
                 error.rmse_corrected(),
                 error.relmse,
                 error.mae,
-                error.reference_variance
+                error.reference_variance,
+                config.adaptive.as_deref().unwrap_or(""),
+                time_limit.map(|t| t.to_string()).unwrap_or_default(),
             )
             .unwrap();
             eprintln!(
-                "  {:<24} {spp:>6} spp {:>9.3} s  RMSE {:.4e}",
+                "  {:<24} {:>8.1} spp {:>9.3} s  RMSE {:.4e}  relMSE {:.4e}",
                 config.label(),
+                point.spp,
                 point.seconds,
-                error.rmse()
+                error.rmse(),
+                error.relmse
             );
             let over_budget = cli.time_budget.is_some_and(|b| point.seconds > b);
             points.push(point);
@@ -552,7 +626,7 @@ fn main() -> Result<()> {
         let fit = log_log_fit(
             &usable
                 .iter()
-                .map(|p| (p.spp as f64, p.error.rmse()))
+                .map(|p| (p.spp, p.error.rmse()))
                 .collect::<Vec<_>>(),
         );
         match fit {
@@ -568,10 +642,7 @@ fn main() -> Result<()> {
         }
         by_spp.push((
             config.label(),
-            points
-                .iter()
-                .map(|p| (p.spp as f64, p.error.rmse()))
-                .collect(),
+            points.iter().map(|p| (p.spp, p.error.rmse())).collect(),
         ));
         by_time.push((
             config.label(),
