@@ -121,7 +121,8 @@ struct Cli {
     #[arg(long, value_name = "DISTANCE")]
     ao_distance: Option<f32>,
 
-    /// AO: hemisphere sampling, cosine-weighted or uniform (weighted by cos θ / pdf).
+    /// Hemisphere sampling of AO rays and of the path tracer's diffuse BSDF: cosine-weighted,
+    /// or uniform (weighted by cos θ / pdf), for comparisons.
     #[arg(long, default_value = "cosine", value_name = "cosine|uniform")]
     hemisphere: Hemisphere,
 
@@ -469,10 +470,14 @@ fn run(cli: Cli) -> Result<Outcome> {
     let build_time = t_build.elapsed();
 
     // Materials and lights: only what the integrator reads.
+    if cli.hemisphere == Hemisphere::UniformUnweighted && cli.integrator != IntegratorKind::Ao {
+        bail!("--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform");
+    }
     let path_settings = PathSettings {
         max_depth: cli.max_depth,
         rr_depth: cli.rr_depth,
         strategy: cli.strategy,
+        hemisphere: cli.hemisphere,
     };
     let integrator = match cli.integrator {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {
@@ -575,6 +580,10 @@ fn run(cli: Cli) -> Result<Outcome> {
             attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
             attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
             attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
+            attrs.push((
+                "strata:hemisphere".into(),
+                Attr::Text(p.hemisphere.to_string()),
+            ));
             attrs.push((
                 "strata:triangle_sampling".into(),
                 Attr::Text(prepared.lights.triangle_sampling.to_string()),

@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3, Vec4};
 
 use crate::interaction::SurfaceInteraction;
-use crate::sampling::warps::square_to_cosine_hemisphere;
+use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
 use crate::sampling::Onb;
 use crate::scene::{Scene, TextureRef};
 use crate::texture::{transform_uv, Image};
@@ -204,12 +204,15 @@ impl Materials {
     }
 }
 
-/// The Lambertian BSDF at a surface point, in the frame of the shading normal.
+/// The Lambertian BSDF at a surface point, in the frame of the shading normal. It samples
+/// directions by the cosine (the default, proportional to f·cos θ) or uniformly over the
+/// hemisphere (for comparisons).
 #[derive(Clone, Copy, Debug)]
 pub struct Lambertian {
     pub albedo: Vec3,
     frame: Onb,
     ng: Vec3,
+    uniform: bool,
 }
 
 impl Lambertian {
@@ -219,6 +222,16 @@ impl Lambertian {
             albedo,
             frame: Onb::from_normal(si.ns),
             ng: si.ng,
+            uniform: false,
+        }
+    }
+
+    /// The same BSDF, sampling directions uniformly over the hemisphere (pdf 1/2π).
+    #[inline]
+    pub fn with_uniform_sampling(self) -> Lambertian {
+        Lambertian {
+            uniform: true,
+            ..self
         }
     }
 
@@ -239,16 +252,22 @@ impl Lambertian {
         let cos = wi.dot(self.frame.n);
         if cos <= 0.0 || wi.dot(self.ng) <= 0.0 {
             0.0
+        } else if self.uniform {
+            0.5 * std::f32::consts::FRAC_1_PI
         } else {
             cos * std::f32::consts::FRAC_1_PI
         }
     }
 
-    /// Cosine-weighted direction around the shading normal, with its pdf; `None` when it
-    /// falls below the geometric surface.
+    /// A direction around the shading normal (cosine-weighted, or uniform), with its pdf;
+    /// `None` when it falls below the geometric surface or on the horizon.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
-        let local = square_to_cosine_hemisphere(u);
+        let local = if self.uniform {
+            square_to_uniform_hemisphere(u)
+        } else {
+            square_to_cosine_hemisphere(u)
+        };
         let wi = self.frame.to_world(local);
         let pdf = self.pdf(wi);
         (pdf > 0.0).then_some((wi, pdf))

@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
-use strata::integrators::{Integrator, PathSettings, Prepared, Strategy};
+use strata::integrators::{Hemisphere, Integrator, PathSettings, Prepared, Strategy};
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{Camera, Light, Material, Projection, Scene};
@@ -537,6 +537,105 @@ fn two_lights_scene() -> Scene {
     s
 }
 
+/// Agreement in expectation of a `size`² image with a reference: 8×8 block means within 5σ of
+/// the reference's, σ from the spread of the block's pixels (plus 1% and 1e-3 absolute for
+/// blocks where BSDF sampling finds the small light only a few times).
+fn assert_agrees_in_blocks(name: &str, img: &[Vec3], reference: &[Vec3], size: u32) {
+    for by in 0..size / 8 {
+        for bx in 0..size / 8 {
+            let (mut a, mut r, mut a2) = (0.0f64, 0.0f64, 0.0f64);
+            for y in by * 8..by * 8 + 8 {
+                for x in bx * 8..bx * 8 + 8 {
+                    let i = (y * size + x) as usize;
+                    let v = img[i].x as f64;
+                    a += v;
+                    a2 += v * v;
+                    r += reference[i].x as f64;
+                }
+            }
+            let (a, r) = (a / 64.0, r / 64.0);
+            // σ of the block mean, from the spread of its 64 pixel means.
+            let sigma = ((a2 / 64.0 - a * a).max(0.0) / 63.0).sqrt();
+            assert!(
+                (a - r).abs() <= 5.0 * sigma + 0.01 * r + 1e-3,
+                "{name}: block ({bx}, {by}) mean {a} vs reference {r} (σ {sigma})"
+            );
+        }
+    }
+}
+
+fn rmse_of(img: &[Vec3], reference: &[Vec3]) -> f64 {
+    (img.iter()
+        .zip(reference)
+        .map(|(a, b)| ((a.x - b.x) as f64).powi(2))
+        .sum::<f64>()
+        / img.len() as f64)
+        .sqrt()
+}
+
+#[test]
+fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() {
+    // The path tracer's BSDF sampling with uniform directions (pdf 1/2π, in the MIS
+    // weights too) must reach the same image as cosine sampling, with more noise.
+    let scene = two_lights_scene();
+    let cam = camera(Vec3::new(0.0, 3.0, 4.0), Vec3::new(0.0, 0.0, 0.0), 0.9);
+    let size = 32;
+    let direct = |strategy, hemisphere| {
+        Integrator::Direct(PathSettings {
+            max_depth: 1,
+            strategy,
+            hemisphere,
+            ..Default::default()
+        })
+    };
+    let reference = render(
+        &scene,
+        cam.clone(),
+        direct(Strategy::Mis, Hemisphere::Cosine),
+        size,
+        4096,
+        100,
+    );
+    let mut rmse = Vec::new();
+    for strategy in [Strategy::Bsdf, Strategy::Mis] {
+        for hemisphere in [Hemisphere::Cosine, Hemisphere::Uniform] {
+            let img = render(
+                &scene,
+                cam.clone(),
+                direct(strategy, hemisphere),
+                size,
+                256,
+                7,
+            );
+            let name = format!("{strategy}, {hemisphere}");
+            assert_agrees_in_blocks(&name, &img, &reference, size);
+            rmse.push((name, rmse_of(&img, &reference)));
+        }
+    }
+    eprintln!("RMSE at 256 spp: {rmse:?}");
+    // BSDF sampling alone: cosine importance-samples the diffuse f·cos θ.
+    assert!(rmse[0].1 < 0.9 * rmse[1].1, "{rmse:?}");
+    // Path tracing through the furnace: same expectation with uniform directions.
+    let (rho, le) = (0.8f32, 1.0f32);
+    let (p, t) = inward_sphere(1.0, 4);
+    let furnace = scene_from(p, t, diffuse(rho, le), vec![]);
+    let cam = camera(Vec3::new(0.1, 0.05, 0.0), Vec3::new(1.0, 0.2, 0.3), 1.2);
+    for bounces in [1, 3] {
+        let integrator = Integrator::Path(PathSettings {
+            max_depth: bounces,
+            hemisphere: Hemisphere::Uniform,
+            ..Default::default()
+        });
+        let (mean, sem) = mean_and_sem(&render(&furnace, cam.clone(), integrator, 16, 64, 5));
+        let expected = (le * (1.0 - rho.powi(bounces as i32 + 1)) / (1.0 - rho)) as f64;
+        assert!(
+            (mean - expected).abs() < 5.0 * sem + 1e-4,
+            "uniform, {bounces} bounce(s): mean {mean} ± {sem}, expected {expected}"
+        );
+        assert!(sem > 0.0, "uniform sampling in a furnace has some variance");
+    }
+}
+
 #[test]
 fn light_bsdf_and_mis_agree_and_mis_has_the_lowest_error() {
     let scene = two_lights_scene();
@@ -559,38 +658,8 @@ fn light_bsdf_and_mis_agree_and_mis_has_the_lowest_error() {
         ("bsdf", Strategy::Bsdf),
     ] {
         let img = render(&scene, cam.clone(), strat(strategy), size, SPP, 7);
-        // Agreement in expectation: 8×8 block means within 5σ of the reference's, σ from the
-        // spread of the block's pixels (plus 1% and 1e-3 absolute for blocks where BSDF
-        // sampling finds the small light only a few times).
-        for by in 0..size / 8 {
-            for bx in 0..size / 8 {
-                let (mut a, mut r, mut a2) = (0.0f64, 0.0f64, 0.0f64);
-                for y in by * 8..by * 8 + 8 {
-                    for x in bx * 8..bx * 8 + 8 {
-                        let i = (y * size + x) as usize;
-                        let v = img[i].x as f64;
-                        a += v;
-                        a2 += v * v;
-                        r += reference[i].x as f64;
-                    }
-                }
-                let (a, r) = (a / 64.0, r / 64.0);
-                // σ of the block mean, from the spread of its 64 pixel means.
-                let sigma = ((a2 / 64.0 - a * a).max(0.0) / 63.0).sqrt();
-                assert!(
-                    (a - r).abs() <= 5.0 * sigma + 0.01 * r + 1e-3,
-                    "{name}: block ({bx}, {by}) mean {a} vs reference {r} (σ {sigma})"
-                );
-            }
-        }
-        let err = (img
-            .iter()
-            .zip(&reference)
-            .map(|(a, b)| ((a.x - b.x) as f64).powi(2))
-            .sum::<f64>()
-            / img.len() as f64)
-            .sqrt();
-        rmse.push((name, err));
+        assert_agrees_in_blocks(name, &img, &reference, size);
+        rmse.push((name, rmse_of(&img, &reference)));
     }
     let (mis, light, bsdf) = (rmse[0].1, rmse[1].1, rmse[2].1);
     eprintln!("RMSE at {SPP} spp: mis {mis:.4}, light {light:.4}, bsdf {bsdf:.4}");

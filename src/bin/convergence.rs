@@ -50,9 +50,10 @@ struct Cli {
     #[arg(long, default_value = "random,stratified,sobol", value_delimiter = ',')]
     samplers: Vec<String>,
 
-    /// AO only: hemisphere warps to compare, comma-separated.
-    #[arg(long, default_value = "cosine,uniform", value_delimiter = ',')]
-    hemispheres: Vec<String>,
+    /// Hemisphere warps to compare, comma-separated [default: cosine,uniform for AO; for
+    /// direct and path, the renderer's default (cosine) alone].
+    #[arg(long, value_delimiter = ',')]
+    hemispheres: Option<Vec<String>>,
 
     /// Direct and path only: light-sampling strategies to compare, comma-separated.
     #[arg(long, default_value = "mis", value_delimiter = ',')]
@@ -274,26 +275,23 @@ fn configs(cli: &Cli, integrator: &str) -> Vec<Config> {
     for s in &cli.samplers {
         for a in &cli.adaptive {
             let adaptive = Some(a.clone()).filter(|a| a != "none");
-            match integrator {
-                "ao" => {
-                    for h in &cli.hemispheres {
-                        out.push(Config {
-                            sampler: s.clone(),
-                            hemisphere: Some(h.clone()),
-                            strategy: None,
-                            adaptive: adaptive.clone(),
-                        });
-                    }
-                }
-                _ => {
-                    for st in &cli.strategies {
-                        out.push(Config {
-                            sampler: s.clone(),
-                            hemisphere: None,
-                            strategy: Some(st.clone()),
-                            adaptive: adaptive.clone(),
-                        });
-                    }
+            let hemispheres: Vec<Option<String>> = match (&cli.hemispheres, integrator) {
+                (Some(h), _) => h.iter().cloned().map(Some).collect(),
+                (None, "ao") => vec![Some("cosine".into()), Some("uniform".into())],
+                (None, _) => vec![None],
+            };
+            let strategies: Vec<Option<String>> = match integrator {
+                "ao" => vec![None],
+                _ => cli.strategies.iter().cloned().map(Some).collect(),
+            };
+            for h in &hemispheres {
+                for st in &strategies {
+                    out.push(Config {
+                        sampler: s.clone(),
+                        hemisphere: h.clone(),
+                        strategy: st.clone(),
+                        adaptive: adaptive.clone(),
+                    });
                 }
             }
         }

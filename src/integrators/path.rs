@@ -12,6 +12,8 @@
 //! | `rr_depth`  | 5       | Russian roulette on the path throughput from this bounce on       |
 //! | `strategy`  | mis     | `mis`, `light` (NEE only) or `bsdf` (BSDF sampling only, delta     |
 //! |             |         | lights still by NEE): all three are unbiased; for comparisons     |
+//! | `hemisphere`| cosine  | BSDF directions cosine-weighted, or `uniform` (pdf 1/2π, in the   |
+//! |             |         | MIS weights too): unbiased as well; for comparisons               |
 //!
 //! Sample dimensions per bounce, in order: one 2×2D slot (BSDF direction, light point) and
 //! one 2D slot (light choice, Russian roulette); all are drawn whether used or not, so a
@@ -22,7 +24,7 @@ use std::str::FromStr;
 
 use glam::Vec3;
 
-use super::{Context, RayCounts};
+use super::{Context, Hemisphere, RayCounts};
 use crate::accel::Ray;
 use crate::interaction::SurfaceInteraction;
 use crate::material::Lambertian;
@@ -64,6 +66,9 @@ pub struct PathSettings {
     pub max_depth: u32,
     pub rr_depth: u32,
     pub strategy: Strategy,
+    /// How the BSDF samples directions: `Cosine` or `Uniform` (`UniformUnweighted`, an AO
+    /// negative control, is treated as `Uniform`).
+    pub hemisphere: Hemisphere,
 }
 
 impl Default for PathSettings {
@@ -72,6 +77,7 @@ impl Default for PathSettings {
             max_depth: 8,
             rr_depth: 5,
             strategy: Strategy::Mis,
+            hemisphere: Hemisphere::Cosine,
         }
     }
 }
@@ -145,7 +151,10 @@ pub fn li(
         }
         depth += 1;
 
-        let bsdf = Lambertian::new(materials.albedo(scene, &si, uv), &si);
+        let mut bsdf = Lambertian::new(materials.albedo(scene, &si, uv), &si);
+        if settings.hemisphere != Hemisphere::Cosine {
+            bsdf = bsdf.with_uniform_sampling();
+        }
         // Two slots per bounce: (BSDF direction, light point) and (light choice, roulette).
         let (u_bsdf, u_light) = sampler.next_2x2d();
         let u_misc = sampler.next_2d();
