@@ -85,8 +85,13 @@ impl Image {
     /// at half-integer positions.
     #[inline]
     pub fn bilinear(&self, uv: Vec2, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = uv.y * self.height as f32 - 0.5;
+        // Coordinates a billion texels out have no sub-texel precision left in f32; clamping
+        // them keeps the integer texel indices (and x0 + 1) far from overflow, and gives
+        // clamp-to-edge its edge texel. The loader replaces non-finite coordinates; the check
+        // stays for coordinates a texture transform overflows.
+        const FAR: f32 = 1e9;
+        let x = (uv.x * self.width as f32 - 0.5).clamp(-FAR, FAR);
+        let y = (uv.y * self.height as f32 - 0.5).clamp(-FAR, FAR);
         if !(x.is_finite() && y.is_finite()) {
             return self.texels[0];
         }

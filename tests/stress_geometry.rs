@@ -39,13 +39,15 @@ const INF: f32 = f32::INFINITY;
 struct Prim {
     positions: Vec<[f32; 3]>,
     normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
     indices: Vec<u32>,
     material: usize,
 }
 
-/// A glTF file with `prims` as the primitives of one mesh on one node, two materials (0:
-/// white diffuse, 1: white emitter), a directional light travelling along −Z and a point
-/// light at (0, 0, 1.5). No camera: the renderer frames the scene's bounds, as the CLI does.
+/// A glTF file with `prims` as the primitives of one mesh on one node, three materials (0:
+/// white diffuse, 1: white emitter, 2: diffuse with a 2 × 2 base-colour texture, clamped
+/// at the edges), a directional light travelling along −Z and a point light at (0, 0, 1.5).
+/// No camera: the renderer frames the scene's bounds, as the CLI does.
 fn write_gltf(dir: &Path, name: &str, prims: &[Prim]) -> PathBuf {
     let mut bin: Vec<u8> = Vec::new();
     let mut views = Vec::new();
@@ -88,6 +90,15 @@ fn write_gltf(dir: &Path, name: &str, prims: &[Prim]) -> PathBuf {
             accessors.push(json!({"bufferView": view, "componentType": 5126, "count": n.len(), "type": "VEC3"}));
             attributes["NORMAL"] = json!(accessors.len() - 1);
         }
+        if let Some(t) = &p.uvs {
+            let bytes: Vec<u8> = t
+                .iter()
+                .flat_map(|q| q.iter().flat_map(|x| x.to_le_bytes()))
+                .collect();
+            let view = push_view(&mut bin, &bytes, 34962);
+            accessors.push(json!({"bufferView": view, "componentType": 5126, "count": t.len(), "type": "VEC2"}));
+            attributes["TEXCOORD_0"] = json!(accessors.len() - 1);
+        }
         let idx: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let view = push_view(&mut bin, &idx, 34963);
         accessors.push(json!({"bufferView": view, "componentType": 5125, "count": p.indices.len(), "type": "SCALAR"}));
@@ -96,6 +107,22 @@ fn write_gltf(dir: &Path, name: &str, prims: &[Prim]) -> PathBuf {
     let uri = format!(
         "data:application/octet-stream;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    // A 2 × 2 texture: red, green / blue, white.
+    let mut png = Vec::new();
+    image::RgbaImage::from_raw(
+        2,
+        2,
+        vec![
+            255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255,
+        ],
+    )
+    .unwrap()
+    .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+    .unwrap();
+    let png_uri = format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&png)
     );
     let doc: Value = json!({
         "asset": {"version": "2.0"},
@@ -114,8 +141,12 @@ fn write_gltf(dir: &Path, name: &str, prims: &[Prim]) -> PathBuf {
         "meshes": [{"primitives": primitives}],
         "materials": [
             {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0}},
-            {"pbrMetallicRoughness": {"metallicFactor": 0.0}, "emissiveFactor": [1.0, 1.0, 1.0]}
+            {"pbrMetallicRoughness": {"metallicFactor": 0.0}, "emissiveFactor": [1.0, 1.0, 1.0]},
+            {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}
         ],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}],
+        "images": [{"uri": png_uri}],
         "buffers": [{"byteLength": bin.len(), "uri": uri}],
         "bufferViews": views,
         "accessors": accessors
@@ -136,6 +167,7 @@ fn good_quad() -> Prim {
             [-1.0, 1.0, 0.0],
         ],
         normals: None,
+        uvs: None,
         indices: vec![0, 1, 2, 0, 2, 3],
         material: 0,
     }
@@ -452,6 +484,7 @@ fn quads_with_a_bad_normal(bad: [f32; 3], bad_vertex: usize) -> Prim {
         normals: Some(normals),
         indices: vec![0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7],
         material: 0,
+        ..Default::default()
     }
 }
 
@@ -542,6 +575,7 @@ fn everything_at_once_with_emitters() {
         normals: None,
         indices: vec![0, 1, 2, 3, 4, 5, 6, 7, 8],
         material: 1,
+        ..Default::default()
     };
     let scene = run_case("everything", &[floor, smooth, emitter], 4 + 2, 2);
     assert_eq!(scene.summary.emissive_triangles, 1);
@@ -560,6 +594,7 @@ fn a_file_of_degenerate_triangles_only_is_a_clear_error() {
             [0.0, 1.0, 0.0],
         ],
         normals: None,
+        uvs: None,
         indices: vec![0, 1, 2, 3, 4, 5],
         material: 0,
     };
@@ -598,4 +633,36 @@ fn negative_control_a_zero_vertex_normal_alone_is_not_flat() {
         result.is_err(),
         "check_flat_and_smooth accepted a smooth triangle"
     );
+}
+
+#[test]
+fn non_finite_texture_coordinates_are_counted_and_set_to_zero() {
+    // A textured quad whose corners have NaN, +∞, −∞ and a finite but enormous coordinate.
+    let dir = tempfile::tempdir().unwrap();
+    let mut quad = good_quad();
+    quad.material = 2;
+    quad.uvs = Some(vec![[NAN, 0.5], [INF, 0.0], [0.25, -INF], [1e30, -1e30]]);
+    let path = write_gltf(dir.path(), "uvs.gltf", &[quad]);
+    let scene = load(&path);
+    assert_eq!(
+        warning_count(
+            &scene,
+            "",
+            " texture coordinate(s) not finite; set to (0, 0)"
+        ),
+        3,
+        "{:?}",
+        scene.load_warnings
+    );
+    assert!(scene.uvs.iter().all(|t| t.is_finite()), "{:?}", scene.uvs);
+    assert_eq!(&scene.uvs[..3], &[glam::Vec2::ZERO; 3]);
+    // The enormous finite one is kept, and the texture lookup clamps it to an edge texel.
+    assert_eq!(scene.uvs[3], glam::Vec2::new(1e30, -1e30));
+    render_all(&scene);
+    // Negative control: finite coordinates give no warning.
+    let mut quad = good_quad();
+    quad.material = 2;
+    quad.uvs = Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let scene = load(&write_gltf(dir.path(), "fine.gltf", &[quad]));
+    assert!(scene.load_warnings.is_empty(), "{:?}", scene.load_warnings);
 }

@@ -6,7 +6,8 @@
 //! is flipped so the counter-clockwise front face stays the front face. Primitives without
 //! normals are shaded flat, as the glTF specification requires, and so are triangles that use
 //! a zero or non-finite vertex normal. Triangles of zero or non-finite area are dropped, and
-//! with them their vertices; both repairs are counted in one warning line each. Accessors are
+//! with them their vertices; non-finite texture coordinates become (0, 0); each repair is
+//! counted in one warning line. Accessors are
 //! range-checked against their buffers before they are read, so a malformed file is an
 //! error, not a panic.
 //!
@@ -228,6 +229,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         dropped_triangles: 0,
         bad_normals: 0,
         flat_triangles: 0,
+        bad_uvs: 0,
         skipped_primitives: 0,
     };
     loader.scene.materials.push(Material::default());
@@ -256,6 +258,12 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         warnings.push(format!(
             "{} vertex normal(s) zero or not finite; the {} triangle(s) using them are shaded flat",
             loader.bad_normals, loader.flat_triangles
+        ));
+    }
+    if loader.bad_uvs > 0 {
+        warnings.push(format!(
+            "{} texture coordinate(s) not finite; set to (0, 0)",
+            loader.bad_uvs
         ));
     }
     if loader.dropped_triangles > 0 || scene.positions.iter().any(|p| !p.is_finite()) {
@@ -524,6 +532,8 @@ struct Loader<'a> {
     /// Vertex normals that were zero or not finite, and the triangles shaded flat for them.
     bad_normals: usize,
     flat_triangles: usize,
+    /// Texture coordinates that were not finite (set to (0, 0)).
+    bad_uvs: usize,
     skipped_primitives: usize,
 }
 
@@ -934,10 +944,19 @@ impl Loader<'_> {
                 .extend(std::iter::repeat_n(Vec3::ZERO, n)),
         }
         match &uvs {
-            Some(ts) => self
-                .scene
-                .uvs
-                .extend(ts.iter().map(|t| Vec2::from_array(*t))),
+            Some(ts) => {
+                let mut bad = 0;
+                self.scene.uvs.extend(ts.iter().map(|t| {
+                    let t = Vec2::from_array(*t);
+                    if t.is_finite() {
+                        t
+                    } else {
+                        bad += 1;
+                        Vec2::ZERO
+                    }
+                }));
+                self.bad_uvs += bad;
+            }
             None => self.scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, n)),
         }
         let material = primitive.material().index().map_or(0, |i| i as u32 + 1);
