@@ -135,10 +135,22 @@ impl SurfaceInteraction {
 
     /// The origin of a ray leaving toward `w`: past the error bound, or `p` itself when
     /// `ray_offset` is false (one predictable branch; the default path always takes the first).
+    ///
+    /// A ray leaving on the side it arrived from is also moved one ulp per axis back along
+    /// `wo`, onto the incoming ray's side. A hit point can round exactly onto a second surface
+    /// (a floor point at the foot of a wall far from the origin lands in the wall's plane);
+    /// the offset along this surface's normal leaves it in that plane, and a ray from there
+    /// can cross the wall at t = 0 and see the wall's other side. The incoming segment is
+    /// free of surfaces, so a point toward it is on the correct side of both.
     #[inline(always)]
     fn origin(&self, w: Vec3, ray_offset: bool) -> Vec3 {
         if ray_offset {
-            offset_ray_origin(self.p, self.p_error, self.ng, w)
+            let o = offset_ray_origin(self.p, self.p_error, self.ng, w);
+            if w.dot(self.ng) > 0.0 {
+                nudge_toward(o, self.wo)
+            } else {
+                o
+            }
         } else {
             self.p
         }
@@ -173,6 +185,22 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         round(po.y, offset.y),
         round(po.z, offset.z),
     )
+}
+
+/// Moves each coordinate of `p` one ulp in the direction of `w`'s component (none where it
+/// is zero).
+#[inline]
+pub fn nudge_toward(p: Vec3, w: Vec3) -> Vec3 {
+    let step = |v: f32, d: f32| {
+        if d > 0.0 {
+            v.next_up()
+        } else if d < 0.0 {
+            v.next_down()
+        } else {
+            v
+        }
+    };
+    Vec3::new(step(p.x, w.x), step(p.y, w.y), step(p.z, w.z))
 }
 
 #[cfg(test)]
