@@ -63,11 +63,7 @@ fn ao() -> Integrator {
 }
 
 fn path() -> Integrator {
-    Integrator::Path(PathSettings {
-        max_depth: 8,
-        rr_depth: 5,
-        strategy: Default::default(),
-    })
+    Integrator::Path(PathSettings::default())
 }
 
 fn adaptive(target: f32, metric: ErrorMetric) -> Stopping {
