@@ -7,6 +7,9 @@ same glTF scene at the reference's resolution at 1, 2, 4, ... spp:
 
   strata          target/release/render with the manifest's strata_args (Sobol, the default);
                   time = the `render` phase of --stats (no start-up, loading or writing)
+  strata-adaptive the same with adaptive sampling (--error-metric absolute --target-error 1e-4)
+                  and --time-limit set to the time strata itself just took at this rung:
+                  strata's two sampling modes at equal time (needs strata in --renderers)
   mitsuba-scalar  Mitsuba 3 scalar_rgb, scene from tools/references/mitsuba_refs.convert();
   mitsuba-llvm    ... llvm_ad_rgb (Dr.Jit needs LLVM's shared library: Debian's libllvm19);
                   time = the mi.render() call, after a warm-up render; llvm: the replay of a render
@@ -48,7 +51,7 @@ sys.path.insert(0, os.path.join(REPO, "tools", "references"))
 import mitsuba_refs  # noqa: E402  (the glTF -> Mitsuba conversion of the references)
 import mitsuba as mi  # noqa: E402
 
-RENDERERS = ["strata", "mitsuba-scalar", "mitsuba-llvm", "cycles"]
+RENDERERS = ["strata", "strata-adaptive", "mitsuba-scalar", "mitsuba-llvm", "cycles"]
 SEED = 1000  # the references used seeds 0..31: stay clear of them (Mitsuba would repeat a pass)
 MITSUBA_RR_DEPTH = 5  # Mitsuba's own default (the references turn roulette off with 100)
 
@@ -137,18 +140,38 @@ class Strata:
         self.info = {"version": subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip(),
                      "args": ref["strata_args"]}
 
+    def sampling_args(self, spp):
+        return ["--spp", str(spp)]
+
     def render(self, spp, seed, out):
         c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
-        r = subprocess.run(self.base + ["--spp", str(spp), "--seed", str(seed), "-o", out],
+        r = subprocess.run(self.base + self.sampling_args(spp) + ["--seed", str(seed), "-o", out],
                            capture_output=True, text=True)
         c1 = cpu_seconds(resource.RUSAGE_CHILDREN)
         if r.returncode != 0:
             raise RuntimeError(f"strata failed: {r.stderr.strip()}")
         m = re.search(r"render ([0-9.]+) s", r.stdout + r.stderr)
-        return {"seconds": float(m.group(1)), "cpu_seconds": c1 - c0}  # cpu: whole process
+        mean = re.search(r"\(mean ([0-9.]+)\) spp", r.stdout)
+        return {"seconds": float(m.group(1)), "cpu_seconds": c1 - c0,  # cpu: whole process
+                "mean_spp": float(mean.group(1)) if mean else spp}
 
     def close(self):
         pass
+
+
+class StrataAdaptive(Strata):
+    """strata with adaptive sampling in the absolute error metric (what RMSE measures), given
+    the time uniform strata took at the same rung (`time_limit`, set before each render)."""
+
+    def __init__(self, binary, job, threads):
+        super().__init__(binary, job, threads)
+        self.time_limit = None
+        self.info["adaptive"] = "--error-metric absolute --target-error 1e-4 --time-limit <strata's seconds>"
+
+    def sampling_args(self, spp):
+        if self.time_limit is None:
+            raise RuntimeError("strata-adaptive needs strata's time at the rung: list strata first in --renderers")
+        return ["--error-metric", "absolute", "--target-error", "1e-4", "--time-limit", f"{self.time_limit:.6g}"]
 
 
 def cpu_seconds(who):
@@ -160,6 +183,8 @@ def start(name, job, args, logdir):
     ref = manifest_entry(job)
     if name == "strata":
         return Strata(args.strata, job, args.threads)
+    if name == "strata-adaptive":
+        return StrataAdaptive(args.strata, job, args.threads)
     if name.startswith("mitsuba-"):
         variant = {"mitsuba-scalar": "scalar_rgb", "mitsuba-llvm": "llvm_ad_rgb"}[name]
         argv = [sys.executable, os.path.abspath(__file__), "--mitsuba-worker", variant, job, str(args.threads)]
@@ -289,6 +314,8 @@ def run_job(job, args, workdir):
         for _ in range(args.repeats):  # the same image each time (same seed): timing only
             for name in active:
                 out = os.path.join(workdir, f"{job}.{name}.{spp}.exr")
+                if name == "strata-adaptive":
+                    workers[name].time_limit = times["strata"][-1]["seconds"] if times.get("strata") else None
                 times[name].append(workers[name].render(spp, SEED, out))
         for name in list(active):
             t = times[name]
@@ -297,6 +324,7 @@ def run_job(job, args, workdir):
             seconds = min(x["seconds"] for x in t)  # the least disturbed of the repeats
             rows.append({"job": job, "renderer": name, "spp": spp, "seconds": round(seconds, 5),
                          "cpu_seconds": round(min(x["cpu_seconds"] for x in t), 4),
+                         "mean_spp": round(min(x.get("mean_spp", spp) for x in t), 2),
                          "rmse": rmse, "rmse_corrected": corrected, "mean_ratio": float(img.mean() / ref.mean()),
                          "all_seconds": ";".join(f"{x['seconds']:.4g}" for x in t),
                          "first_call_seconds": round(t[0].get("first_call_seconds", t[0]["seconds"]), 5)})
@@ -322,7 +350,8 @@ def write_csv(path, rows):
 def job_tables(job, rows, checks, renderers):
     by = {n: [r for r in rows if r["renderer"] == n] for n in renderers}
     by = {n: v for n, v in by.items() if v}
-    peers = [n for n in by if n != "strata"]
+    ours = [n for n in by if n.startswith("strata")]
+    peers = [n for n in by if n not in ours]
     lines = [f"### {job}", ""]
     ref_entry = manifest_entry(job)
     lines += [f"Reference `{ref_entry['reference']}` ({ref_entry['spp']} spp Mitsuba, "
@@ -334,42 +363,48 @@ def job_tables(job, rows, checks, renderers):
         c, top = checks[n], rs[-1]
         lines.append(f"| {n} | {c['spp']} | {top['seconds']:.2f} | {c['mean_ratio']:.4f} | {c['surface_mean_ratio']:.4f} "
                      f"| {c['block8_rmse']:.4g} | {top['rmse']:.4g} |")
-    lines += equal_time(by, peers, "seconds", "RMSE at equal wall-clock time (log-log interpolation between rungs; "
-                        "ratio < 1: strata is better):")
-    lines += equal_error(by, peers, "seconds", "Wall-clock seconds to reach an RMSE (ratio < 1: strata is faster):")
-    lines += equal_error(by, peers, "cpu_seconds", "The same in CPU seconds (user + system, all threads; less "
+    lines += equal_time(by, ours, peers, "seconds", "RMSE at equal wall-clock time (log-log interpolation between "
+                        "rungs; ratio < 1: strata is better):")
+    lines += equal_error(by, ours, peers, "seconds", "Wall-clock seconds to reach an RMSE (ratio < 1: strata is "
+                         "faster):")
+    lines += equal_error(by, ours, peers, "cpu_seconds", "The same in CPU seconds (user + system, all threads; less "
                          "sensitive to other work on the machine):")
     lines += ["", "Fitted slope of log RMSE against log seconds (rungs of 0.1 s or more): "
               + ", ".join(f"{n} {fmt(slope(rs), 3)}" for n, rs in by.items()) + ".", ""]
     return lines
 
 
-def header(by, peers, first):
-    return ["| " + first + " | " + " | ".join(by) + " | " + " | ".join(f"strata / {p}" for p in peers) + " |",
-            "|---" * (1 + len(by) + len(peers)) + "|"]
+def header(by, ours, peers, first):
+    pairs = [(o, p) for o in ours for p in peers]
+    return ["| " + first + " | " + " | ".join(by) + " | " + " | ".join(f"{o} / {p}" for o, p in pairs) + " |",
+            "|---" * (1 + len(by) + len(pairs)) + "|"]
 
 
-def equal_time(by, peers, key, title):
+def ratio_cells(v, ours, peers):
+    return [None if v.get(o) is None or v[p] is None else v[o] / v[p] for o in ours for p in peers]
+
+
+def equal_time(by, ours, peers, key, title):
     """Budgets (1-2-5 values) inside every renderer's range of times."""
     lo = max(min(r[key] for r in rs) for rs in by.values())
     hi = min(max(r[key] for r in rs) for rs in by.values())
-    lines = ["", title, ""] + header(by, peers, key.replace("_", " "))
+    lines = ["", title, ""] + header(by, ours, peers, key.replace("_", " "))
     for b in (nice_values(lo, hi) if lo < hi else []):
         v = {n: rmse_at(rs, b, key) for n, rs in by.items()}
-        ratios = [None if v.get("strata") is None or v[p] is None else v["strata"] / v[p] for p in peers]
-        lines.append(f"| {b:g} | " + " | ".join(fmt(v[n], 4) for n in by) + " | " + " | ".join(fmt(x, 3) for x in ratios) + " |")
+        lines.append(f"| {b:g} | " + " | ".join(fmt(v[n], 4) for n in by) + " | "
+                     + " | ".join(fmt(x, 3) for x in ratio_cells(v, ours, peers)) + " |")
     return lines
 
 
-def equal_error(by, peers, key, title):
+def equal_error(by, ours, peers, key, title):
     """Targets (1-2-5 values) inside every renderer's range of RMSE."""
     lo = max(min(r["rmse"] for r in rs) for rs in by.values())
     hi = min(max(r["rmse"] for r in rs) for rs in by.values())
-    lines = ["", title, ""] + header(by, peers, "RMSE")
+    lines = ["", title, ""] + header(by, ours, peers, "RMSE")
     for t in (sorted(nice_values(lo, hi), reverse=True) if lo < hi else []):
         v = {n: time_to(rs, t, key) for n, rs in by.items()}
-        ratios = [None if v.get("strata") is None or v[p] is None else v["strata"] / v[p] for p in peers]
-        lines.append(f"| {t:g} | " + " | ".join(fmt(v[n], 3) for n in by) + " | " + " | ".join(fmt(x, 3) for x in ratios) + " |")
+        lines.append(f"| {t:g} | " + " | ".join(fmt(v[n], 3) for n in by) + " | "
+                     + " | ".join(fmt(x, 3) for x in ratio_cells(v, ours, peers)) + " |")
     return lines
 
 
