@@ -398,10 +398,14 @@ fn run(cli: Cli) -> Result<Outcome> {
     let t_load = Instant::now();
     // The film, plus the variance image (float32 RGB) when one is written.
     let image_memory = |(w, h): (u32, u32)| {
-        let extra = 12 * (cli.variance.is_some() as u64 + cli.spp_image.is_some() as u64);
-        // Adaptive sampling keeps a mask and the errors of the last judgement.
-        let adaptive = if cli.target_error.is_some() { 9 } else { 0 };
-        Film::memory_estimate(w, h) + w as u64 * h as u64 * (extra + adaptive)
+        let mut extra = 12 * (cli.variance.is_some() as u64 + cli.spp_image.is_some() as u64);
+        if cli.target_error.is_some() {
+            extra += Film::ADAPTIVE_BYTES_PER_PIXEL;
+        }
+        if cli.checkpoint.is_some() {
+            extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
+        }
+        Film::memory_estimate(w, h) + w as u64 * h as u64 * extra
     };
     let load_options = LoadOptions {
         memory_limit,

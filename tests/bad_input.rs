@@ -472,7 +472,7 @@ fn sparse_accessor_without_a_buffer_view_with_10_to_the_10_elements() {
 
 #[test]
 fn normal_scene_under_a_tiny_memory_limit_is_refused() {
-    // The file and geometry fit in 64 KiB; with the 32x32 image's 112 KiB they do not.
+    // The file and geometry fit in 64 KiB; with the 32x32 image's 116 KiB they do not.
     let line = expect_refused(
         "scene.gltf",
         &[("scene.gltf", json_bytes(&ao_wall_json()))],

@@ -26,10 +26,20 @@ pub struct Film {
 }
 
 impl Film {
-    /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), the
-    /// per-pass tile sums collected before they are merged (48 bytes), and the float32 RGB
-    /// image made for output (12 bytes).
-    pub const BYTES_PER_PIXEL: u64 = 52 + 48 + 12;
+    /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), a
+    /// round's tile results collected before they are merged (sums, squares and count: 52
+    /// bytes), and the float32 RGB image made for output (12 bytes). Adaptive sampling and
+    /// checkpoints need more ([`Film::ADAPTIVE_BYTES_PER_PIXEL`],
+    /// [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
+    pub const BYTES_PER_PIXEL: u64 = 52 + 52 + 12;
+
+    /// Adaptive sampling's extra memory per pixel: the active and selected masks (2 bytes)
+    /// and the judgement's three f64 error images (own, row maximum, neighbourhood maximum)
+    /// plus the selection's gains (32 bytes).
+    pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 2 + 32;
+
+    /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (52 bytes).
+    pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 52;
 
     /// The memory a `width` × `height` render needs for its image ([`Film::BYTES_PER_PIXEL`]
     /// per pixel), for checks before anything is allocated.
