@@ -136,21 +136,22 @@ impl SurfaceInteraction {
     /// The origin of a ray leaving toward `w`: past the error bound, or `p` itself when
     /// `ray_offset` is false (one predictable branch; the default path always takes the first).
     ///
-    /// A ray leaving on the side it arrived from is also moved one ulp per axis back along
-    /// `wo`, onto the incoming ray's side. A hit point can round exactly onto a second surface
-    /// (a floor point at the foot of a wall far from the origin lands in the wall's plane);
-    /// the offset along this surface's normal leaves it in that plane, and a ray from there
-    /// can cross the wall at t = 0 and see the wall's other side. The incoming segment is
-    /// free of surfaces, so a point toward it is on the correct side of both.
+    /// A ray leaving on the side it arrived from is also moved one ulp back along `wo` on the
+    /// axes where that does not move it toward the surface (see [`offset_origin`]). A hit
+    /// point can round exactly onto a second surface (a floor point at the foot of a wall far
+    /// from the origin lands in the wall's plane); the offset along this surface's normal
+    /// leaves it in that plane, and a ray from there can cross the wall at t = 0 and see the
+    /// wall's other side. The incoming segment is free of surfaces, so a point toward it is on
+    /// the correct side of both.
     #[inline(always)]
     fn origin(&self, w: Vec3, ray_offset: bool) -> Vec3 {
         if ray_offset {
-            let o = offset_ray_origin(self.p, self.p_error, self.ng, w);
-            if w.dot(self.ng) > 0.0 {
-                nudge_toward(o, self.wo)
+            let back = if w.dot(self.ng) > 0.0 {
+                self.wo
             } else {
-                o
-            }
+                Vec3::ZERO
+            };
+            offset_origin(self.p, self.p_error, self.ng, w, back)
         } else {
             self.p
         }
@@ -165,47 +166,115 @@ pub const SHADOW_EPSILON: f32 = 1e-4;
 /// from `p` so the offset survives rounding (pbrt-v4 §6.8.6).
 #[inline]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    offset_origin(p, p_error, n, w, Vec3::ZERO)
+}
+
+/// [`offset_ray_origin`], then one more ulp toward `back` on every axis where `back` has a
+/// component and the normal offset either has none or has the same sign, so the extra step
+/// never moves the point back toward the surface (`back = 0`: none). Each coordinate moves
+/// by a whole number of ulps in one step.
+#[inline(always)]
+pub fn offset_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
     let mut offset = d * n;
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
     let po = p + offset;
-    let round = |v: f32, o: f32| {
-        if o > 0.0 {
-            v.next_up()
-        } else if o < 0.0 {
-            v.next_down()
-        } else {
-            v
-        }
+    let sign = |v: f32| (v > 0.0) as i32 - (v < 0.0) as i32;
+    let ulps = |o: f32, b: f32| {
+        let (so, sb) = (sign(o), sign(b));
+        so + if so == 0 || so == sb { sb } else { 0 }
     };
     Vec3::new(
-        round(po.x, offset.x),
-        round(po.y, offset.y),
-        round(po.z, offset.z),
+        step_ulps(po.x, ulps(offset.x, back.x)),
+        step_ulps(po.y, ulps(offset.y, back.y)),
+        step_ulps(po.z, ulps(offset.z, back.z)),
     )
 }
 
-/// Moves each coordinate of `p` one ulp in the direction of `w`'s component (none where it
-/// is zero).
-#[inline]
-pub fn nudge_toward(p: Vec3, w: Vec3) -> Vec3 {
-    let step = |v: f32, d: f32| {
-        if d > 0.0 {
-            v.next_up()
-        } else if d < 0.0 {
-            v.next_down()
-        } else {
-            v
-        }
+/// Moves a finite `v` by `k` ulps, toward +∞ for k > 0 (crossing zero through the
+/// denormals), without branches: floats are mapped to integers in the same order.
+#[inline(always)]
+fn step_ulps(v: f32, k: i32) -> f32 {
+    const MAG: u32 = 0x7fff_ffff;
+    let bits = v.to_bits();
+    let magnitude = (bits & MAG) as i32;
+    let ordered = if bits >> 31 == 1 {
+        -magnitude
+    } else {
+        magnitude
     };
-    Vec3::new(step(p.x, w.x), step(p.y, w.y), step(p.z, w.z))
+    let moved = ordered + k;
+    f32::from_bits(if moved < 0 {
+        (-moved) as u32 | !MAG
+    } else {
+        moved as u32
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn step_ulps_matches_next_up_and_next_down() {
+        let values = [
+            0.0f32,
+            -0.0,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            1.0,
+            -1.0,
+            1e-38,
+            -3.5e7,
+            123_456.79,
+            f32::MIN_POSITIVE,
+        ];
+        for v in values {
+            assert_eq!(step_ulps(v, 0), v, "{v}");
+            assert_eq!(step_ulps(v, 1), v.next_up(), "{v} up");
+            assert_eq!(step_ulps(v, -1), v.next_down(), "{v} down");
+            assert_eq!(step_ulps(v, 2), v.next_up().next_up(), "{v} up 2");
+            assert_eq!(step_ulps(v, -2), v.next_down().next_down(), "{v} down 2");
+        }
+    }
+
+    #[test]
+    fn the_step_back_along_wo_never_moves_toward_the_surface() {
+        // A tilted plane through p: the origin must be at least as far from it as the plain
+        // offset is, for any incoming direction on the same side.
+        let p = Vec3::new(1000.0, 20.0, -300.0);
+        let n = Vec3::new(0.6, 0.8, 0.0);
+        let err = gamma(7) * p.abs() * 3.0;
+        let w = Vec3::new(0.1, 0.9, 0.3).normalize();
+        let plain = offset_ray_origin(p, err, n, w);
+        for back in [
+            Vec3::new(-0.99, 0.1, 0.0),
+            Vec3::new(0.5, 0.5, -0.7),
+            Vec3::new(-0.3, 0.2, 0.9),
+            Vec3::new(0.0, 1.0, 0.0),
+        ] {
+            let back = back.normalize();
+            let o = offset_origin(p, err, n, w, back);
+            let dist = |q: Vec3| (q.as_dvec3() - p.as_dvec3()).dot(n.as_dvec3());
+            assert!(
+                dist(o) >= dist(plain),
+                "back {back}: {} < {}",
+                dist(o),
+                dist(plain)
+            );
+            // And every axis moved by at most one ulp more than the plain offset.
+            for i in 0..3 {
+                let (a, b) = (plain[i].to_bits() as i64, o[i].to_bits() as i64);
+                assert!((a - b).abs() <= 1, "axis {i}: {} vs {}", plain[i], o[i]);
+            }
+        }
+        // An axis the normal offset leaves alone moves toward back.
+        let floor = offset_origin(p, err, Vec3::Y, w, Vec3::new(-0.5, 0.5, 0.7));
+        assert_eq!(floor.x, p.x.next_down());
+        assert_eq!(floor.z, p.z.next_up());
+    }
 
     #[test]
     fn offset_points_leave_the_plane_on_the_requested_side() {
