@@ -209,6 +209,12 @@ impl Round<'_> {
     }
 
     fn tile_has_work(&self, t: &Tile) -> bool {
+        if self.selection.is_none() {
+            // Without a selection every pixel of the window has the same count (a round is
+            // only ever cut short by a stop), so the tile's first pixel speaks for all.
+            let (a, b) = self.samples(t.x0, t.y0);
+            return b > a;
+        }
         (t.y0..t.y1).any(|y| {
             (t.x0..t.x1).any(|x| {
                 let (a, b) = self.samples(x, y);
@@ -408,8 +414,11 @@ pub fn render_with_checkpoints(
             selection: selected.as_deref().or(active.as_deref()),
             next,
         };
-        let work: Vec<bool> =
-            pool.install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect());
+        let work: Vec<bool> = if round.selection.is_none() {
+            tiles.iter().map(|t| round.tile_has_work(t)).collect()
+        } else {
+            pool.install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect())
+        };
         if !work.iter().any(|&w| w) {
             break 'rounds;
         }
