@@ -5,36 +5,42 @@
 use std::path::Path;
 use std::process::Command;
 
+/// Runs the tool on the Cornell box AO reference with `args`, into `out`; returns its stdout
+/// and the CSV it wrote.
+fn run_tool(out: &Path, args: &[&str]) -> (String, String) {
+    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["--reference", "scenes/references/cornell-box.ao.exr"])
+        .args(["--render", env!("CARGO_BIN_EXE_render")])
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let csv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    (stdout, csv)
+}
+
 #[test]
 fn convergence_tool_writes_csv_plots_and_slopes() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = tempfile::tempdir().unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
-        .current_dir(root)
-        .args([
-            "--reference",
-            "scenes/references/cornell-box.ao.exr",
+    let (stdout, csv) = run_tool(
+        out.path(),
+        &[
             "--samplers",
             "random,sobol",
             "--hemispheres",
             "cosine",
             "--max-spp",
             "16",
-            "--render",
-            env!("CARGO_BIN_EXE_render"),
-            "--out",
-        ])
-        .arg(out.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        run.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&run.stderr)
+        ],
     );
-
-    let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv
         .lines()
         .skip(1)
@@ -101,13 +107,10 @@ fn convergence_tool_writes_csv_plots_and_slopes() {
 
 #[test]
 fn convergence_tool_compares_uniform_and_adaptive_at_equal_time() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = tempfile::tempdir().unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
-        .current_dir(root)
-        .args([
-            "--reference",
-            "scenes/references/cornell-box.ao.exr",
+    let (_, csv) = run_tool(
+        out.path(),
+        &[
             "--samplers",
             "sobol",
             "--hemispheres",
@@ -116,20 +119,8 @@ fn convergence_tool_compares_uniform_and_adaptive_at_equal_time() {
             "none,absolute",
             "--time-limits",
             "0.2,0.6",
-            "--render",
-            env!("CARGO_BIN_EXE_render"),
-            "--out",
-        ])
-        .arg(out.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        run.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&run.stderr)
+        ],
     );
-    let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
     let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
     let rows: Vec<Vec<&str>> = csv

@@ -387,20 +387,24 @@ pub fn render_with_checkpoints(
     };
     let mut last_checkpoint = Instant::now();
 
+    let judge = |film: &Film, mask: &mut [bool], target: f32| {
+        pool.install(|| {
+            adaptive::judge(
+                film,
+                window,
+                mask,
+                stopping.metric,
+                target,
+                stopping.min_spp,
+            )
+        })
+    };
+
     'rounds: loop {
         // Adaptive sampling: judge the film, and with a time limit pick the pixels whose next
         // samples lower the error most.
         if let (Some(target), Some(mask)) = (stopping.target_error, active.as_mut()) {
-            let judged = pool.install(|| {
-                adaptive::judge(
-                    &film,
-                    window,
-                    mask,
-                    stopping.metric,
-                    target,
-                    stopping.min_spp,
-                )
-            });
+            let judged = judge(&film, mask, target);
             if judged.active == 0 {
                 break 'rounds;
             }
@@ -503,19 +507,7 @@ pub fn render_with_checkpoints(
     // Judge the last round too, so pixels that converged in it are not reported as still
     // sampling (this changes no pixel).
     let unconverged_pixels = match (stopping.target_error, active.as_mut()) {
-        (Some(target), Some(mask)) => Some(
-            pool.install(|| {
-                adaptive::judge(
-                    &film,
-                    window,
-                    mask,
-                    stopping.metric,
-                    target,
-                    stopping.min_spp,
-                )
-            })
-            .active as u64,
-        ),
+        (Some(target), Some(mask)) => Some(judge(&film, mask, target).active as u64),
         _ => None,
     };
     RenderResult {
