@@ -429,3 +429,71 @@ fn stopping_defaults_change_nothing() {
     assert!(!result.time_limit_reached);
     assert_eq!(result.unconverged_pixels, None);
 }
+
+#[test]
+fn checkpoints_and_thread_counts_do_not_change_an_adaptive_image() {
+    // Through the CLI: checkpoints split rounds into groups of tiles and snapshot the film;
+    // neither may change the adaptive decisions or the image.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let run = |name: &str, extra: &[&str]| {
+        let mut args = vec![
+            s(&scene),
+            "--integrator",
+            "path",
+            "--resolution",
+            "48x48",
+            "--target-error",
+            "0.1",
+            "--spp",
+            "1024",
+            "--no-png",
+            "-o",
+            name,
+        ];
+        args.extend_from_slice(extra);
+        let r = render(dir.path(), &args);
+        r.assert_success();
+        let (_, _, px) = read_exr_rgb(&dir.path().join(name)).unwrap();
+        let a = int_attrs(&dir.path().join(name));
+        (
+            px,
+            attr(&a, "strata:spp_min"),
+            attr(&a, "strata:spp_max"),
+            r.stdout,
+        )
+    };
+    let plain = run("plain.exr", &["--threads", "2"]);
+    assert!(
+        plain.1 < plain.2,
+        "nothing adapted: {}..{}",
+        plain.1,
+        plain.2
+    );
+    let checkpointed = run(
+        "checkpointed.exr",
+        &["--threads", "2", "--checkpoint", "0.001", "--stats"],
+    );
+    let written = checkpointed
+        .3
+        .lines()
+        .find_map(|l| l.strip_prefix("checkpoints: "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse::<u32>().ok())
+        .unwrap_or_else(|| panic!("no checkpoint count in:\n{}", checkpointed.3));
+    assert!(written >= 2, "only {written} checkpoints were written");
+    let one_thread = run("one.exr", &["--threads", "1"]);
+    for (name, other) in [("checkpoints", &checkpointed), ("one thread", &one_thread)] {
+        assert_eq!(
+            (other.1, other.2),
+            (plain.1, plain.2),
+            "{name}: sample counts"
+        );
+        let same = plain
+            .0
+            .iter()
+            .zip(&other.0)
+            .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits));
+        assert!(same, "{name}: the image differs");
+    }
+}
