@@ -534,12 +534,18 @@ fn run(cli: Cli) -> Result<Outcome> {
     };
     let progress = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}",
-            )
-            .expect("valid progress template"),
-        );
+        // What the bar counts (render::render_with_checkpoints): the time limit, converged
+        // pixels, or tile rounds.
+        let template = match (cli.time_limit, cli.target_error) {
+            (Some(_), _) => {
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% of the time limit"
+            }
+            (None, Some(_)) => {
+                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} pixels converged"
+            }
+            (None, None) => "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}",
+        };
+        bar.set_style(ProgressStyle::with_template(template).expect("valid progress template"));
         bar.enable_steady_tick(Duration::from_millis(200));
         bar
     } else {

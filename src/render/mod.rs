@@ -291,7 +291,8 @@ pub struct Checkpoint<'a> {
 }
 
 /// Renders the scene of `ctx` as `settings` say, on `pool`. The progress bar counts tile
-/// passes; `cancel` stops the render between tiles.
+/// rounds (milliseconds with a time limit; converged pixels with adaptive sampling alone);
+/// `cancel` stops the render between tiles.
 pub fn render(
     ctx: &Context,
     settings: &RenderSettings,
@@ -337,10 +338,13 @@ pub fn render_with_checkpoints(
         &next_fixed
     };
     let deadline = stopping.time_limit.map(|t| start + t);
-    // The progress bar counts tile rounds, or milliseconds when a time limit is set; an
-    // adaptive render may end sooner, and the bar then jumps to the end.
+    // The progress bar counts milliseconds when a time limit is set, converged pixels in an
+    // adaptive render without one (set after each judgement), and tile rounds otherwise.
+    let window_pixels = (window.2 - window.0) as u64 * (window.3 - window.1) as u64;
+    let adaptive_bar = stopping.time_limit.is_none() && stopping.target_error.is_some();
     let bar_length = match stopping.time_limit {
         Some(t) => t.as_millis().max(1) as u64,
+        None if adaptive_bar => window_pixels,
         None => {
             let mut rounds = 0u64;
             let mut c = 0;
@@ -354,6 +358,7 @@ pub fn render_with_checkpoints(
     progress.set_length(bar_length);
     let tick = || match stopping.time_limit {
         Some(_) => progress.set_position((start.elapsed().as_millis() as u64).min(bar_length)),
+        None if adaptive_bar => {}
         None => progress.inc(1),
     };
     // The first round (one sample per pixel) always completes, so even a time limit shorter
@@ -405,6 +410,9 @@ pub fn render_with_checkpoints(
         // samples lower the error most.
         if let (Some(target), Some(mask)) = (stopping.target_error, active.as_mut()) {
             let judged = judge(&film, mask, target);
+            if adaptive_bar {
+                progress.set_position(window_pixels.saturating_sub(judged.active as u64));
+            }
             if judged.active == 0 {
                 break 'rounds;
             }
