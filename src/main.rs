@@ -363,6 +363,9 @@ fn run(cli: Cli) -> Result<Outcome> {
     if min_spp == 0 || min_spp > spp {
         bail!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
     }
+    if cli.target_error.is_some() && spp < 2 {
+        bail!("--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp {spp})");
+    }
     if cli.target_error.is_some() && min_spp < 2 {
         bail!(
             "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance"

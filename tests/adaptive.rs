@@ -395,6 +395,7 @@ fn bad_adaptive_options_are_refused() {
             "--min-spp",
         ),
         (&["--target-error", "0.1", "--min-spp", "1"], "--min-spp"),
+        (&["--target-error", "0.1", "--spp", "1"], "--spp"),
         (&["--time-limit", "0"], "--time-limit"),
         (&["--time-limit", "soon"], "--time-limit"),
     ];
