@@ -359,6 +359,11 @@ fn run(cli: Cli) -> Result<Outcome> {
             "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {spp})"
         );
     }
+    if progressive && cli.sampler == SamplerKind::Stratified {
+        eprintln!(
+            "warning: --sampler stratified lays its strata out for all --spp {spp} samples; a render that stops early (--target-error, --time-limit) keeps little of its stratification. --sampler sobol (the default) is progressive: any prefix of its samples is well spread"
+        );
+    }
     let min_spp = cli.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
     if min_spp == 0 || min_spp > spp {
         bail!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
