@@ -314,6 +314,20 @@ fn register_font() -> Result<()> {
         .map_err(|_| anyhow!("{}: not a usable TrueType font", path.display()))
 }
 
+/// A compact axis label: 3 significant digits, without trailing zeros ("0.25", "10", "1e-4").
+fn float_label(v: f64) -> String {
+    if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
+        return format!("{v:.0e}");
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 /// A log-log plot of RMSE against `x` (spp or seconds), one line per configuration.
 fn plot(
     path: &Path,
@@ -353,6 +367,8 @@ fn plot(
             .map_err(|e| anyhow!("plot: {e}"))?;
         chart
             .configure_mesh()
+            .x_label_formatter(&|v| float_label(*v))
+            .y_label_formatter(&|v| float_label(*v))
             .x_desc(x_label)
             .y_desc("RMSE against the reference")
             .label_style(("sans-serif", 14))
@@ -686,4 +702,26 @@ fn tempfile_dir(out: &Path) -> Result<PathBuf> {
     let dir = out.join(format!(".scratch-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     Ok(dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::float_label;
+
+    #[test]
+    fn axis_labels_are_compact() {
+        for (v, want) in [
+            (1.0, "1"),
+            (10.0, "10"),
+            (2.0, "2"),
+            (0.25, "0.25"),
+            (0.0123, "0.0123"),
+            (0.05, "0.05"),
+            (1024.0, "1024"),
+            (1e-4, "1e-4"),
+            (3e5, "3e5"),
+        ] {
+            assert_eq!(float_label(v), want, "{v}");
+        }
+    }
 }
