@@ -802,23 +802,7 @@ fn closed_meshes_do_not_leak_at_vertices_and_edges() {
             ),
         ),
     ];
-    let modes = [
-        ("embree robust (default)", AccelOptions::default()),
-        (
-            "embree fast (robust: false)",
-            AccelOptions {
-                robust: false,
-                ..Default::default()
-            },
-        ),
-        (
-            "obvhs",
-            AccelOptions {
-                backend: Backend::Obvhs,
-                ..Default::default()
-            },
-        ),
-    ];
+    let modes = accel_modes();
     let mut reported = 0;
     let mut problems = Vec::new();
     for (name, centre, (positions, triangles)) in &meshes {
@@ -886,18 +870,13 @@ fn negative_control_a_hole_in_the_mesh_is_counted() {
 // 3. Grazing and thin
 // ---------------------------------------------------------------------------------------------
 
-/// Rays at 89.99° to the normal of the plane y = shift (two triangles, ±1e5 around the
-/// placement), from 1 unit above and below it, at 64 azimuths and 4 origins: each must hit,
-/// at t within a relative 1e-4 of (org.y − plane)/(−dir.y) computed in f64 from the f32 ray.
-/// Then a ray leaving the hit point at 89.99° (0.01° above the surface, via `spawn_ray`) must
-/// not hit the plane again; without the offset some do (counted, asserted > 0).
-#[test]
-fn rays_at_89_99_degrees_hit_a_plane_at_the_right_distance() {
-    let elevation = (90.0f64 - 89.99).to_radians();
-    let modes = [
-        ("embree robust", AccelOptions::default()),
+/// The acceleration set-ups the watertightness and grazing tests compare: what strata ships
+/// (Embree, robust), Embree's fast mode, and the obvhs backend.
+fn accel_modes() -> [(&'static str, AccelOptions); 3] {
+    [
+        ("embree robust (default)", AccelOptions::default()),
         (
-            "embree fast",
+            "embree fast (robust: false)",
             AccelOptions {
                 robust: false,
                 ..Default::default()
@@ -910,7 +889,18 @@ fn rays_at_89_99_degrees_hit_a_plane_at_the_right_distance() {
                 ..Default::default()
             },
         ),
-    ];
+    ]
+}
+
+/// Rays at 89.99° to the normal of the plane y = shift (two triangles, ±1e5 around the
+/// placement), from 1 unit above and below it, at 64 azimuths and 4 origins: each must hit,
+/// at t within a relative 1e-4 of (org.y − plane)/(−dir.y) computed in f64 from the f32 ray.
+/// Then a ray leaving the hit point at 89.99° (0.01° above the surface, via `spawn_ray`) must
+/// not hit the plane again; without the offset some do (counted, asserted > 0).
+#[test]
+fn rays_at_89_99_degrees_hit_a_plane_at_the_right_distance() {
+    let elevation = (90.0f64 - 89.99).to_radians();
+    let modes = accel_modes();
     let mut self_hits_without_offset = 0;
     for shift in [0.0, 1e3, 1e5] {
         let place = Place { scale: 1.0, shift };

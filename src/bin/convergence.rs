@@ -477,18 +477,29 @@ fn replot(out: &Path) -> Result<()> {
         name = f[c_name].to_string();
         floor = var.sqrt();
     }
+    plot_both(out, &name, &by_spp, &by_time, floor)
+}
+
+/// Both plots of a run into `out`: RMSE against spp and against render seconds.
+fn plot_both(
+    out: &Path,
+    name: &str,
+    by_spp: &[(String, Vec<(f64, f64)>)],
+    by_time: &[(String, Vec<(f64, f64)>)],
+    floor: f64,
+) -> Result<()> {
     plot(
         &out.join("error_vs_spp.png"),
         &format!("{name}: error against samples per pixel"),
         "samples per pixel",
-        &by_spp,
+        by_spp,
         floor,
     )?;
     plot(
         &out.join("error_vs_time.png"),
         &format!("{name}: error against render time"),
         "render seconds",
-        &by_time,
+        by_time,
         floor,
     )
 }
@@ -674,20 +685,7 @@ fn main() -> Result<()> {
     let csv_path = cli.out.join("convergence.csv");
     std::fs::write(&csv_path, csv)
         .with_context(|| format!("{}: cannot write", csv_path.display()))?;
-    plot(
-        &cli.out.join("error_vs_spp.png"),
-        &format!("{name}: error against samples per pixel"),
-        "samples per pixel",
-        &by_spp,
-        floor,
-    )?;
-    plot(
-        &cli.out.join("error_vs_time.png"),
-        &format!("{name}: error against render time"),
-        "render seconds",
-        &by_time,
-        floor,
-    )?;
+    plot_both(&cli.out, &name, &by_spp, &by_time, floor)?;
     let _ = std::fs::remove_dir_all(&scratch);
     println!(
         "wrote {}, error_vs_spp.png and error_vs_time.png in {}",

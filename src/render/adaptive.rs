@@ -153,7 +153,11 @@ pub fn judge(
     min_spp: u32,
 ) -> Judgement {
     let (x0, y0, x1, y1) = window;
-    let floor = error_floor(film, window);
+    // The floor only enters relative errors: no pass over the film for absolute ones.
+    let floor = match metric {
+        ErrorMetric::Relative => error_floor(film, window),
+        ErrorMetric::Absolute => 0.0,
+    };
     if x0 >= x1 || y0 >= y1 {
         return Judgement {
             active: 0,
