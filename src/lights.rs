@@ -7,11 +7,20 @@
 //! | directional    | `KHR_lights_punctual` directional      | delta: its direction; irradiance E |
 //! | triangle       | each triangle of an emissive material  | uniform area (default) or uniform  |
 //! |                |                                        | solid angle (Arvo 1995)            |
-//! | background     | `--background R,G,B` (constant)        | uniform sphere                     |
+//! | background     | `--background R,G,B` (constant)        | BSDF sampling only; uniform sphere |
+//! |                |                                        | when light sampling must find it   |
 //!
 //! One emitter is chosen per sample in proportion to its power through an alias table
 //! (Walker 1977, Vose 1991). Punctual `range` is ignored (it is optional in the extension
 //! and has no physical counterpart).
+//!
+//! A constant background is left out of light selection unless only light sampling can
+//! reach it ([`BackgroundSampling`]). Cosine-weighted BSDF sampling of a diffuse surface
+//! already has a pdf proportional to the integrand cos θ·L for constant L, so light samples of
+//! the background (uniform over the sphere, half of them below the surface) add shadow rays
+//! without lowering the variance; with them gone, a BSDF direction that escapes takes the
+//! full weight (its MIS partner's pdf is 0). pbrt-v4 does the same for its uniform infinite
+//! light ("allowIncompletePDF", Pharr et al. 2023, §13.4).
 
 use glam::{Vec2, Vec3};
 
@@ -138,9 +147,10 @@ impl AliasTable {
         (k, self.pmf[k])
     }
 
+    /// The probability of drawing `i`; 0 past the end (and in the empty table).
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
-        self.pmf[i]
+        self.pmf.get(i).copied().unwrap_or(0.0)
     }
 
     pub fn is_empty(&self) -> bool {
@@ -186,6 +196,18 @@ impl std::fmt::Display for TriangleSampling {
     }
 }
 
+/// Whether next-event estimation samples the constant background.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BackgroundSampling {
+    /// Only BSDF sampling reaches the background: it is never selected as a light, and its
+    /// light pdf is 0 in MIS weights. Right whenever BSDF samples count (MIS, BSDF only).
+    #[default]
+    BsdfOnly,
+    /// The background is selected like any emitter and sampled uniformly over the sphere:
+    /// needed when light samples alone must find it (`--strategy light`).
+    Lights,
+}
+
 /// All emitters of a scene, with power-proportional selection.
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
@@ -198,8 +220,14 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// Collects the scene's punctual lights, emissive triangles and the constant background.
-    pub fn build(scene: &Scene, materials: &Materials, background: Vec3) -> LightSet {
+    /// Collects the scene's punctual lights, emissive triangles and the constant background;
+    /// `background_sampling` says whether light sampling selects the background.
+    pub fn build(
+        scene: &Scene,
+        materials: &Materials,
+        background: Vec3,
+        background_sampling: BackgroundSampling,
+    ) -> LightSet {
         let (lo, hi) = scene.bounds;
         let radius = 0.5 * (hi - lo).length();
         let mut emitters = Vec::new();
@@ -281,14 +309,18 @@ impl LightSet {
             emitters.push(Emitter::Background {
                 radiance: background,
             });
-            weights.push(
-                4.0 * pi
-                    * pi
-                    * (radius.max(1e-3) as f64).powi(2)
-                    * luminance(background).max(1e-6) as f64,
-            );
+            // Weight 0: the alias table never draws it, and its pmf (so its MIS pdf) is 0.
+            weights.push(match background_sampling {
+                BackgroundSampling::Lights => {
+                    4.0 * pi
+                        * pi
+                        * (radius.max(1e-3) as f64).powi(2)
+                        * luminance(background).max(1e-6) as f64
+                }
+                BackgroundSampling::BsdfOnly => 0.0,
+            });
         }
-        let table = if weights.is_empty() {
+        let table = if weights.iter().all(|&w| w <= 0.0) {
             AliasTable::default()
         } else {
             AliasTable::new(&weights)
@@ -319,7 +351,8 @@ impl LightSet {
         self.background.map_or(Vec3::ZERO, |(_, l)| l)
     }
 
-    /// Selection probability × solid-angle pdf of reaching the background in a direction.
+    /// Selection probability × solid-angle pdf of reaching the background in a direction:
+    /// 0 when light sampling leaves the background to BSDF sampling.
     #[inline]
     pub fn background_pdf(&self) -> f32 {
         self.background.map_or(0.0, |(i, _)| {

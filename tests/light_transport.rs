@@ -307,6 +307,45 @@ fn radiance_toward(scene: &Scene, integrator: Integrator, eye: Vec3, target: Vec
 }
 
 #[test]
+fn a_plane_under_a_constant_sky_reflects_albedo_times_sky_with_every_strategy() {
+    // An unoccluded Lambertian plane under a sky of radiance L reflects ρ·L in every
+    // direction (E = πL, L_o = ρE/π). Light sampling leaves the sky to BSDF sampling unless
+    // light samples alone must find it (src/lights.rs): MIS and BSDF-only trace no shadow
+    // rays toward it, light-only does, and all three must agree with ρ·L.
+    let (rho, sky) = (0.6f32, 1.5f32);
+    let scene = floor(rho, vec![]);
+    let cam = camera(Vec3::new(0.0, 3.0, 0.5), Vec3::ZERO, 0.5);
+    let expected = (rho * sky) as f64;
+    for strategy in [Strategy::Mis, Strategy::Bsdf, Strategy::Light] {
+        let integrator = Integrator::Direct(PathSettings {
+            max_depth: 1,
+            strategy,
+            ..Default::default()
+        });
+        let setup = Setup {
+            background: Vec3::splat(sky),
+            ..Setup::new(16, 64, 5)
+        };
+        let result = render_film(&scene, cam.clone(), integrator, setup);
+        let (mean, sem) = mean_and_sem(&result.film.pixels());
+        assert!(
+            (mean - expected).abs() < 5.0 * sem + 1e-4,
+            "{strategy}: mean {mean} ± {sem}, expected {expected}"
+        );
+        let shadow = result.stats.rays.shadow;
+        match strategy {
+            Strategy::Light => assert!(shadow > 0, "light-only traced no shadow rays"),
+            _ => assert_eq!(shadow, 0, "{strategy}: shadow rays toward the sky"),
+        }
+        if strategy == Strategy::Mis {
+            // Cosine-weighted BSDF samples of a constant sky over an open plane all return
+            // ρ·L exactly: a zero-variance estimator.
+            assert!(sem < 1e-6, "MIS: {sem}");
+        }
+    }
+}
+
+#[test]
 fn point_light_above_a_plane_matches_the_inverse_square_law() {
     let (rho, i, h) = (0.6f32, 5.0f32, 2.0f32);
     let light = Vec3::new(0.3, h, -0.2);

@@ -11,7 +11,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::accel::{Accel, Ray};
-use crate::lights::LightSet;
+use crate::lights::{BackgroundSampling, LightSet};
 use crate::material::{Materials, Need};
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
@@ -52,7 +52,12 @@ impl Prepared {
     ) -> Result<Prepared, String> {
         let materials = Materials::prepare(scene, scene_path, integrator.material_need())?;
         let lights = if integrator.needs_lights() {
-            LightSet::build(scene, &materials, background)
+            LightSet::build(
+                scene,
+                &materials,
+                background,
+                integrator.background_sampling(),
+            )
         } else {
             LightSet::default()
         };
@@ -147,6 +152,17 @@ impl Integrator {
         match self {
             Integrator::Ao(_) => Need::Nothing,
             Integrator::Direct(_) | Integrator::Path(_) => Need::Shading,
+        }
+    }
+
+    /// How light sampling treats the constant background: only `--strategy light` needs
+    /// light samples of it; otherwise BSDF samples find it at less cost (see [`crate::lights`]).
+    pub fn background_sampling(&self) -> BackgroundSampling {
+        match self {
+            Integrator::Direct(s) | Integrator::Path(s) if s.strategy == Strategy::Light => {
+                BackgroundSampling::Lights
+            }
+            _ => BackgroundSampling::BsdfOnly,
         }
     }
 
