@@ -1428,3 +1428,96 @@ fn pooled_points_are_uniform_for_any_spp() {
         }
     }
 }
+
+/// The `n` points of set slot `slot` (after `slot` earlier `next_2d` calls) of every sample
+/// of one pixel, sample by sample.
+fn set_points_2d(
+    kind: SamplerKind,
+    spp: u32,
+    n: u32,
+    seed: u64,
+    px: (u32, u32),
+    slot: u32,
+) -> Vec<Vec<Vec2>> {
+    let mut s = PixelSampler::new(kind, spp, seed);
+    (0..spp)
+        .map(|i| {
+            s.start(px.0, px.1, i);
+            for _ in 0..slot {
+                s.next_2d();
+            }
+            let set = s.next_2d_set(n);
+            (0..n).map(|k| set.get(k)).collect()
+        })
+        .collect()
+}
+
+#[test]
+fn a_set_of_one_point_is_the_slots_next_2d_point() {
+    for kind in KINDS {
+        for seed in SEEDS {
+            for slot in [0, 1, 20] {
+                let single = slot_points_2d(kind, 16, seed, (3, 7), slot);
+                let sets = set_points_2d(kind, 16, 1, seed, (3, 7), slot);
+                let sets: Vec<Vec2> = sets.into_iter().flatten().collect();
+                assert_eq!(single, sets, "{kind} seed {seed} slot {slot}");
+            }
+        }
+    }
+}
+
+#[test]
+fn sobol_point_sets_are_nets_per_sample_and_per_pixel() {
+    // n = 16 points per sample: each sample's set is a (0, 4, 2)-net, and all spp·n points
+    // of the pixel a (0, log₂(spp·n), 2)-net.
+    for seed in SEEDS {
+        for px in PIXELS {
+            for (spp, log2_n) in [(1u32, 4u32), (8, 4), (4, 6)] {
+                let n = 1 << log2_n;
+                let sets = set_points_2d(SamplerKind::Sobol, spp, n, seed, px, 1);
+                for (i, set) in sets.iter().enumerate() {
+                    check_02_net(set, log2_n).unwrap_or_else(|e| {
+                        panic!("seed {seed} {px:?} spp {spp} n {n} sample {i}: {e}")
+                    });
+                }
+                let all: Vec<Vec2> = sets.into_iter().flatten().collect();
+                check_02_net(&all, log2_n + spp.trailing_zeros())
+                    .unwrap_or_else(|e| panic!("seed {seed} {px:?} spp {spp} n {n}: {e}"));
+            }
+        }
+    }
+    // Past 2^16 indices the sequence continues with a new scramble, its blocks still nets.
+    let sets = set_points_2d(SamplerKind::Sobol, 2048, 64, 0, (1, 1), 0);
+    for (i, set) in sets.iter().enumerate().skip(1020).take(8) {
+        check_02_net(set, 6).unwrap_or_else(|e| panic!("sample {i}: {e}"));
+    }
+    assert_ne!(
+        sets[0], sets[1024],
+        "the second 2^16 block repeats the first"
+    );
+}
+
+#[test]
+fn stratified_point_sets_are_multi_jittered_over_the_pixel() {
+    for seed in SEEDS {
+        for (spp, n) in [(4u32, 16u32), (9, 8), (5, 7)] {
+            let sets = set_points_2d(SamplerKind::Stratified, spp, n, seed, (3, 7), 2);
+            let all: Vec<Vec2> = sets.into_iter().flatten().collect();
+            let (m, q) = kensler_grid(spp * n);
+            check_multi_jittered(&all, m, q)
+                .unwrap_or_else(|e| panic!("seed {seed} spp {spp} n {n}: {e}"));
+        }
+    }
+}
+
+#[test]
+fn point_set_checks_reject_independent_points() {
+    // Negative control: the same number of points from separate slots (independent within
+    // a sample) are not nets.
+    let mut s = PixelSampler::new(SamplerKind::Sobol, 1, 0);
+    s.start(3, 7, 0);
+    let independent: Vec<Vec2> = (0..64).map(|_| s.next_2d()).collect();
+    assert!(check_02_net(&independent, 6).is_err());
+    let sets = set_points_2d(SamplerKind::Random, 1, 64, 0, (3, 7), 0);
+    assert!(check_02_net(&sets[0], 6).is_err());
+}

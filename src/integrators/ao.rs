@@ -13,7 +13,9 @@
 //! | `samples`      | 1        | AO rays per camera hit, averaged (`--ao-samples`; Mitsuba's     |
 //! |                |          | `shading_samples`)                                             |
 //!
-//! Directions are drawn around the shading normal; one that points below the geometric
+//! The `samples` directions of a camera sample come from one dimension slot as one stratified
+//! set ([`PixelSampler::next_2d_set`]), not from independent slots. Directions are drawn
+//! around the shading normal; one that points below the geometric
 //! surface would enter the object, and counts as occluded. Each AO ray is an any-hit query
 //! leaving the surface through [`SurfaceInteraction::spawn_ray`].
 
@@ -98,9 +100,11 @@ pub fn li(
     let onb = Onb::from_normal(si.ns);
     let n = settings.samples.max(1);
     let mut sum = 0.0;
-    for _ in 0..n {
+    // The n directions of this camera sample are one stratified set (one dimension slot).
+    let set = sampler.next_2d_set(n);
+    for k in 0..n {
         // Sample a direction in the shading normal's hemisphere, weight by cos θ / (π·pdf).
-        let u = sampler.next_2d();
+        let u = set.get(k);
         let (local, weight) = match settings.hemisphere {
             Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
             Hemisphere::Uniform => {

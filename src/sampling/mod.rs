@@ -8,4 +8,4 @@ pub mod sobol;
 pub mod warps;
 
 pub use onb::Onb;
-pub use sampler::{cmj_grid, PixelSampler, SamplerKind};
+pub use sampler::{cmj_grid, PixelSampler, PointSet2d, SamplerKind};

@@ -1,9 +1,10 @@
 //! Per-pixel samplers, addressed by (pixel, sample index, dimension).
 //!
 //! A renderer calls [`PixelSampler::start`] for one sample of one pixel and then draws
-//! [`PixelSampler::next_1d`] / [`PixelSampler::next_2d`] / [`PixelSampler::next_2x2d`] in a
-//! fixed order; the i-th call is the sample's i-th *dimension slot*. Every value is a pure function of (seed, pixel, sample
-//! index, slot), so the image is the same whatever thread renders which pixel.
+//! [`PixelSampler::next_1d`] / [`PixelSampler::next_2d`] / [`PixelSampler::next_2x2d`] /
+//! [`PixelSampler::next_2d_set`] in a fixed order; the i-th call is the sample's i-th
+//! *dimension slot*. Every value is a pure function of (seed, pixel, sample index, slot), so
+//! the image is the same whatever thread renders which pixel.
 //!
 //! | kind         | what it is                                                               |
 //! |--------------|--------------------------------------------------------------------------|
@@ -213,36 +214,114 @@ impl PixelSampler {
         }
     }
 
-    /// Correlated multi-jittered sample (Kensler 2013, §4–5): the sample's cell in the m×n
-    /// grid is a permutation of its index; within the cell, the sub-column and sub-row come
-    /// from permutations shared by each row and column, which gives the n-rooks property
-    /// over spp = m·n columns and rows.
-    ///
-    /// When spp < m·n, the spp cells are drawn from all m·n by the (keyed) permutation of
-    /// the whole grid. Taking always the first spp cells, as a permutation of [0, spp) does,
-    /// leaves the same cells of the last row empty in every pixel: the top strip of the
-    /// square is then under-sampled (6 samples instead of 21 at spp = 512), a bias that more
-    /// samples do not remove. For spp = m·n both are the same permutation.
     #[inline]
     fn cmj_2d(&self, key: u64) -> Vec2 {
-        let (m, n) = (self.grid_m, self.grid_n);
-        if self.index >= self.spp {
-            let h = hash_words(&[key, self.index as u64]);
-            return Vec2::new(u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
-        }
-        let k = key as u32;
-        let k2 = (key >> 32) as u32;
-        let s = permute(self.index, m * n, k);
-        let (col, row) = (s % m, s / m);
-        let sub_x = permute(row, n, k2 ^ 0x68bc_21eb);
-        let sub_y = permute(col, m, k2 ^ 0x02e5_be93);
-        let h = hash_words(&[key ^ 0x967a_889b, s as u64]);
-        let (jx, jy) = (u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
-        // (col + (sub_x + jx)/n)/m = (col·n + sub_x + jx)/(m·n): the fine column is an integer.
-        let x = in_stratum(col * n + sub_x, jx, m * n);
-        let y = in_stratum(row * m + sub_y, jy, m * n);
-        Vec2::new(x, y)
+        cmj_point(self.index, self.spp, (self.grid_m, self.grid_n), key)
     }
+
+    /// One dimension slot holding `n` 2D points that are used together for the current
+    /// sample, such as the `--ao-samples` directions of one camera hit. Point k of sample i
+    /// is point i·n + k of a sequence of spp·n points in that slot, so a pixel's spp·n points
+    /// are stratified as a whole (and, with `sobol` and a power-of-two n, the n points of
+    /// each sample too: Burley's index shuffle maps the aligned block [i·n, i·n + n) of
+    /// indices to an aligned block, a (0, log₂n, 2)-net). Drawing the n points from n slots
+    /// instead would make them independent within the sample, and cost a slot key each.
+    /// With n = 1 the point is the one [`PixelSampler::next_2d`] gives.
+    #[inline]
+    pub fn next_2d_set(&mut self, n: u32) -> PointSet2d {
+        let key = self.next_slot_key();
+        let n = n.max(1) as u64;
+        let count = self.spp as u64 * n;
+        PointSet2d {
+            kind: self.kind,
+            key,
+            first: self.index as u64 * n,
+            count,
+            grid: if self.kind == SamplerKind::Stratified && count <= u32::MAX as u64 {
+                cmj_grid(count as u32)
+            } else {
+                (0, 0)
+            },
+        }
+    }
+}
+
+/// The points of one [`PixelSampler::next_2d_set`] slot.
+#[derive(Clone, Copy, Debug)]
+pub struct PointSet2d {
+    kind: SamplerKind,
+    key: u64,
+    /// Sequence index of the set's first point, and the sequence's length (spp·n).
+    first: u64,
+    count: u64,
+    /// The CMJ grid of `count` points (`stratified` only).
+    grid: (u32, u32),
+}
+
+impl PointSet2d {
+    /// Point `k` of the set (k < n).
+    #[inline]
+    pub fn get(&self, k: u32) -> Vec2 {
+        let index = self.first + k as u64;
+        match self.kind {
+            SamplerKind::Random => random_2d(self.key, index),
+            SamplerKind::Stratified => {
+                if self.count > u32::MAX as u64 {
+                    random_2d(self.key, index)
+                } else {
+                    cmj_point(index as u32, self.count as u32, self.grid, self.key)
+                }
+            }
+            SamplerKind::Sobol => {
+                // Sequences hold 2^16 points: each further block of 2^16 indices takes its
+                // own scramble (an aligned power-of-two set never straddles two blocks).
+                let mut seed = (self.key >> 32) as u32;
+                let block = index >> 16;
+                if block > 0 {
+                    seed = mix64(self.key ^ block.wrapping_mul(0x9e37_79b9_7f4a_7c15)) as u32;
+                }
+                let [x, y, _, _] = sobol::sample_4d((index & 0xffff) as u32, seed);
+                Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
+            }
+        }
+    }
+}
+
+/// An independent uniform 2D point from a key and an index.
+#[inline]
+fn random_2d(key: u64, index: u64) -> Vec2 {
+    let h = hash_words(&[key, index]);
+    Vec2::new(u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32))
+}
+
+/// Point `index` of a correlated multi-jittered pattern of `spp` points in the grid `(m, n)`
+/// (Kensler 2013, §4–5), keyed by `key`; past `spp`, independent points. The sample's cell
+/// in the m×n grid is a permutation of its index; within the cell, the sub-column and
+/// sub-row come from permutations shared by each row and column, which gives the n-rooks
+/// property over spp = m·n columns and rows.
+///
+/// When spp < m·n, the spp cells are drawn from all m·n by the (keyed) permutation of the
+/// whole grid. Taking always the first spp cells, as a permutation of [0, spp) does, leaves
+/// the same cells of the last row empty in every pixel: the top strip of the square is then
+/// under-sampled (6 samples instead of 21 at spp = 512), a bias that more samples do not
+/// remove. For spp = m·n both are the same permutation.
+#[inline]
+fn cmj_point(index: u32, spp: u32, (m, n): (u32, u32), key: u64) -> Vec2 {
+    if index >= spp {
+        return random_2d(key, index as u64);
+    }
+    let k = key as u32;
+    let k2 = (key >> 32) as u32;
+    let s = permute(index, m * n, k);
+    let (col, row) = (s % m, s / m);
+    let sub_x = permute(row, n, k2 ^ 0x68bc_21eb);
+    let sub_y = permute(col, m, k2 ^ 0x02e5_be93);
+    let h = hash_words(&[key ^ 0x967a_889b, s as u64]);
+    let (jx, jy) = (u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32));
+    // (col + (sub_x + jx)/n)/m = (col·n + sub_x + jx)/(m·n): the fine column is an integer.
+    let x = in_stratum(col * n + sub_x, jx, m * n);
+    let y = in_stratum(row * m + sub_y, jy, m * n);
+    Vec2::new(x, y)
 }
 
 /// (k + jitter)/count as an f32 that lies in stratum k, [k/count, (k+1)/count): computed in
