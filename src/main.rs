@@ -151,6 +151,11 @@ struct Cli {
     #[arg(long)]
     no_png: bool,
 
+    /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
+    /// same; for measuring what packets gain)
+    #[arg(long)]
+    no_camera_packets: bool,
+
     /// Print the time of each phase and the rays by kind.
     #[arg(long)]
     stats: bool,
@@ -522,7 +527,10 @@ fn run(cli: Cli) -> Result<Outcome> {
     }
 
     // Render.
-    let ctx = prepared.context(&scene, &accel);
+    let ctx = strata::integrators::Context {
+        camera_packets: !cli.no_camera_packets,
+        ..prepared.context(&scene, &accel)
+    };
     let settings = RenderSettings {
         camera,
         crop: cli.pixel.map(|(x, y)| (x, y, x + 1, y + 1)),

@@ -22,16 +22,37 @@ fn render_scene(
     scene_file: &str,
     integrator: Integrator,
     background: Vec3,
+    size: (u32, u32),
+    spp: u32,
+    stopping: Stopping,
+    threads: usize,
+) -> RenderResult {
+    let packets = true;
+    render_scene_with(
+        scene_file, integrator, background, size, spp, stopping, threads, packets,
+    )
+}
+
+/// [`render_scene`], with camera rays traced in packets or one by one.
+#[allow(clippy::too_many_arguments)]
+fn render_scene_with(
+    scene_file: &str,
+    integrator: Integrator,
+    background: Vec3,
     (width, height): (u32, u32),
     spp: u32,
     stopping: Stopping,
     threads: usize,
+    camera_packets: bool,
 ) -> RenderResult {
     let path = repo_path(scene_file);
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let prepared = Prepared::new(&scene, &path, &integrator, background).unwrap();
-    let ctx = prepared.context(&scene, &accel);
+    let ctx = strata::integrators::Context {
+        camera_packets,
+        ..prepared.context(&scene, &accel)
+    };
     let settings = RenderSettings {
         camera: scene.cameras[0].clone(),
         width,
@@ -503,5 +524,62 @@ fn checkpoints_and_thread_counts_do_not_change_an_adaptive_image() {
             .zip(&other.0)
             .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits));
         assert!(same, "{name}: the image differs");
+    }
+}
+
+/// Camera rays traced in 4×2-pixel packets give the image that single rays give, bit for bit,
+/// also where the pixels of a packet take different numbers of samples (adaptive rounds) and
+/// where the image size leaves part-filled blocks.
+#[test]
+fn camera_packets_do_not_change_the_image() {
+    let size = (61, 45);
+    for (name, integrator, background, stopping) in [
+        ("ao", ao(), Vec3::ZERO, Stopping::default()),
+        ("path", path(), Vec3::splat(0.5), Stopping::default()),
+        (
+            "adaptive path",
+            path(),
+            Vec3::splat(0.5),
+            adaptive(0.05, ErrorMetric::Relative),
+        ),
+    ] {
+        let spp = if stopping.target_error.is_some() {
+            256
+        } else {
+            4
+        };
+        let [with, without] = [true, false].map(|packets| {
+            render_scene_with(
+                "scenes/suzanne.gltf",
+                integrator,
+                background,
+                size,
+                spp,
+                stopping,
+                2,
+                packets,
+            )
+        });
+        assert_eq!(with.stats.rays, without.stats.rays, "{name}: rays");
+        assert!(with.stats.rays.camera > 0, "{name}: no camera rays");
+        assert_eq!(
+            with.film.count_image(),
+            without.film.count_image(),
+            "{name}: counts"
+        );
+        let (a, b) = (with.film.pixels(), without.film.pixels());
+        let same = a
+            .iter()
+            .zip(&b)
+            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
+        assert!(same, "{name}: the images differ");
+        if stopping.target_error.is_some() {
+            let counts: Vec<f32> = with.film.count_image().iter().map(|c| c.x).collect();
+            let (lo, hi) = (
+                counts.iter().copied().fold(f32::MAX, f32::min),
+                counts.iter().copied().fold(0.0, f32::max),
+            );
+            assert!(lo < hi, "{name}: every pixel took {lo} samples");
+        }
     }
 }

@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
-use crate::embree::{self, Device, EmbreeError, SceneBuilder, SceneOptions};
+use crate::embree::{self, Device, EmbreeError, SceneBuilder, SceneOptions, PACKET};
 use crate::scene::Scene;
 
 pub struct EmbreeAccel {
@@ -69,6 +69,25 @@ impl EmbreeAccel {
             v: h.v,
             ng: super::unit_normal(Vec3::from_array(h.ng)),
         })
+    }
+
+    /// The closest hits of up to [`PACKET`] coherent rays in one packet query.
+    #[inline]
+    pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
+        hits[rays.len()..].fill(None);
+        self.scene.intersect_packet(
+            rays,
+            |r| (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max),
+            |i, h| {
+                hits[i] = h.map(|h| Hit {
+                    t: h.t,
+                    prim: h.prim_id,
+                    u: h.u,
+                    v: h.v,
+                    ng: super::unit_normal(Vec3::from_array(h.ng)),
+                })
+            },
+        );
     }
 
     #[inline]

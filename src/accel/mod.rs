@@ -18,6 +18,7 @@ use std::str::FromStr;
 
 use crate::scene::Scene;
 
+pub use crate::embree::PACKET;
 pub use embree_backend::EmbreeAccel;
 pub use obvhs_backend::ObvhsAccel;
 
@@ -192,6 +193,22 @@ impl Accel {
         match self {
             Accel::Embree(a) => a.intersect(ray),
             Accel::Obvhs(a) => a.intersect(ray),
+        }
+    }
+
+    /// The closest hits of up to [`PACKET`] rays (`hits[i]` for `rays[i]`; the rest `None`):
+    /// one packet query with Embree, which pays on coherent rays such as the camera rays of
+    /// neighbouring pixels; one query per ray with obvhs. The answers are those of
+    /// [`Accel::intersect`] ray by ray.
+    #[inline]
+    pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
+        match self {
+            Accel::Embree(a) => a.intersect_packet(rays, hits),
+            Accel::Obvhs(a) => {
+                for (i, hit) in hits.iter_mut().enumerate() {
+                    *hit = rays.get(i).and_then(|r| a.intersect(r));
+                }
+            }
         }
     }
 

@@ -22,7 +22,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::accel::Ray;
+use crate::accel::{Hit, Ray};
 use crate::integrators::{Context, RayCounts};
 use crate::interaction::SurfaceInteraction;
 use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
@@ -86,14 +86,14 @@ impl Default for AoSettings {
 #[inline]
 pub fn li(
     ctx: &Context,
+    camera_hit: Option<Hit>,
     ray: &Ray,
     sampler: &mut PixelSampler,
     settings: &AoSettings,
     rays: &mut RayCounts,
 ) -> f32 {
     let (scene, accel) = (ctx.scene, ctx.accel);
-    rays.camera += 1;
-    let Some(hit) = accel.intersect(ray) else {
+    let Some(hit) = camera_hit else {
         return 0.0;
     };
     let si = SurfaceInteraction::from_hit(scene, ray, &hit);

@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::fmt;
 use std::str::FromStr;
 
-use crate::accel::{Accel, Ray};
+use crate::accel::{Accel, Hit, Ray};
 use crate::lights::{BackgroundSampling, LightSet};
 use crate::material::{Materials, Need};
 use crate::sampling::PixelSampler;
@@ -31,6 +31,10 @@ pub struct Context<'a> {
     /// the only correct setting). False spawns them from the hit point itself: a negative
     /// control for tests/stress_numerics.rs, which must then see self-intersection (acne).
     pub ray_offset: bool,
+    /// Trace camera rays of neighbouring pixels in packets ([`Accel::intersect_packet`]):
+    /// the default. The hits, and so the image, are the same either way (tested); false is
+    /// for measuring what packets gain.
+    pub camera_packets: bool,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -72,6 +76,7 @@ impl Prepared {
             materials: &self.materials,
             lights: &self.lights,
             ray_offset: true,
+            camera_packets: true,
         }
     }
 }
@@ -171,6 +176,13 @@ impl Integrator {
         !matches!(self, Integrator::Ao(_))
     }
 
+    /// False when the image is black whatever the rays find (direct or path tracing without
+    /// any emitter): then no ray is traced at all.
+    #[inline]
+    pub fn traces_rays(&self, ctx: &Context) -> bool {
+        !(self.needs_lights() && ctx.lights.is_empty())
+    }
+
     /// One estimate of the radiance along the camera ray `ray`.
     #[inline]
     pub fn li(
@@ -180,14 +192,28 @@ impl Integrator {
         sampler: &mut PixelSampler,
         rays: &mut RayCounts,
     ) -> Vec3 {
+        if !self.traces_rays(ctx) {
+            return Vec3::ZERO;
+        }
+        self.li_from_camera_hit(ctx, ray, ctx.accel.intersect(ray), sampler, rays)
+    }
+
+    /// [`Integrator::li`] given the camera ray's closest hit, found by the caller (for
+    /// camera rays traced in packets). Only called when [`Integrator::traces_rays`].
+    #[inline]
+    pub fn li_from_camera_hit(
+        &self,
+        ctx: &Context,
+        ray: &Ray,
+        hit: Option<Hit>,
+        sampler: &mut PixelSampler,
+        rays: &mut RayCounts,
+    ) -> Vec3 {
+        rays.camera += 1;
         match self {
-            Integrator::Ao(settings) => Vec3::splat(ao::li(ctx, ray, sampler, settings, rays)),
+            Integrator::Ao(settings) => Vec3::splat(ao::li(ctx, hit, ray, sampler, settings, rays)),
             Integrator::Direct(settings) | Integrator::Path(settings) => {
-                if ctx.lights.is_empty() {
-                    // Nothing emits: the image is black; skip the work.
-                    return Vec3::ZERO;
-                }
-                path::li(ctx, ray, sampler, settings, rays)
+                path::li(ctx, ray, hit, sampler, settings, rays)
             }
         }
     }

@@ -25,7 +25,7 @@ use std::str::FromStr;
 use glam::Vec3;
 
 use super::{Context, Hemisphere, RayCounts};
-use crate::accel::Ray;
+use crate::accel::{Hit, Ray};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Lambertian;
 use crate::sampling::PixelSampler;
@@ -93,10 +93,11 @@ fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
     }
 }
 
-/// One estimate of the radiance along the camera ray.
+/// One estimate of the radiance along the camera ray, whose closest hit is `camera_hit`.
 pub fn li(
     ctx: &Context,
     ray: &Ray,
+    camera_hit: Option<Hit>,
     sampler: &mut PixelSampler,
     settings: &PathSettings,
     rays: &mut RayCounts,
@@ -109,9 +110,9 @@ pub fn li(
     // for the camera vertex.
     let mut prev: Option<(f32, Vec3)> = None;
     let mut depth = 0;
-    rays.camera += 1;
+    let mut next_hit = camera_hit;
     loop {
-        let Some(hit) = ctx.accel.intersect(&ray) else {
+        let Some(hit) = next_hit else {
             // Possibly add the background, weighted against sampling it as a light.
             let bg = lights.background();
             if bg.max_element() > 0.0 {
@@ -208,6 +209,7 @@ pub fn li(
         prev = Some((pdf, si.p));
         ray = si.spawn_ray_with(wi, f32::INFINITY, ctx.ray_offset);
         rays.extension += 1;
+        next_hit = ctx.accel.intersect(&ray);
     }
     l
 }

@@ -28,6 +28,7 @@ use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
+use crate::accel::{Ray, PACKET};
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::Camera;
@@ -234,50 +235,134 @@ struct TileResult {
 
 /// Renders the round's samples of every pixel of `tile`.
 fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Round) -> TileResult {
-    let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
     let camera = settings
         .camera
         .ray_generator(settings.width, settings.height);
-    let mut rays = RayCounts::default();
-    let mut sums = Vec::with_capacity(((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize);
-    let mut bad = 0;
-    let mut first_bad = Vec::new();
-    for y in tile.y0..tile.y1 {
-        for x in tile.x0..tile.x1 {
-            let mut sum = [0f64; 3];
-            let mut sq = [0f64; 3];
-            let samples = round.samples(x, y);
-            for index in samples.0..samples.1 {
-                sampler.start(x, y, index);
-                // The first two dimensions place the sample on the film.
-                let film_uv = sampler.next_2d();
-                let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
-                let l: Vec3 = settings.integrator.li(ctx, &ray, &mut sampler, &mut rays);
-                if l.is_finite() {
-                    for (c, v) in l.to_array().into_iter().enumerate() {
-                        sum[c] += v as f64;
-                        sq[c] += v as f64 * v as f64;
-                    }
-                } else {
-                    bad += 1;
-                    if first_bad.len() < BAD_SAMPLES_KEPT {
-                        first_bad.push(BadSample {
-                            x,
-                            y,
-                            index,
-                            value: l,
-                        });
-                    }
+    let pixels = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+    let mut out = TileResult {
+        sums: vec![([0f64; 3], [0f64; 3], 0); pixels],
+        rays: RayCounts::default(),
+        bad: 0,
+        first_bad: Vec::new(),
+    };
+    let integrator = &settings.integrator;
+    let new_sampler = || PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+    if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
+        let mut sampler = new_sampler();
+        for y in tile.y0..tile.y1 {
+            for x in tile.x0..tile.x1 {
+                let samples = round.samples(x, y);
+                let pixel =
+                    &mut out.sums[((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize];
+                for index in samples.0..samples.1 {
+                    sampler.start(x, y, index);
+                    // The first two dimensions place the sample on the film.
+                    let film_uv = sampler.next_2d();
+                    let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
+                    let l = integrator.li(ctx, &ray, &mut sampler, &mut out.rays);
+                    accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
+                }
+                pixel.2 = samples.1 - samples.0;
+            }
+        }
+        return out;
+    }
+
+    // Packets: the pixels of a PACKET_W × PACKET_H block take their samples side by side, the
+    // j-th sample of each pixel's range in one packet of camera rays. Each pixel still adds
+    // its samples in index order, from the same sampler dimensions, and packet hits equal
+    // single-ray hits, so the image is the one the loop above makes.
+    let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
+    for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
+        for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
+            let mut lanes = [(0u32, 0u32, 0u32, 0u32); PACKET];
+            let mut n_lanes = 0;
+            for y in by..(by + PACKET_H).min(tile.y1) {
+                for x in bx..(bx + PACKET_W).min(tile.x1) {
+                    let (a, b) = round.samples(x, y);
+                    lanes[n_lanes] = (x, y, a, b);
+                    n_lanes += 1;
                 }
             }
-            sums.push((sum, sq, samples.1 - samples.0));
+            let lanes = &lanes[..n_lanes];
+            let most = lanes
+                .iter()
+                .map(|l| l.3.saturating_sub(l.2))
+                .max()
+                .unwrap_or(0);
+            for j in 0..most {
+                let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+                let mut which = [0usize; PACKET];
+                let mut n = 0;
+                for (lane, &(x, y, a, b)) in lanes.iter().enumerate() {
+                    if a + j < b {
+                        let sampler = &mut samplers[lane];
+                        sampler.start(x, y, a + j);
+                        let film_uv = sampler.next_2d();
+                        rays[n] = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
+                        which[n] = lane;
+                        n += 1;
+                    }
+                }
+                let mut hits = [None; PACKET];
+                ctx.accel.intersect_packet(&rays[..n], &mut hits);
+                for k in 0..n {
+                    let (x, y, a, _) = lanes[which[k]];
+                    let l = integrator.li_from_camera_hit(
+                        ctx,
+                        &rays[k],
+                        hits[k],
+                        &mut samplers[which[k]],
+                        &mut out.rays,
+                    );
+                    let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
+                    accumulate(
+                        &mut out.sums[i],
+                        l,
+                        (x, y, a + j),
+                        &mut out.bad,
+                        &mut out.first_bad,
+                    );
+                }
+            }
+            for &(x, y, a, b) in lanes {
+                let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
+                out.sums[i].2 = b.saturating_sub(a);
+            }
         }
     }
-    TileResult {
-        sums,
-        rays,
-        bad,
-        first_bad,
+    out
+}
+
+/// The pixel block whose camera rays form one packet: 4 × 2 pixels.
+const PACKET_W: u32 = 4;
+const PACKET_H: u32 = PACKET as u32 / PACKET_W;
+
+/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums, or counts it as
+/// bad (NaN or infinite) and keeps the first few.
+#[inline]
+fn accumulate(
+    pixel: &mut ([f64; 3], [f64; 3], u32),
+    l: Vec3,
+    (x, y, index): (u32, u32, u32),
+    bad: &mut u64,
+    first_bad: &mut Vec<BadSample>,
+) {
+    if l.is_finite() {
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            pixel.0[c] += v as f64;
+            pixel.1[c] += v as f64 * v as f64;
+        }
+    } else {
+        *bad += 1;
+        if first_bad.len() < BAD_SAMPLES_KEPT {
+            first_bad.push(BadSample {
+                x,
+                y,
+                index,
+                value: l,
+            });
+        }
     }
 }
 
