@@ -25,6 +25,28 @@ pub struct Film {
     counts: Vec<u32>,
 }
 
+/// Some whole rows of a [`Film`], borrowed mutably ([`Film::rows_mut`]).
+pub struct FilmRows<'a> {
+    y0: u32,
+    width: u32,
+    sums: &'a mut [[f64; 3]],
+    sq_sums: &'a mut [[f64; 3]],
+    counts: &'a mut [u32],
+}
+
+impl FilmRows<'_> {
+    /// [`Film::add`] for a pixel of these rows.
+    #[inline]
+    pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
+        let i = (y - self.y0) as usize * self.width as usize + x as usize;
+        for c in 0..3 {
+            self.sums[i][c] += sum[c];
+            self.sq_sums[i][c] += sq_sum[c];
+        }
+        self.counts[i] += count;
+    }
+}
+
 impl Film {
     /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), a
     /// round's tile results collected before they are merged (sums, squares and count: 52
@@ -56,6 +78,39 @@ impl Film {
             sq_sums: vec![[0.0; 3]; n],
             counts: vec![0; n],
         }
+    }
+
+    /// Disjoint mutable views of the rows `ranges` ([y0, y1) each, sorted and not
+    /// overlapping), for merging different bands of rows on different threads.
+    pub fn rows_mut(&mut self, ranges: &[(u32, u32)]) -> Vec<FilmRows<'_>> {
+        let w = self.width as usize;
+        let (mut sums, mut sq_sums, mut counts) = (
+            &mut self.sums[..],
+            &mut self.sq_sums[..],
+            &mut self.counts[..],
+        );
+        let mut at = 0u32;
+        let mut out = Vec::with_capacity(ranges.len());
+        for &(y0, y1) in ranges {
+            assert!(at <= y0 && y0 <= y1 && y1 <= self.height, "bad row range");
+            let skip = (y0 - at) as usize * w;
+            let take = (y1 - y0) as usize * w;
+            let (s, rest) = std::mem::take(&mut sums)[skip..].split_at_mut(take);
+            sums = rest;
+            let (q, rest) = std::mem::take(&mut sq_sums)[skip..].split_at_mut(take);
+            sq_sums = rest;
+            let (c, rest) = std::mem::take(&mut counts)[skip..].split_at_mut(take);
+            counts = rest;
+            out.push(FilmRows {
+                y0,
+                width: self.width,
+                sums: s,
+                sq_sums: q,
+                counts: c,
+            });
+            at = y1;
+        }
+        out
     }
 
     #[inline]

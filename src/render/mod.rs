@@ -225,22 +225,32 @@ impl Round<'_> {
     }
 }
 
+/// A pixel's (sum, sum of squares, number) of one round's samples.
+type PixelSums = ([f64; 3], [f64; 3], u32);
+
+/// What a tile's round produced besides its [`PixelSums`].
 struct TileResult {
-    /// Per pixel: (sum, sum of squares, number) of the round's samples.
-    sums: Vec<([f64; 3], [f64; 3], u32)>,
     rays: RayCounts,
     bad: u64,
     first_bad: Vec<BadSample>,
 }
 
-/// Renders the round's samples of every pixel of `tile`.
-fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Round) -> TileResult {
+/// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
+/// scanline order; the tile's buffer, kept from round to round so that no round allocates).
+fn render_tile(
+    ctx: &Context,
+    settings: &RenderSettings,
+    tile: Tile,
+    round: &Round,
+    sums: &mut Vec<PixelSums>,
+) -> TileResult {
     let camera = settings
         .camera
         .ray_generator(settings.width, settings.height);
     let pixels = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+    sums.clear();
+    sums.resize(pixels, ([0f64; 3], [0f64; 3], 0));
     let mut out = TileResult {
-        sums: vec![([0f64; 3], [0f64; 3], 0); pixels],
         rays: RayCounts::default(),
         bad: 0,
         first_bad: Vec::new(),
@@ -252,8 +262,7 @@ fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Rou
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let samples = round.samples(x, y);
-                let pixel =
-                    &mut out.sums[((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize];
+                let pixel = &mut sums[((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize];
                 for index in samples.0..samples.1 {
                     sampler.start(x, y, index);
                     // The first two dimensions place the sample on the film.
@@ -317,7 +326,7 @@ fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Rou
                     );
                     let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
                     accumulate(
-                        &mut out.sums[i],
+                        &mut sums[i],
                         l,
                         (x, y, a + j),
                         &mut out.bad,
@@ -327,7 +336,7 @@ fn render_tile(ctx: &Context, settings: &RenderSettings, tile: Tile, round: &Rou
             }
             for &(x, y, a, b) in lanes {
                 let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
-                out.sums[i].2 = b.saturating_sub(a);
+                sums[i].2 = b.saturating_sub(a);
             }
         }
     }
@@ -411,6 +420,10 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
+    // Each tile's round results, reused from round to round: allocating them afresh each
+    // round made the allocator hand pages back and fault them in again, which cost short
+    // renders a quarter of their time on two threads.
+    let mut tile_sums: Vec<Vec<PixelSums>> = vec![Vec::new(); tiles.len()];
     let stopping = settings.stopping;
     let spp = settings.spp;
     // Each round takes every pixel from its count to the next pass end.
@@ -519,9 +532,12 @@ pub fn render_with_checkpoints(
         if !work.iter().any(|&w| w) {
             break 'rounds;
         }
-        let mut merged: Vec<(Tile, TileResult)> = Vec::new();
-        let mut groups = tiles.chunks(group).zip(work.chunks(group)).peekable();
-        while let Some((chunk, chunk_work)) = groups.next() {
+        // Tiles rendered this round, by index into `tiles` (and `tile_sums`).
+        let mut merged: Vec<(usize, TileResult)> = Vec::new();
+        let n_groups = tiles.len().div_ceil(group);
+        for g in 0..n_groups {
+            let range = g * group..((g + 1) * group).min(tiles.len());
+            let (chunk, chunk_work) = (&tiles[range.clone()], &work[range.clone()]);
             if cancel.load(Ordering::Relaxed) {
                 interrupted = true;
                 break;
@@ -530,11 +546,13 @@ pub fn render_with_checkpoints(
                 time_limit_reached = true;
                 break;
             }
+            let chunk_sums = &mut tile_sums[range.clone()];
             let results: Vec<Option<TileResult>> = pool.install(|| {
                 chunk
                     .par_iter()
                     .zip(chunk_work)
-                    .map(|(&tile, &has_work)| {
+                    .zip(chunk_sums.par_iter_mut())
+                    .map(|((&tile, &has_work), sums)| {
                         if !has_work {
                             tick();
                             return None;
@@ -542,15 +560,15 @@ pub fn render_with_checkpoints(
                         if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
                             return None;
                         }
-                        let r = render_tile(ctx, settings, tile, &round);
+                        let r = render_tile(ctx, settings, tile, &round, sums);
                         tick();
                         Some(r)
                     })
                     .collect()
             });
-            for ((tile, &has_work), result) in chunk.iter().zip(chunk_work).zip(results) {
+            for ((i, &has_work), result) in range.clone().zip(chunk_work).zip(results) {
                 match result {
-                    Some(r) => merged.push((*tile, r)),
+                    Some(r) => merged.push((i, r)),
                     None if !has_work => {}
                     None if cancel.load(Ordering::Relaxed) => interrupted = true,
                     None => time_limit_reached = true,
@@ -561,10 +579,10 @@ pub fn render_with_checkpoints(
             }
             // Checkpoints see the film as of the last full round plus the groups so far.
             if let Some(c) = checkpoint.as_mut() {
-                if groups.peek().is_some() && last_checkpoint.elapsed() >= c.every {
+                if g + 1 < n_groups && last_checkpoint.elapsed() >= c.every {
                     let mut snapshot = film.clone();
-                    for (tile, r) in &merged {
-                        merge_tile(&mut snapshot, tile, r);
+                    for (i, _) in &merged {
+                        merge_tile(&mut snapshot, &tiles[*i], &tile_sums[*i]);
                     }
                     stats.seconds = start.elapsed().as_secs_f64();
                     (c.save)(&snapshot, &stats);
@@ -572,9 +590,11 @@ pub fn render_with_checkpoints(
                 }
             }
         }
-        // Merge in tile order: each pixel's sum grows round by round in sample order.
-        for (tile, r) in merged {
-            merge_tile(&mut film, &tile, &r);
+        // Each pixel's sum grows round by round in sample order. The bands of tile rows are
+        // merged in parallel (a serial merge, first touching a new film's pages, held back
+        // short renders on several threads).
+        merge_round(&mut film, &tiles, &tile_sums, &merged, pool);
+        for (_, r) in merged {
             stats.rays.add(&r.rays);
             stats.bad_samples += r.bad;
             for b in r.first_bad {
@@ -612,9 +632,50 @@ pub fn render_with_checkpoints(
     }
 }
 
+/// Adds a round's tiles (`merged`: indices into `tiles` and `sums`, in scanline order, as
+/// [`tiles`] makes them) to the film, one band of tile rows per task.
+fn merge_round(
+    film: &mut Film,
+    tiles: &[Tile],
+    sums: &[Vec<PixelSums>],
+    merged: &[(usize, TileResult)],
+    pool: &rayon::ThreadPool,
+) {
+    let mut bands: Vec<(u32, u32)> = Vec::new();
+    let mut groups: Vec<&[(usize, TileResult)]> = Vec::new();
+    let mut rest = merged;
+    while let Some((first, _)) = rest.first() {
+        let y0 = tiles[*first].y0;
+        let n = rest.iter().take_while(|(i, _)| tiles[*i].y0 == y0).count();
+        let (group, tail) = rest.split_at(n);
+        bands.push((y0, tiles[*first].y1));
+        groups.push(group);
+        rest = tail;
+    }
+    let rows = film.rows_mut(&bands);
+    pool.install(|| {
+        rows.into_par_iter()
+            .zip(groups)
+            .for_each(|(mut rows, group)| {
+                for (i, _) in group {
+                    let tile = &tiles[*i];
+                    let mut pixel = sums[*i].iter();
+                    for y in tile.y0..tile.y1 {
+                        for x in tile.x0..tile.x1 {
+                            let (sum, sq, n) = pixel.next().expect("one sum per tile pixel");
+                            if *n > 0 {
+                                rows.add(x, y, *sum, *sq, *n);
+                            }
+                        }
+                    }
+                }
+            })
+    });
+}
+
 /// Adds a tile's round to the film.
-fn merge_tile(film: &mut Film, tile: &Tile, result: &TileResult) {
-    let mut sums = result.sums.iter();
+fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelSums]) {
+    let mut sums = sums.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let (sum, sq, n) = sums.next().expect("one sum per tile pixel");
