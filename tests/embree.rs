@@ -360,3 +360,57 @@ fn packet_queries_equal_single_ray_queries_on_camera_rays() {
         assert!(partial > 0, "no part-filled packet");
     }
 }
+
+/// `Accel::occluded_packet` answers, lane by lane, as `Accel::occluded` does: AO-like rays
+/// leaving points of a real mesh (Suzanne seen by its camera) in all directions, in packets
+/// of 1 to 8 rays from one point, for both backends.
+#[test]
+fn occlusion_packets_equal_single_ray_queries() {
+    use strata::accel::{Backend, PACKET};
+    use strata::interaction::SurfaceInteraction;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/suzanne.gltf");
+    let scene = strata::scene::load(&path, &Default::default()).unwrap();
+    let camera = scene.cameras[0].ray_generator(40, 30);
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        let accel = Accel::build(
+            &scene,
+            &AccelOptions {
+                backend,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let (mut rays_traced, mut occluded_count) = (0, 0);
+        for p in 0..40 * 30u32 {
+            let ray = camera.ray((p % 40) as f32 + 0.5, (p / 40) as f32 + 0.5);
+            let Some(hit) = accel.intersect(&ray) else {
+                continue;
+            };
+            let si = SurfaceInteraction::from_hit(&scene, &ray, &hit);
+            let n = 1 + p as usize % PACKET;
+            let packet: Vec<Ray> = (0..n)
+                .map(|k| {
+                    let a = (p as f32 * 0.37 + k as f32 * 2.4).sin_cos();
+                    let z = (k as f32 + 0.5) / n as f32 * 2.0 - 1.0;
+                    let r = (1.0 - z * z).sqrt();
+                    si.spawn_ray(Vec3::new(r * a.0, r * a.1, z), f32::INFINITY)
+                })
+                .collect();
+            let mut occluded = [false; PACKET];
+            accel.occluded_packet(&packet, &mut occluded);
+            for (k, r) in packet.iter().enumerate() {
+                assert_eq!(
+                    occluded[k],
+                    accel.occluded(r),
+                    "{backend:?}: pixel {p} ray {k}"
+                );
+                occluded_count += occluded[k] as usize;
+            }
+            rays_traced += n;
+        }
+        assert!(
+            occluded_count > rays_traced / 10 && occluded_count < rays_traced,
+            "{backend:?}: {occluded_count} of {rays_traced} occluded"
+        );
+    }
+}

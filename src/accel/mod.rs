@@ -212,6 +212,24 @@ impl Accel {
         }
     }
 
+    /// Any-hit answers for up to [`PACKET`] rays (`occluded[i]` for `rays[i]`): one packet
+    /// query with Embree, one query per ray with obvhs.
+    #[inline]
+    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; PACKET]) {
+        match self {
+            Accel::Embree(a) => a.raw().occluded_packet(
+                rays,
+                |r| (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max),
+                |i, o| occluded[i] = o,
+            ),
+            Accel::Obvhs(a) => {
+                for (o, r) in occluded.iter_mut().zip(rays) {
+                    *o = a.occluded(r);
+                }
+            }
+        }
+    }
+
     /// True when any surface lies along the ray within `[t_min, t_max]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {

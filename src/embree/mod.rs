@@ -735,6 +735,56 @@ impl Scene {
         }
     }
 
+    /// Any-hit queries of up to [`PACKET`] rays in one call of Embree's 8-wide packet API,
+    /// for rays that share much of their path (the AO rays of one surface point):
+    /// `occluded(i)` receives ray i's answer. As [`Scene::intersect_packet`] otherwise.
+    #[inline]
+    pub fn occluded_packet<R>(
+        &self,
+        rays: &[R],
+        ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+        mut occluded: impl FnMut(usize, bool),
+    ) {
+        /// The valid mask must be aligned to the packet's size in bytes.
+        #[repr(C, align(32))]
+        struct Valid([i32; PACKET]);
+        assert!(rays.len() <= PACKET, "more rays than a packet holds");
+        // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
+        // integers.
+        let mut r8: sys::RTCRay8 = unsafe { std::mem::zeroed() };
+        let mut valid = Valid([0; PACKET]);
+        for (i, r) in rays.iter().enumerate() {
+            let (org, dir, tnear, tfar) = ray(r);
+            r8.org_x[i] = org[0];
+            r8.org_y[i] = org[1];
+            r8.org_z[i] = org[2];
+            r8.tnear[i] = tnear;
+            r8.dir_x[i] = dir[0];
+            r8.dir_y[i] = dir[1];
+            r8.dir_z[i] = dir[2];
+            r8.tfar[i] = tfar;
+            // Embree 4 enables ray masks by default: a zero mask would miss everything.
+            r8.mask[i] = u32::MAX;
+            valid.0[i] = -1;
+        }
+        #[cfg(embree3)]
+        {
+            let mut ctx = intersect_context();
+            // SAFETY: the scene is committed; `valid` is aligned as the packet API requires;
+            // `r8` and `ctx` are valid locals Embree uses only during the call.
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx, &mut r8) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as above; null arguments select Embree 4's defaults.
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut r8, std::ptr::null_mut()) };
+        }
+        for i in 0..rays.len() {
+            // Embree sets tfar to -inf when an occluder is found.
+            occluded(i, r8.tfar[i] == f32::NEG_INFINITY);
+        }
+    }
+
     /// True when anything lies along `org + t·dir` for t in `[tnear, tfar]`.
     #[inline]
     pub fn occluded(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
