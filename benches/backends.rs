@@ -8,7 +8,8 @@
 //! For Embree, the `packets/` group compares its packet API (`rtcIntersect4/8/16`, coherent
 //! hint) with one `rtcIntersect1` call per ray on the same camera rays, ordered in 4×4 pixel
 //! blocks so each packet holds neighbouring rays; both include packing rays into Embree's
-//! layout.
+//! layout. It also traces the incoherent diffuse rays both ways, eight consecutive ones per
+//! packet.
 //!
 //! Meshes: the bundled flight helmet, plus every `*.glb`/`*.gltf` in `$STRATA_BENCH_MESHES`
 //! (default `~/.cache/strata/meshes`, filled by the script above). Throughput is in rays.
@@ -168,6 +169,19 @@ fn bench(c: &mut Criterion) {
         });
         g.bench_function("rtcIntersect16, 1 thread", |b| {
             b.iter(|| raw.intersect16_count_raw(&blocks))
+        });
+        // The diffuse rays, consecutive ones (from neighbouring camera hits) in a packet:
+        // what packets of a path tracer's secondary rays would meet.
+        let scattered: Vec<RawRay> = incoherent
+            .iter()
+            .map(|r| RawRay::new(r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max))
+            .collect();
+        g.throughput(Throughput::Elements(scattered.len() as u64));
+        g.bench_function("incoherent, rtcIntersect1, 1 thread", |b| {
+            b.iter(|| raw.intersect_count_raw(&scattered))
+        });
+        g.bench_function("incoherent, rtcIntersect8, 1 thread", |b| {
+            b.iter(|| raw.intersect8_count_raw(&scattered))
         });
         g.finish();
         let mut g = c.benchmark_group(format!("trace/{name}"));
