@@ -311,13 +311,28 @@ fn packets_agree_with_single_rays() {
     assert_eq!(raw.intersect16_count_raw(&rays), single);
 }
 
+/// The scene's acceleration structure from each backend.
+fn both_backends(scene: &Scene) -> Vec<(strata::accel::Backend, Accel)> {
+    use strata::accel::Backend;
+    [Backend::Embree, Backend::Obvhs]
+        .into_iter()
+        .map(|backend| {
+            let options = AccelOptions {
+                backend,
+                ..Default::default()
+            };
+            (backend, Accel::build(scene, &options).unwrap())
+        })
+        .collect()
+}
+
 /// `Accel::intersect_packet` gives, lane by lane, exactly the hit (t, triangle, barycentrics,
 /// normal) that `Accel::intersect` gives: the camera rays of a real scene in 4×2 pixel
 /// blocks, part-filled packets included, for both backends. Renders trace camera rays either
 /// way, so this equality is what keeps their images identical.
 #[test]
 fn packet_queries_equal_single_ray_queries_on_camera_rays() {
-    use strata::accel::{Backend, PACKET};
+    use strata::accel::PACKET;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/suzanne.gltf");
     let scene = strata::scene::load(&path, &Default::default()).unwrap();
     let (w, h) = (61u32, 45u32);
@@ -332,15 +347,7 @@ fn packet_queries_equal_single_ray_queries_on_camera_rays() {
             rays.push(block);
         }
     }
-    for backend in [Backend::Embree, Backend::Obvhs] {
-        let accel = Accel::build(
-            &scene,
-            &AccelOptions {
-                backend,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    for (backend, accel) in both_backends(&scene) {
         let (mut hits, mut partial) = (0, 0);
         for block in &rays {
             let mut packet = [None; PACKET];
@@ -366,20 +373,12 @@ fn packet_queries_equal_single_ray_queries_on_camera_rays() {
 /// of 1 to 8 rays from one point, for both backends.
 #[test]
 fn occlusion_packets_equal_single_ray_queries() {
-    use strata::accel::{Backend, PACKET};
+    use strata::accel::PACKET;
     use strata::interaction::SurfaceInteraction;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/suzanne.gltf");
     let scene = strata::scene::load(&path, &Default::default()).unwrap();
     let camera = scene.cameras[0].ray_generator(40, 30);
-    for backend in [Backend::Embree, Backend::Obvhs] {
-        let accel = Accel::build(
-            &scene,
-            &AccelOptions {
-                backend,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    for (backend, accel) in both_backends(&scene) {
         let (mut rays_traced, mut occluded_count) = (0, 0);
         for p in 0..40 * 30u32 {
             let ray = camera.ray((p % 40) as f32 + 0.5, (p / 40) as f32 + 0.5);

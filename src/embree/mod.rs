@@ -570,6 +570,38 @@ fn intersect_context() -> sys::RTCIntersectContext {
     ctx
 }
 
+/// The valid mask of an 8-ray packet, aligned to the packet's size in bytes as Embree
+/// requires.
+#[repr(C, align(32))]
+struct Valid8([i32; PACKET]);
+
+/// Writes `ray(&rays[i])` = (org, dir, tnear, tfar) into lane i of `r8` and returns the mask
+/// with those lanes valid.
+#[inline(always)]
+fn pack8<R>(
+    rays: &[R],
+    ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+    r8: &mut sys::RTCRay8,
+) -> Valid8 {
+    assert!(rays.len() <= PACKET, "more rays than a packet holds");
+    let mut valid = Valid8([0; PACKET]);
+    for (i, r) in rays.iter().enumerate() {
+        let (org, dir, tnear, tfar) = ray(r);
+        r8.org_x[i] = org[0];
+        r8.org_y[i] = org[1];
+        r8.org_z[i] = org[2];
+        r8.tnear[i] = tnear;
+        r8.dir_x[i] = dir[0];
+        r8.dir_y[i] = dir[1];
+        r8.dir_z[i] = dir[2];
+        r8.tfar[i] = tfar;
+        // Embree 4 enables ray masks by default: a zero mask would miss everything.
+        r8.mask[i] = u32::MAX;
+        valid.0[i] = -1;
+    }
+    valid
+}
+
 /// Generates a measuring function that traces rays as packets of `$n` with Embree's packet
 /// API (`$func`), for comparison with one-ray-at-a-time tracing on coherent rays.
 macro_rules! packet_count_raw {
@@ -680,29 +712,11 @@ impl Scene {
         ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
         mut hit: impl FnMut(usize, Option<RawHit>),
     ) {
-        /// The valid mask must be aligned to the packet's size in bytes.
-        #[repr(C, align(32))]
-        struct Valid([i32; PACKET]);
-        assert!(rays.len() <= PACKET, "more rays than a packet holds");
         // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
         // integers.
         let mut rh: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
-        let mut valid = Valid([0; PACKET]);
-        for (i, r) in rays.iter().enumerate() {
-            let (org, dir, tnear, tfar) = ray(r);
-            rh.ray.org_x[i] = org[0];
-            rh.ray.org_y[i] = org[1];
-            rh.ray.org_z[i] = org[2];
-            rh.ray.tnear[i] = tnear;
-            rh.ray.dir_x[i] = dir[0];
-            rh.ray.dir_y[i] = dir[1];
-            rh.ray.dir_z[i] = dir[2];
-            rh.ray.tfar[i] = tfar;
-            // Embree 4 enables ray masks by default: a zero mask would miss everything.
-            rh.ray.mask[i] = u32::MAX;
-            rh.hit.geomID[i] = INVALID_GEOMETRY_ID;
-            valid.0[i] = -1;
-        }
+        let valid = pack8(rays, ray, &mut rh.ray);
+        rh.hit.geomID = [INVALID_GEOMETRY_ID; PACKET];
         #[cfg(embree3)]
         {
             let mut ctx = sys::RTCIntersectContext {
@@ -745,28 +759,10 @@ impl Scene {
         ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
         mut occluded: impl FnMut(usize, bool),
     ) {
-        /// The valid mask must be aligned to the packet's size in bytes.
-        #[repr(C, align(32))]
-        struct Valid([i32; PACKET]);
-        assert!(rays.len() <= PACKET, "more rays than a packet holds");
         // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
         // integers.
         let mut r8: sys::RTCRay8 = unsafe { std::mem::zeroed() };
-        let mut valid = Valid([0; PACKET]);
-        for (i, r) in rays.iter().enumerate() {
-            let (org, dir, tnear, tfar) = ray(r);
-            r8.org_x[i] = org[0];
-            r8.org_y[i] = org[1];
-            r8.org_z[i] = org[2];
-            r8.tnear[i] = tnear;
-            r8.dir_x[i] = dir[0];
-            r8.dir_y[i] = dir[1];
-            r8.dir_z[i] = dir[2];
-            r8.tfar[i] = tfar;
-            // Embree 4 enables ray masks by default: a zero mask would miss everything.
-            r8.mask[i] = u32::MAX;
-            valid.0[i] = -1;
-        }
+        let valid = pack8(rays, ray, &mut r8);
         #[cfg(embree3)]
         {
             let mut ctx = intersect_context();
