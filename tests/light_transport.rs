@@ -6,6 +6,8 @@
 //! - a spot light: inside its inner cone, in the penumbra and outside, the radiance follows
 //!   the KHR_lights_punctual falloff.
 
+mod common;
+
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -167,53 +169,8 @@ fn direct() -> Integrator {
 /// A geodesic sphere of radius `r` (subdivided octahedron projected to the sphere), wound so
 /// the counter-clockwise front faces point INTO the sphere, without vertex normals (flat).
 fn inward_sphere(r: f32, subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut tris: Vec<[Vec3; 3]> = Vec::new();
-    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
-    for (a, b, c) in [
-        (x, y, z),
-        (y, -x, z),
-        (-x, -y, z),
-        (-y, x, z),
-        (y, x, -z),
-        (-x, y, -z),
-        (-y, -x, -z),
-        (x, -y, -z),
-    ] {
-        tris.push([a, b, c]);
-    }
-    for _ in 0..subdivisions {
-        let mut next = Vec::new();
-        for [a, b, c] in tris {
-            let (ab, bc, ca) = (
-                (a + b).normalize(),
-                (b + c).normalize(),
-                (c + a).normalize(),
-            );
-            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    // Share vertices exactly (the mesh must be watertight), then flip to face inward.
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut index = std::collections::HashMap::new();
-    let mut triangles = Vec::new();
-    for t in tris {
-        let ids = t.map(|p| {
-            let key = (p * r).to_array().map(f32::to_bits);
-            *index.entry(key).or_insert_with(|| {
-                positions.push(p * r);
-                positions.len() as u32 - 1
-            })
-        });
-        let [a, b, c] = ids;
-        let (pa, pb, pc) = (
-            positions[a as usize],
-            positions[b as usize],
-            positions[c as usize],
-        );
-        let outward = (pb - pa).cross(pc - pa).dot(pa) > 0.0;
-        triangles.push(if outward { [a, c, b] } else { [a, b, c] });
-    }
+    let (points, triangles) = common::inward_geodesic_sphere(subdivisions);
+    let positions = points.iter().map(|p| (*p * r as f64).as_vec3()).collect();
     (positions, triangles)
 }
 

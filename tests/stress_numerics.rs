@@ -16,6 +16,8 @@
 //!
 //! The numbers these tests print (`--nocapture`) are collected in ROBUSTNESS-numerics.md.
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -251,49 +253,8 @@ fn latlong_sphere(centre: DVec3, r: f64, stacks: u32, slices: u32) -> (Vec<Vec3>
 /// A geodesic sphere of radius 1 about the origin (subdivided octahedron), wound so the front
 /// faces point INTO the sphere: the furnace of tests/light_transport.rs, placed by `place`.
 fn inward_sphere(place: Place, subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut tris: Vec<[DVec3; 3]> = Vec::new();
-    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
-    for (a, b, c) in [
-        (x, y, z),
-        (y, -x, z),
-        (-x, -y, z),
-        (-y, x, z),
-        (y, x, -z),
-        (-x, y, -z),
-        (-y, -x, -z),
-        (x, -y, -z),
-    ] {
-        tris.push([a, b, c]);
-    }
-    for _ in 0..subdivisions {
-        let mut next = Vec::new();
-        for [a, b, c] in tris {
-            let (ab, bc, ca) = (
-                (a + b).normalize(),
-                (b + c).normalize(),
-                (c + a).normalize(),
-            );
-            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    // Shared vertices (watertight), keyed by the unit-sphere point; wound inward.
-    let mut positions = Vec::new();
-    let mut index = HashMap::new();
-    let mut triangles = Vec::new();
-    for t in tris {
-        let ids = t.map(|p| {
-            let key = p.to_array().map(f64::to_bits);
-            *index.entry(key).or_insert_with(|| {
-                positions.push(place.p(p));
-                positions.len() as u32 - 1
-            })
-        });
-        let outward = (t[1] - t[0]).cross(t[2] - t[0]).dot(t[0]) > 0.0;
-        let [a, b, c] = ids;
-        triangles.push(if outward { [a, c, b] } else { [a, b, c] });
-    }
-    (positions, triangles)
+    let (points, triangles) = common::inward_geodesic_sphere(subdivisions);
+    (points.into_iter().map(|p| place.p(p)).collect(), triangles)
 }
 
 // ---------------------------------------------------------------------------------------------

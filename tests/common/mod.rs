@@ -1,5 +1,6 @@
-//! Helpers shared by the CLI tests (`cli.rs`, `bad_input.rs`, `losing_nothing.rs`): run the
-//! `render` binary, check its one-line errors, and build broken variants of a small scene.
+//! Helpers shared by the tests: for the CLI tests (`cli.rs`, `bad_input.rs`,
+//! `losing_nothing.rs`), run the `render` binary, check its one-line errors, and build broken
+//! variants of a small scene; for the light-transport and numerics tests, a closed sphere.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -218,4 +219,52 @@ pub fn attr(attrs: &std::collections::HashMap<String, i32>, name: &str) -> i32 {
     *attrs
         .get(name)
         .unwrap_or_else(|| panic!("no {name} in the EXR header: {attrs:?}"))
+}
+
+/// A geodesic sphere of radius 1 about the origin: an octahedron whose triangles are split in
+/// four `subdivisions` times, new vertices pushed onto the sphere (in f64). Vertices are
+/// shared exactly, so the mesh is watertight, and every triangle is wound so that its front
+/// face points into the sphere (a furnace). Returns the unit-sphere points and the triangles;
+/// callers scale and place the points.
+pub fn inward_geodesic_sphere(subdivisions: u32) -> (Vec<glam::DVec3>, Vec<[u32; 3]>) {
+    use glam::DVec3;
+    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+    let mut tris: Vec<[DVec3; 3]> = vec![
+        [x, y, z],
+        [y, -x, z],
+        [-x, -y, z],
+        [-y, x, z],
+        [y, x, -z],
+        [-x, y, -z],
+        [-y, -x, -z],
+        [x, -y, -z],
+    ];
+    for _ in 0..subdivisions {
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        for [a, b, c] in tris {
+            let (ab, bc, ca) = (
+                (a + b).normalize(),
+                (b + c).normalize(),
+                (c + a).normalize(),
+            );
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    let mut points = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut triangles = Vec::with_capacity(tris.len());
+    for t in tris {
+        let [a, b, c] = t.map(|p| {
+            *index
+                .entry(p.to_array().map(f64::to_bits))
+                .or_insert_with(|| {
+                    points.push(p);
+                    points.len() as u32 - 1
+                })
+        });
+        let outward = (t[1] - t[0]).cross(t[2] - t[0]).dot(t[0]) > 0.0;
+        triangles.push(if outward { [a, c, b] } else { [a, b, c] });
+    }
+    (points, triangles)
 }
