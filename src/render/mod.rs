@@ -228,6 +228,49 @@ impl Round<'_> {
 /// A pixel's (sum, sum of squares, number) of one round's samples.
 type PixelSums = ([f64; 3], [f64; 3], u32);
 
+/// Every tile's [`PixelSums`] of the current round, tile after tile in one allocation made
+/// once per render. Buffers allocated per round came back from the allocator as fresh zero
+/// pages, each taking a copy-on-write fault (and a TLB flush of the other threads) on first
+/// use; buffers allocated per tile grew the per-thread heaps by some 4 000 `mprotect` calls
+/// in the first round.
+struct TileSums {
+    data: Vec<PixelSums>,
+    /// Tile i's sums are `data[offsets[i]..offsets[i + 1]]`.
+    offsets: Vec<usize>,
+}
+
+impl TileSums {
+    fn new(tiles: &[Tile]) -> TileSums {
+        let mut offsets = Vec::with_capacity(tiles.len() + 1);
+        offsets.push(0);
+        for t in tiles {
+            let n = ((t.x1 - t.x0) * (t.y1 - t.y0)) as usize;
+            offsets.push(offsets.last().copied().unwrap_or(0) + n);
+        }
+        TileSums {
+            data: vec![([0f64; 3], [0f64; 3], 0); offsets[tiles.len()]],
+            offsets,
+        }
+    }
+
+    fn get(&self, tile: usize) -> &[PixelSums] {
+        &self.data[self.offsets[tile]..self.offsets[tile + 1]]
+    }
+
+    /// The sums of tiles `range`, one mutable slice per tile.
+    fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<&mut [PixelSums]> {
+        let mut rest = &mut self.data[self.offsets[range.start]..self.offsets[range.end]];
+        let mut out = Vec::with_capacity(range.len());
+        for i in range {
+            let (tile, tail) =
+                std::mem::take(&mut rest).split_at_mut(self.offsets[i + 1] - self.offsets[i]);
+            out.push(tile);
+            rest = tail;
+        }
+        out
+    }
+}
+
 /// What a tile's round produced besides its [`PixelSums`].
 struct TileResult {
     rays: RayCounts,
@@ -236,20 +279,20 @@ struct TileResult {
 }
 
 /// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
-/// scanline order; the tile's buffer, kept from round to round so that no round allocates).
+/// scanline order; the tile's part of [`TileSums`]).
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
     tile: Tile,
     round: &Round,
-    sums: &mut Vec<PixelSums>,
+    sums: &mut [PixelSums],
 ) -> TileResult {
     let camera = settings
         .camera
         .ray_generator(settings.width, settings.height);
     let pixels = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-    sums.clear();
-    sums.resize(pixels, ([0f64; 3], [0f64; 3], 0));
+    debug_assert_eq!(sums.len(), pixels);
+    sums.fill(([0f64; 3], [0f64; 3], 0));
     let mut out = TileResult {
         rays: RayCounts::default(),
         bad: 0,
@@ -420,10 +463,7 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
-    // Each tile's round results, reused from round to round: allocating them afresh each
-    // round made the allocator hand pages back and fault them in again, which cost short
-    // renders a quarter of their time on two threads.
-    let mut tile_sums: Vec<Vec<PixelSums>> = vec![Vec::new(); tiles.len()];
+    let mut tile_sums = TileSums::new(&tiles);
     let stopping = settings.stopping;
     let spp = settings.spp;
     // Each round takes every pixel from its count to the next pass end.
@@ -546,12 +586,12 @@ pub fn render_with_checkpoints(
                 time_limit_reached = true;
                 break;
             }
-            let chunk_sums = &mut tile_sums[range.clone()];
+            let chunk_sums = tile_sums.split_mut(range.clone());
             let results: Vec<Option<TileResult>> = pool.install(|| {
                 chunk
                     .par_iter()
                     .zip(chunk_work)
-                    .zip(chunk_sums.par_iter_mut())
+                    .zip(chunk_sums)
                     .map(|((&tile, &has_work), sums)| {
                         if !has_work {
                             tick();
@@ -582,7 +622,7 @@ pub fn render_with_checkpoints(
                 if g + 1 < n_groups && last_checkpoint.elapsed() >= c.every {
                     let mut snapshot = film.clone();
                     for (i, _) in &merged {
-                        merge_tile(&mut snapshot, &tiles[*i], &tile_sums[*i]);
+                        merge_tile(&mut snapshot, &tiles[*i], tile_sums.get(*i));
                     }
                     stats.seconds = start.elapsed().as_secs_f64();
                     (c.save)(&snapshot, &stats);
@@ -637,7 +677,7 @@ pub fn render_with_checkpoints(
 fn merge_round(
     film: &mut Film,
     tiles: &[Tile],
-    sums: &[Vec<PixelSums>],
+    sums: &TileSums,
     merged: &[(usize, TileResult)],
     pool: &rayon::ThreadPool,
 ) {
@@ -659,7 +699,7 @@ fn merge_round(
             .for_each(|(mut rows, group)| {
                 for (i, _) in group {
                     let tile = &tiles[*i];
-                    let mut pixel = sums[*i].iter();
+                    let mut pixel = sums.get(*i).iter();
                     for y in tile.y0..tile.y1 {
                         for x in tile.x0..tile.x1 {
                             let (sum, sq, n) = pixel.next().expect("one sum per tile pixel");
