@@ -300,12 +300,14 @@ fn render_tile(
     };
     let integrator = &settings.integrator;
     let new_sampler = || PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+    // Pixel (x, y)'s entry in `sums`.
+    let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
     if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
         let mut sampler = new_sampler();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let samples = round.samples(x, y);
-                let pixel = &mut sums[((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize];
+                let pixel = &mut sums[at(x, y)];
                 for index in samples.0..samples.1 {
                     sampler.start(x, y, index);
                     // The first two dimensions place the sample on the film.
@@ -337,11 +339,8 @@ fn render_tile(
                 }
             }
             let lanes = &lanes[..n_lanes];
-            let most = lanes
-                .iter()
-                .map(|l| l.3.saturating_sub(l.2))
-                .max()
-                .unwrap_or(0);
+            // Round::samples gives b ≥ a.
+            let most = lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0);
             for j in 0..most {
                 let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
                 let mut which = [0usize; PACKET];
@@ -367,9 +366,8 @@ fn render_tile(
                         &mut samplers[which[k]],
                         &mut out.rays,
                     );
-                    let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
                     accumulate(
-                        &mut sums[i],
+                        &mut sums[at(x, y)],
                         l,
                         (x, y, a + j),
                         &mut out.bad,
@@ -378,8 +376,7 @@ fn render_tile(
                 }
             }
             for &(x, y, a, b) in lanes {
-                let i = ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
-                sums[i].2 = b.saturating_sub(a);
+                sums[at(x, y)].2 = b - a;
             }
         }
     }
@@ -394,7 +391,7 @@ const PACKET_H: u32 = PACKET as u32 / PACKET_W;
 /// bad (NaN or infinite) and keeps the first few.
 #[inline]
 fn accumulate(
-    pixel: &mut ([f64; 3], [f64; 3], u32),
+    pixel: &mut PixelSums,
     l: Vec3,
     (x, y, index): (u32, u32, u32),
     bad: &mut u64,
