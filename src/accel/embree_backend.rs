@@ -7,6 +7,24 @@ use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::embree::{self, Device, EmbreeError, SceneBuilder, SceneOptions, PACKET};
 use crate::scene::Scene;
 
+/// A ray as the Embree module takes it: (origin, direction, t_min, t_max).
+#[inline(always)]
+fn lane(r: &Ray) -> ([f32; 3], [f32; 3], f32, f32) {
+    (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max)
+}
+
+/// Embree's answer as a backend-neutral hit (unit geometric normal).
+#[inline(always)]
+fn to_hit(h: embree::RawHit) -> Hit {
+    Hit {
+        t: h.t,
+        prim: h.prim_id,
+        u: h.u,
+        v: h.v,
+        ng: super::unit_normal(Vec3::from_array(h.ng)),
+    }
+}
+
 pub struct EmbreeAccel {
     scene: embree::Scene,
     version: String,
@@ -59,41 +77,29 @@ impl EmbreeAccel {
 
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let h =
-            self.scene
-                .intersect(ray.org.to_array(), ray.dir.to_array(), ray.t_min, ray.t_max)?;
-        Some(Hit {
-            t: h.t,
-            prim: h.prim_id,
-            u: h.u,
-            v: h.v,
-            ng: super::unit_normal(Vec3::from_array(h.ng)),
-        })
+        let (org, dir, t_min, t_max) = lane(ray);
+        self.scene.intersect(org, dir, t_min, t_max).map(to_hit)
     }
 
     /// The closest hits of up to [`PACKET`] coherent rays in one packet query.
     #[inline]
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
         hits[rays.len()..].fill(None);
-        self.scene.intersect_packet(
-            rays,
-            |r| (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max),
-            |i, h| {
-                hits[i] = h.map(|h| Hit {
-                    t: h.t,
-                    prim: h.prim_id,
-                    u: h.u,
-                    v: h.v,
-                    ng: super::unit_normal(Vec3::from_array(h.ng)),
-                })
-            },
-        );
+        self.scene
+            .intersect_packet(rays, lane, |i, h| hits[i] = h.map(to_hit));
+    }
+
+    /// Any-hit answers for up to [`PACKET`] rays in one packet query.
+    #[inline]
+    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; PACKET]) {
+        self.scene
+            .occluded_packet(rays, lane, |i, o| occluded[i] = o);
     }
 
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.scene
-            .occluded(ray.org.to_array(), ray.dir.to_array(), ray.t_min, ray.t_max)
+        let (org, dir, t_min, t_max) = lane(ray);
+        self.scene.occluded(org, dir, t_min, t_max)
     }
 
     pub fn memory(&self) -> AccelMemory {

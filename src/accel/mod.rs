@@ -217,11 +217,7 @@ impl Accel {
     #[inline]
     pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; PACKET]) {
         match self {
-            Accel::Embree(a) => a.raw().occluded_packet(
-                rays,
-                |r| (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max),
-                |i, o| occluded[i] = o,
-            ),
+            Accel::Embree(a) => a.occluded_packet(rays, occluded),
             Accel::Obvhs(a) => {
                 for (o, r) in occluded.iter_mut().zip(rays) {
                     *o = a.occluded(r);

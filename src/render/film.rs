@@ -50,12 +50,27 @@ impl FilmRows<'_> {
     #[inline]
     pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
-        for c in 0..3 {
-            self.sums[i][c] += sum[c];
-            self.sq_sums[i][c] += sq_sum[c];
-        }
-        self.counts[i] += count;
+        add_at(self.sums, self.sq_sums, self.counts, i, sum, sq_sum, count);
     }
+}
+
+/// Adds (sum, sum of squares, count) to entry `i` of a film's arrays.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn add_at(
+    sums: &mut [[f64; 3]],
+    sq_sums: &mut [[f64; 3]],
+    counts: &mut [u32],
+    i: usize,
+    sum: [f64; 3],
+    sq_sum: [f64; 3],
+    count: u32,
+) {
+    for c in 0..3 {
+        sums[i][c] += sum[c];
+        sq_sums[i][c] += sq_sum[c];
+    }
+    counts[i] += count;
 }
 
 impl Film {
@@ -134,11 +149,15 @@ impl Film {
     #[inline]
     pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
         let i = self.index(x, y);
-        for c in 0..3 {
-            self.sums[i][c] += sum[c];
-            self.sq_sums[i][c] += sq_sum[c];
-        }
-        self.counts[i] += count;
+        add_at(
+            &mut self.sums,
+            &mut self.sq_sums,
+            &mut self.counts,
+            i,
+            sum,
+            sq_sum,
+            count,
+        );
     }
 
     /// The estimated variance of pixel (x, y)'s mean: the unbiased sample variance of its

@@ -32,7 +32,7 @@ use crate::accel::{Ray, PACKET};
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::Camera;
-pub use film::{BadSample, Film};
+pub use film::{BadSample, Film, FilmRows};
 
 /// How many NaN/Inf samples are kept for the report.
 pub const BAD_SAMPLES_KEPT: usize = 8;
@@ -695,29 +695,26 @@ fn merge_round(
             .zip(groups)
             .for_each(|(mut rows, group)| {
                 for (i, _) in group {
-                    let tile = &tiles[*i];
-                    let mut pixel = sums.get(*i).iter();
-                    for y in tile.y0..tile.y1 {
-                        for x in tile.x0..tile.x1 {
-                            let (sum, sq, n) = pixel.next().expect("one sum per tile pixel");
-                            if *n > 0 {
-                                rows.add(x, y, *sum, *sq, *n);
-                            }
-                        }
-                    }
+                    add_tile(&mut rows, &tiles[*i], sums.get(*i));
                 }
             })
     });
 }
 
-/// Adds a tile's round to the film.
+/// Adds a tile's round to the film (for a checkpoint's snapshot: one tile at a time).
 fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelSums]) {
-    let mut sums = sums.iter();
+    let mut rows = film.rows_mut(&[(tile.y0, tile.y1)]);
+    add_tile(&mut rows[0], tile, sums);
+}
+
+/// Adds a tile's round to the film rows that hold it.
+fn add_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelSums]) {
+    let mut pixel = sums.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
-            let (sum, sq, n) = sums.next().expect("one sum per tile pixel");
+            let (sum, sq, n) = pixel.next().expect("one sum per tile pixel");
             if *n > 0 {
-                film.add(x, y, *sum, *sq, *n);
+                rows.add(x, y, *sum, *sq, *n);
             }
         }
     }

@@ -172,17 +172,9 @@ impl PixelSampler {
     pub fn next_2d(&mut self) -> Vec2 {
         let key = self.next_slot_key();
         match self.kind {
-            SamplerKind::Random => {
-                let h = hash_words(&[key, self.index as u64]);
-                Vec2::new(u32_to_unit_f32(h as u32), u32_to_unit_f32((h >> 32) as u32))
-            }
+            SamplerKind::Random => random_2d(key, self.index as u64),
             SamplerKind::Stratified => self.cmj_2d(key),
-            SamplerKind::Sobol => {
-                let seed = (key >> 32) as u32;
-                // One SIMD evaluation of dimensions 0–3 (identical to two `sample` calls).
-                let [x, y, _, _] = sobol::sample_4d(self.index, seed);
-                Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
-            }
+            SamplerKind::Sobol => sobol_2d(self.index, (key >> 32) as u32),
         }
     }
 
@@ -280,11 +272,18 @@ impl PointSet2d {
                 if block > 0 {
                     seed = mix64(self.key ^ block.wrapping_mul(0x9e37_79b9_7f4a_7c15)) as u32;
                 }
-                let [x, y, _, _] = sobol::sample_4d((index & 0xffff) as u32, seed);
-                Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
+                sobol_2d((index & 0xffff) as u32, seed)
             }
         }
     }
+}
+
+/// Dimensions 0 and 1 of point `index` of the Owen-scrambled Sobol sequence `seed`, moved to
+/// the centre of their 2^-23 cells (one SIMD evaluation of dimensions 0–3).
+#[inline]
+fn sobol_2d(index: u32, seed: u32) -> Vec2 {
+    let [x, y, _, _] = sobol::sample_4d(index, seed);
+    Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
 }
 
 /// An independent uniform 2D point from a key and an index.
