@@ -121,21 +121,38 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-/// One 4D Owen-scrambled Sobol point: `sobol_burley`'s bit loop against strata's byte tables.
+/// Owen-scrambled Sobol points: `sobol_burley`'s bit loop against strata's byte tables, and
+/// strata's 2D points. Every dimension is summed, so that none is optimised away.
 fn sobol(c: &mut Criterion) {
-    let mut g = c.benchmark_group("sobol 4D point");
+    let mut g = c.benchmark_group("sobol point");
     g.throughput(Throughput::Elements(1 << 16));
-    g.bench_function("sobol_burley::sample_4d", |b| {
+    let seed = |i: u32| i.wrapping_mul(0x9e37_79b9);
+    g.bench_function("4D, sobol_burley::sample_4d", |b| {
         b.iter(|| {
             (0..1u32 << 16)
-                .map(|i| sobol_burley::sample_4d(i, 0, i.wrapping_mul(0x9e37_79b9))[3])
+                .map(|i| sobol_burley::sample_4d(i, 0, seed(i)).iter().sum::<f32>())
                 .sum::<f32>()
         })
     });
-    g.bench_function("strata::sampling::sobol::sample_4d", |b| {
+    g.bench_function("4D, strata::sampling::sobol::sample_4d", |b| {
         b.iter(|| {
             (0..1u32 << 16)
-                .map(|i| strata::sampling::sobol::sample_4d(i, i.wrapping_mul(0x9e37_79b9))[3])
+                .map(|i| {
+                    strata::sampling::sobol::sample_4d(i, seed(i))
+                        .iter()
+                        .sum::<f32>()
+                })
+                .sum::<f32>()
+        })
+    });
+    g.bench_function("2D, strata::sampling::sobol::sample_2d", |b| {
+        b.iter(|| {
+            (0..1u32 << 16)
+                .map(|i| {
+                    strata::sampling::sobol::sample_2d(i, seed(i))
+                        .iter()
+                        .sum::<f32>()
+                })
                 .sum::<f32>()
         })
     });

@@ -179,9 +179,10 @@ impl PixelSampler {
     }
 
     /// Two 2D values from one dimension slot. `sobol` evaluates one 4D point (dimensions 0–3
-    /// of the Sobol sequence, one SIMD call: half the cost of two [`PixelSampler::next_2d`]);
-    /// `stratified` gives two independently permuted CMJ patterns; `random` two independent
-    /// pairs. For consumers that draw several values per bounce.
+    /// of the Sobol sequence in one 4-lane call, about the cost of two
+    /// [`PixelSampler::next_2d`] but one slot key); `stratified` gives two independently
+    /// permuted CMJ patterns; `random` two independent pairs. For consumers that draw several
+    /// values per bounce.
     #[inline]
     pub fn next_2x2d(&mut self) -> (Vec2, Vec2) {
         let key = self.next_slot_key();
@@ -279,10 +280,10 @@ impl PointSet2d {
 }
 
 /// Dimensions 0 and 1 of point `index` of the Owen-scrambled Sobol sequence `seed`, moved to
-/// the centre of their 2^-23 cells (one SIMD evaluation of dimensions 0–3).
+/// the centre of their 2^-23 cells.
 #[inline]
 fn sobol_2d(index: u32, seed: u32) -> Vec2 {
-    let [x, y, _, _] = sobol::sample_4d(index, seed);
+    let [x, y] = sobol::sample_2d(index, seed);
     Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
 }
 
@@ -343,7 +344,7 @@ fn in_stratum(k: u32, jitter: f32, count: u32) -> f32 {
 /// samplers do.
 #[inline]
 fn sobol_open(index: u32, seed: u32) -> f32 {
-    sobol::sample_4d(index, seed)[0] + SOBOL_HALF_CELL
+    sobol::sample_1d(index, seed) + SOBOL_HALF_CELL
 }
 
 const SOBOL_HALF_CELL: f32 = 0.5 / (1u32 << 23) as f32;

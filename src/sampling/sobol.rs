@@ -12,68 +12,139 @@
 
 use std::sync::OnceLock;
 
-use sobol_burley::parts::{hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev, Int4};
+use sobol_burley::parts::{hash, owen_scramble_rev, u32_to_f32_norm};
 
 /// The most sample indices per sequence: the tables cover 16 index bits.
 pub const MAX_INDEX: u32 = 1 << 16;
 
 struct Tables {
-    /// XOR of the bit-reversed direction vectors of the index bits 0–7 / 8–15, by byte value.
-    low: [[u32; 4]; 256],
-    high: [[u32; 4]; 256],
+    /// XOR of the bit-reversed direction vectors of index bits 0–7 / 8–15, by the value of
+    /// the *bit-reversed* index's top byte / next byte (index bit k sits at bit 31 − k), so
+    /// that the shuffled index, which the scramble leaves bit-reversed, needs no reversal.
+    top: [[u32; 4]; 256],
+    next: [[u32; 4]; 256],
 }
 
 fn tables() -> &'static Tables {
     static TABLES: OnceLock<Tables> = OnceLock::new();
     TABLES.get_or_init(|| {
         let mut t = Tables {
-            low: [[0; 4]; 256],
-            high: [[0; 4]; 256],
+            top: [[0; 4]; 256],
+            next: [[0; 4]; 256],
         };
         for b in 0..256u32 {
-            // Bit-reversed indices: index bit k sits at bit 31 − k.
-            t.low[b as usize] = sobol_burley::parts::sobol_int4_rev(b.reverse_bits(), 0).into();
-            t.high[b as usize] =
-                sobol_burley::parts::sobol_int4_rev((b << 8).reverse_bits(), 0).into();
+            t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, 0).into();
+            t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, 0).into();
         }
         t
     })
 }
 
-/// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of a 16-bit index.
+/// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of the 16-bit index whose
+/// bit-reversal is `index_rev` (only its top 16 bits are read).
 #[inline]
-fn sobol_rev(index: u32) -> Int4 {
+fn sobol_rev_of_rev(index_rev: u32) -> [u32; 4] {
     let t = tables();
-    let lo: Int4 = t.low[(index & 0xff) as usize].into();
-    let hi: Int4 = t.high[((index >> 8) & 0xff) as usize].into();
-    lo ^ hi
+    let (top, next) = (
+        t.top[(index_rev >> 24) as usize],
+        t.next[((index_rev >> 16) & 0xff) as usize],
+    );
+    std::array::from_fn(|d| top[d] ^ next[d])
 }
+
+/// The index shuffle of Burley §4, an Owen scramble of the index's bits keyed by `seed`;
+/// returns the shuffled index bit-reversed, as the tables take it.
+#[inline]
+fn shuffled_rev(index: u32, seed: u32) -> u32 {
+    debug_assert!(index < MAX_INDEX);
+    // The 16-bit index reversed by bytes: two loads instead of a 32-bit reversal (x86-64
+    // has no bit-reversal instruction).
+    let index_rev = ((REVERSED_BYTE[(index & 0xff) as usize] as u32) << 24)
+        | ((REVERSED_BYTE[((index >> 8) & 0xff) as usize] as u32) << 16);
+    owen_scramble_rev(index_rev, hash(seed ^ 0x2c1b_3c6d))
+}
+
+/// Each byte value with its bits in reverse order.
+const REVERSED_BYTE: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut b = 0;
+    while b < 256 {
+        t[b] = (b as u8).reverse_bits();
+        b += 1;
+    }
+    t
+};
+
+/// The seeds of the four dimensions' nested uniform scrambles, XORed with the sequence's.
+const DIMENSION_KEYS: [u32; 4] = [0x8f1b_bcdc, 0x3c6e_f372, 0xa54f_f53a, 0x510e_527f];
 
 /// Point `index` (< 2^16) of the Owen-scrambled Sobol sequence keyed by `seed`, dimensions
 /// 0–3, each a multiple of 2^-23 in [0, 1). Different seeds give statistically independent
 /// sequences (Burley's index shuffle and padding).
+///
+/// Scalar code, bit for bit the crate's 4-lane `owen_scramble_int4_rev` form (tested): the
+/// x86-64 baseline (SSE2) has no 32-bit vector multiply, so each of that form's six
+/// multiplies is emulated in several instructions, and its bit reversal takes a dozen
+/// shuffles, where the scalar form reverses with byte lookups. Measured with
+/// `cargo bench --bench ao -- sobol`, in BENCHMARKS.md.
 #[inline]
 pub fn sample_4d(index: u32, seed: u32) -> [f32; 4] {
-    debug_assert!(index < MAX_INDEX);
-    // Shuffle the index by an Owen scramble of its bits (Burley §4), then look up the point.
-    let shuffled = owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x2c1b_3c6d)).reverse_bits();
-    let sobol = sobol_rev(shuffled & 0xffff);
-    // A different nested uniform scramble per dimension.
-    let keys: Int4 = [
-        seed ^ 0x8f1b_bcdc,
-        seed ^ 0x3c6e_f372,
-        seed ^ 0xa54f_f53a,
-        seed ^ 0x510e_527f,
-    ]
-    .into();
-    owen_scramble_int4_rev(sobol, hash_int4(keys))
-        .reverse_bits()
-        .to_f32_norm()
+    sample::<4>(index, seed)
+}
+
+/// Dimensions 0 and 1 of [`sample_4d`], for the cost of two.
+#[inline]
+pub fn sample_2d(index: u32, seed: u32) -> [f32; 2] {
+    sample::<2>(index, seed)
+}
+
+/// Dimension 0 of [`sample_4d`].
+#[inline]
+pub fn sample_1d(index: u32, seed: u32) -> f32 {
+    sample::<1>(index, seed)[0]
+}
+
+/// The first `N` ≤ 4 dimensions of [`sample_4d`].
+#[inline(always)]
+fn sample<const N: usize>(index: u32, seed: u32) -> [f32; N] {
+    // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point, then
+    // scramble each dimension with its own key.
+    let sobol = sobol_rev_of_rev(shuffled_rev(index, seed));
+    std::array::from_fn(|d| scrambled(sobol[d], seed ^ DIMENSION_KEYS[d]))
+}
+
+/// One dimension's nested uniform scramble with key `key`, as a float in [0, 1).
+#[inline]
+fn scrambled(sobol_rev: u32, key: u32) -> f32 {
+    let v = owen_scramble_rev(sobol_rev, hash(key));
+    // The float keeps the top 23 bits of the reversed value, which are v's low 23 bits
+    // reversed: three byte lookups (bits 24–31 of v would land below bit 8, which the
+    // conversion drops).
+    let r = |k: u32| REVERSED_BYTE[((v >> (8 * k)) & 0xff) as usize] as u32;
+    u32_to_f32_norm((r(0) << 24) | (r(1) << 16) | (r(2) << 8))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sobol_burley::parts::{hash_int4, owen_scramble_int4_rev, sobol_int4_rev, Int4};
+
+    /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of a 16-bit index.
+    fn sobol_rev(index: u32) -> Int4 {
+        sobol_rev_of_rev(index.reverse_bits()).into()
+    }
+
+    /// [`sample_4d`] written with the crate's 4-lane scramble and its bit-serial matrix
+    /// product instead of our tables: the reference the scalar code must equal.
+    fn sample_4d_lanes(index: u32, seed: u32) -> [f32; 4] {
+        let shuffled =
+            owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x2c1b_3c6d)).reverse_bits();
+        let sobol = sobol_int4_rev((shuffled & 0xffff).reverse_bits(), 0);
+        let keys: Int4 = DIMENSION_KEYS.map(|k| seed ^ k).into();
+        owen_scramble_int4_rev(sobol, hash_int4(keys))
+            .reverse_bits()
+            .to_f32_norm()
+    }
 
     /// The tables reproduce the crate's bit-serial matrix product for every 16-bit index.
     #[test]
@@ -131,6 +202,20 @@ mod tests {
                         seen[cell] = true;
                     }
                 }
+            }
+        }
+    }
+
+    /// The scalar points equal the 4-lane reference bit for bit, and the 2D and 1D points
+    /// are the 4D point's first dimensions.
+    #[test]
+    fn scalar_points_equal_the_four_lane_reference() {
+        for seed in [0u32, 1, 0x8f1b_bcdc, 0xdead_beef, u32::MAX] {
+            for i in 0..MAX_INDEX {
+                let want = sample_4d_lanes(i, seed).map(f32::to_bits);
+                assert_eq!(sample_4d(i, seed).map(f32::to_bits), want, "{i} {seed}");
+                assert_eq!(sample_2d(i, seed).map(f32::to_bits), [want[0], want[1]]);
+                assert_eq!(sample_1d(i, seed).to_bits(), want[0]);
             }
         }
     }
