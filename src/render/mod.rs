@@ -28,7 +28,7 @@ use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use crate::accel::{Ray, PACKET};
+use crate::accel::PACKET;
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::Camera;
@@ -292,7 +292,6 @@ fn render_tile(
         .ray_generator(settings.width, settings.height);
     let pixels = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     debug_assert_eq!(sums.len(), pixels);
-    sums.fill(([0f64; 3], [0f64; 3], 0));
     let mut out = TileResult {
         rays: RayCounts::default(),
         bad: 0,
@@ -303,6 +302,7 @@ fn render_tile(
     // Pixel (x, y)'s entry in `sums`.
     let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
     if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
+        sums.fill(([0f64; 3], [0f64; 3], 0));
         let mut sampler = new_sampler();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
@@ -325,7 +325,8 @@ fn render_tile(
     // Packets: the pixels of a PACKET_W × PACKET_H block take their samples side by side, the
     // j-th sample of each pixel's range in one packet of camera rays. Each pixel still adds
     // its samples in index order, from the same sampler dimensions, and packet hits equal
-    // single-ray hits, so the image is the one the loop above makes.
+    // single-ray hits, so the image is the one the loop above makes. A block's sums stay in
+    // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
         for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
@@ -341,8 +342,9 @@ fn render_tile(
             let lanes = &lanes[..n_lanes];
             // Round::samples gives b ≥ a.
             let most = lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0);
+            let mut acc: [PixelSums; PACKET] = [([0f64; 3], [0f64; 3], 0); PACKET];
             for j in 0..most {
-                let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+                let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
                 let mut which = [0usize; PACKET];
                 let mut n = 0;
                 for (lane, &(x, y, a, b)) in lanes.iter().enumerate() {
@@ -350,24 +352,26 @@ fn render_tile(
                         let sampler = &mut samplers[lane];
                         sampler.start(x, y, a + j);
                         let film_uv = sampler.next_2d();
-                        rays[n] = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
+                        (fx[n], fy[n]) = (x as f32 + film_uv.x, y as f32 + film_uv.y);
                         which[n] = lane;
                         n += 1;
                     }
                 }
+                let rays = camera.rays(&fx, &fy);
                 let mut hits = [None; PACKET];
                 ctx.accel.intersect_packet(&rays[..n], &mut hits);
                 for k in 0..n {
-                    let (x, y, a, _) = lanes[which[k]];
+                    let lane = which[k];
+                    let (x, y, a, _) = lanes[lane];
                     let l = integrator.li_from_camera_hit(
                         ctx,
                         &rays[k],
                         hits[k],
-                        &mut samplers[which[k]],
+                        &mut samplers[lane],
                         &mut out.rays,
                     );
                     accumulate(
-                        &mut sums[at(x, y)],
+                        &mut acc[lane],
                         l,
                         (x, y, a + j),
                         &mut out.bad,
@@ -375,8 +379,9 @@ fn render_tile(
                     );
                 }
             }
-            for &(x, y, a, b) in lanes {
-                sums[at(x, y)].2 = b - a;
+            for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
+                acc.2 = b - a;
+                sums[at(x, y)] = *acc;
             }
         }
     }
