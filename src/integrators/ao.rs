@@ -99,12 +99,42 @@ pub fn li(
     let si = SurfaceInteraction::from_hit(scene, ray, &hit);
     let onb = Onb::from_normal(si.ns);
     let n = settings.samples.max(1);
-    let mut sum = 0.0;
     // The n directions of this camera sample are one stratified set (one dimension slot).
     let set = sampler.next_2d_set(n);
-    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); PACKET];
-    let mut weights = [0f32; PACKET];
-    let mut filled = 0;
+    // The ray of direction k and its weight, or None for a direction that cannot see the sky.
+    let sample = |k: u32| -> Option<(Ray, f32)> {
+        // Sample a direction in the shading normal's hemisphere, weight by cos θ / (π·pdf).
+        let u = set.get(k);
+        let (local, weight) = match settings.hemisphere {
+            Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
+            Hemisphere::Uniform => {
+                let w = square_to_uniform_hemisphere(u);
+                // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
+                (w, 2.0 * w.z)
+            }
+            Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
+        };
+        let wi = onb.to_world(local);
+        // A direction below the geometric surface enters the object: occluded. One exactly in
+        // the tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim)
+        // is traced: the offset origin lies above the surface, so on an open plane it escapes,
+        // as every other sample does.
+        if wi.dot(si.ng) < 0.0 || weight == 0.0 {
+            return None;
+        }
+        Some((
+            si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset),
+            weight,
+        ))
+    };
+    if n == 1 {
+        // One ray: a single query, and no packet to fill.
+        let Some((ray, weight)) = sample(0) else {
+            return 0.0;
+        };
+        rays.shadow += 1;
+        return if accel.occluded(&ray) { 0.0 } else { weight };
+    }
     // The rays leave one point, so they share the first nodes of their traversal: Embree's
     // packet query pays for a full packet (1.1x on 64 rays per hit; BENCHMARKS.md), a single
     // query for one ray.
@@ -124,27 +154,12 @@ pub fn li(
         }
         s
     };
-    for k in 0..n {
-        // Sample a direction in the shading normal's hemisphere, weight by cos θ / (π·pdf).
-        let u = set.get(k);
-        let (local, weight) = match settings.hemisphere {
-            Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
-            Hemisphere::Uniform => {
-                let w = square_to_uniform_hemisphere(u);
-                // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
-                (w, 2.0 * w.z)
-            }
-            Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
-        };
-        let wi = onb.to_world(local);
-        // A direction below the geometric surface enters the object: occluded. One exactly in
-        // the tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim)
-        // is traced: the offset origin lies above the surface, so on an open plane it escapes,
-        // as every other sample does.
-        if wi.dot(si.ng) < 0.0 || weight == 0.0 {
-            continue;
-        }
-        packet[filled] = si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset);
+    let mut sum = 0.0;
+    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); PACKET];
+    let mut weights = [0f32; PACKET];
+    let mut filled = 0;
+    for (ray, weight) in (0..n).filter_map(sample) {
+        packet[filled] = ray;
         weights[filled] = weight;
         filled += 1;
         if filled == PACKET {
