@@ -31,19 +31,42 @@ pub fn uniform_hemisphere_to_square(v: Vec3) -> Vec2 {
 }
 
 /// Concentric map of the square onto the unit disk (Shirley & Chiu 1997).
+///
+/// Within a wedge the angle is θ = φ (right and left wedges) or θ = π/2 − φ (top and
+/// bottom), with φ = π/4 · (minor/major coordinate) in [−π/4, π/4]; so sin and cos of φ alone
+/// give the point, and over that range short polynomials reach f32 precision without the
+/// range reduction of a general `sin_cos` (which took a sixth of the AO rays' own work).
 #[inline]
 pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
+    if o.x.abs() > o.y.abs() {
+        let (s, c) = sin_cos_quarter(FRAC_PI_4 * (o.y / o.x));
+        o.x * Vec2::new(c, s)
     } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
-    let (s, c) = theta.sin_cos();
-    r * Vec2::new(c, s)
+        // cos(π/2 − φ) = sin φ, sin(π/2 − φ) = cos φ.
+        let (s, c) = sin_cos_quarter(FRAC_PI_4 * (o.x / o.y));
+        o.y * Vec2::new(s, c)
+    }
+}
+
+/// (sin φ, cos φ) for |φ| ≤ π/4: the Taylor polynomials through φ⁹ and φ¹⁰, whose first
+/// omitted terms, φ¹¹/11! and φ¹²/12!, are below 2e-9 there (a thirtieth of an f32 ulp at
+/// 0.7); the result is within a few ulps of the exact values (tested against f64).
+#[inline]
+fn sin_cos_quarter(phi: f32) -> (f32, f32) {
+    let x2 = phi * phi;
+    let s = phi
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let c = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    (s, c)
 }
 
 /// Inverse of [`square_to_concentric_disk`].
@@ -230,6 +253,50 @@ mod tests {
             assert!(square_to_cosine_hemisphere(u).z >= 0.0);
             let d = square_to_concentric_disk(u);
             assert!(d.length() <= 1.0 + 1e-6);
+        }
+    }
+
+    /// The quarter-range polynomials are within 2 ulps of f64's sin and cos over [−π/4, π/4]
+    /// (every 2^-20 of the range), and the disk points they give lie within 3e-7 of the
+    /// exact concentric map's.
+    #[test]
+    fn quarter_range_sin_cos_is_accurate() {
+        let steps = 1 << 20;
+        let mut worst = 0f64;
+        for k in -steps..=steps {
+            let phi = (FRAC_PI_4 as f64 * k as f64 / steps as f64) as f32;
+            let (s, c) = sin_cos_quarter(phi);
+            let (es, ec) = (phi as f64).sin_cos();
+            for (got, exact) in [(s, es), (c, ec)] {
+                let ulp = (exact.abs() as f32).next_up() - exact.abs() as f32;
+                let err = (got as f64 - exact).abs() / ulp as f64;
+                worst = worst.max(err);
+            }
+        }
+        assert!(worst <= 2.0, "worst error {worst} ulps");
+        let mut state = 0x9e37_79b9u32;
+        for _ in 0..100_000 {
+            let mut next = || {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                (state >> 8) as f32 / (1u32 << 24) as f32
+            };
+            let u = Vec2::new(next(), next());
+            let d = square_to_concentric_disk(u);
+            // The exact map, in f64.
+            let (ox, oy) = (2.0 * u.x as f64 - 1.0, 2.0 * u.y as f64 - 1.0);
+            let (r, theta) = if ox.abs() > oy.abs() {
+                (ox, std::f64::consts::FRAC_PI_4 * (oy / ox))
+            } else {
+                (
+                    oy,
+                    std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (ox / oy),
+                )
+            };
+            let (x, y) = (r * theta.cos(), r * theta.sin());
+            let err = (d.x as f64 - x).abs().max((d.y as f64 - y).abs());
+            assert!(err < 3e-7, "{u}: {d} against ({x}, {y})");
         }
     }
 }
