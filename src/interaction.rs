@@ -133,6 +133,24 @@ impl SurfaceInteraction {
         }
     }
 
+    /// The origins of rays leaving into the hemisphere around `ng` (the side the ray came
+    /// from), computed once for many rays from this point, such as the AO rays of a hit:
+    /// [`FrontOrigins::ray`] gives [`Self::spawn_ray_with`]'s ray for each such direction.
+    #[inline]
+    pub fn front_origins(&self, ray_offset: bool) -> FrontOrigins {
+        FrontOrigins {
+            // `origin` for a direction with w·ng > 0 (any such w gives the same point) ...
+            above: self.origin(self.ng, ray_offset),
+            // ... and for one in the tangent plane, which takes no step back along wo.
+            tangent: if ray_offset {
+                offset_origin(self.p, self.p_error, self.ng, self.ng, Vec3::ZERO)
+            } else {
+                self.p
+            },
+            ng: self.ng,
+        }
+    }
+
     /// The origin of a ray leaving toward `w`: past the error bound, or `p` itself when
     /// `ray_offset` is false (one predictable branch; the default path always takes the first).
     ///
@@ -154,6 +172,33 @@ impl SurfaceInteraction {
             offset_origin(self.p, self.p_error, self.ng, w, back)
         } else {
             self.p
+        }
+    }
+}
+
+/// Ray origins for directions in the hemisphere around a surface point's `ng` (see
+/// [`SurfaceInteraction::front_origins`]).
+#[derive(Clone, Copy, Debug)]
+pub struct FrontOrigins {
+    above: Vec3,
+    tangent: Vec3,
+    ng: Vec3,
+}
+
+impl FrontOrigins {
+    /// The ray leaving toward `dir`, which must satisfy dir·ng ≥ 0, reaching up to `t_max`.
+    #[inline]
+    pub fn ray(&self, dir: Vec3, t_max: f32) -> Ray {
+        debug_assert!(dir.dot(self.ng) >= 0.0, "{dir} leaves below the surface");
+        Ray {
+            org: if dir.dot(self.ng) > 0.0 {
+                self.above
+            } else {
+                self.tangent
+            },
+            dir,
+            t_min: 0.0,
+            t_max,
         }
     }
 }
@@ -238,6 +283,58 @@ mod tests {
             assert_eq!(step_ulps(v, 2), v.next_up().next_up(), "{v} up 2");
             assert_eq!(step_ulps(v, -2), v.next_down().next_down(), "{v} down 2");
         }
+    }
+
+    /// FrontOrigins gives spawn_ray_with's rays bit for bit, for directions above the
+    /// surface and exactly in its tangent plane, with and without the offset.
+    #[test]
+    fn front_origins_give_the_rays_of_spawn_ray() {
+        let mut state = 0x1234_5678u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut tangent_rays = 0;
+        for _ in 0..20_000 {
+            let ng = Vec3::new(next(), next(), next()).normalize();
+            let wo = (ng + 0.9 * Vec3::new(next(), next(), next())).normalize();
+            let si = SurfaceInteraction {
+                p: Vec3::new(next(), next(), next()) * 1e4,
+                p_error: Vec3::new(next(), next(), next()).abs() * 1e-3,
+                ng,
+                ns: ng,
+                wo,
+                front_face: true,
+                prim: 0,
+                u: 0.0,
+                v: 0.0,
+            };
+            let mut w = Vec3::new(next(), next(), next()).normalize();
+            if w.dot(ng) < 0.0 {
+                w = -w;
+            }
+            // A direction exactly in the tangent plane: ng's components permuted so the dot
+            // product is exactly zero.
+            let tangent = Vec3::new(ng.y, -ng.x, 0.0);
+            for offset in [true, false] {
+                let origins = si.front_origins(offset);
+                for (dir, t_max) in [(w, f32::INFINITY), (tangent, 3.5)] {
+                    if dir.dot(ng) == 0.0 {
+                        tangent_rays += 1;
+                    }
+                    let want = si.spawn_ray_with(dir, t_max, offset);
+                    let got = origins.ray(dir, t_max);
+                    assert_eq!(
+                        (got.org.to_array(), got.dir, got.t_min, got.t_max),
+                        (want.org.to_array(), want.dir, want.t_min, want.t_max),
+                        "ng {ng} dir {dir} offset {offset}"
+                    );
+                }
+            }
+        }
+        assert!(tangent_rays > 10_000, "{tangent_rays} tangent rays tested");
     }
 
     #[test]

@@ -101,6 +101,7 @@ pub fn li(
     let n = settings.samples.max(1);
     // The n directions of this camera sample are one stratified set (one dimension slot).
     let set = sampler.next_2d_set(n);
+    let origins = si.front_origins(ctx.ray_offset);
     // The ray of direction k and its weight, or None for a direction that cannot see the sky.
     let sample = |k: u32| -> Option<(Ray, f32)> {
         // Sample a direction in the shading normal's hemisphere, weight by cos θ / (π·pdf).
@@ -122,10 +123,7 @@ pub fn li(
         if wi.dot(si.ng) < 0.0 || weight == 0.0 {
             return None;
         }
-        Some((
-            si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset),
-            weight,
-        ))
+        Some((origins.ray(wi, settings.max_distance), weight))
     };
     if n == 1 {
         // One ray: a single query, and no packet to fill.
