@@ -370,10 +370,10 @@ fn packet_queries_equal_single_ray_queries_on_camera_rays() {
 
 /// `Accel::occluded_packet` answers, lane by lane, as `Accel::occluded` does: AO-like rays
 /// leaving points of a real mesh (Suzanne seen by its camera) in all directions, in packets
-/// of 1 to 8 rays from one point, for both backends.
+/// of 1 to 16 rays from one point (Embree's 8- and 16-wide queries), for both backends.
 #[test]
 fn occlusion_packets_equal_single_ray_queries() {
-    use strata::accel::PACKET;
+    use strata::accel::OCCLUSION_PACKET as PACKET;
     use strata::interaction::SurfaceInteraction;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/suzanne.gltf");
     let scene = strata::scene::load(&path, &Default::default()).unwrap();

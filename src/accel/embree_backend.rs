@@ -4,7 +4,9 @@
 use glam::Vec3;
 
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
-use crate::embree::{self, Device, EmbreeError, SceneBuilder, SceneOptions, PACKET};
+use crate::embree::{
+    self, Device, EmbreeError, SceneBuilder, SceneOptions, OCCLUSION_PACKET, PACKET,
+};
 use crate::scene::Scene;
 
 /// A ray as the Embree module takes it: (origin, direction, t_min, t_max).
@@ -89,9 +91,9 @@ impl EmbreeAccel {
             .intersect_packet(rays, lane, |i, h| hits[i] = h.map(to_hit));
     }
 
-    /// Any-hit answers for up to [`PACKET`] rays in one packet query.
+    /// Any-hit answers for up to [`OCCLUSION_PACKET`] rays in one packet query.
     #[inline]
-    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; PACKET]) {
+    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; OCCLUSION_PACKET]) {
         self.scene
             .occluded_packet(rays, lane, |i, o| occluded[i] = o);
     }

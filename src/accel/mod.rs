@@ -18,7 +18,7 @@ use std::str::FromStr;
 
 use crate::scene::Scene;
 
-pub use crate::embree::PACKET;
+pub use crate::embree::{OCCLUSION_PACKET, PACKET};
 pub use embree_backend::EmbreeAccel;
 pub use obvhs_backend::ObvhsAccel;
 
@@ -212,10 +212,10 @@ impl Accel {
         }
     }
 
-    /// Any-hit answers for up to [`PACKET`] rays (`occluded[i]` for `rays[i]`): one packet
-    /// query with Embree, one query per ray with obvhs.
+    /// Any-hit answers for up to [`OCCLUSION_PACKET`] rays (`occluded[i]` for `rays[i]`): one
+    /// packet query with Embree, one query per ray with obvhs.
     #[inline]
-    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; PACKET]) {
+    pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; OCCLUSION_PACKET]) {
         match self {
             Accel::Embree(a) => a.occluded_packet(rays, occluded),
             Accel::Obvhs(a) => {

@@ -458,6 +458,11 @@ impl Drop for Scene {
 /// Rays per packet of [`Scene::intersect_packet`].
 pub const PACKET: usize = 8;
 
+/// The most rays per call of [`Scene::occluded_packet`]. Embree's 16-wide query traces the
+/// 16 AO rays of one point in 0.91× the time of two 8-wide ones (BENCHMARKS.md), which are
+/// themselves faster than single rays; camera rays gain nothing from 16 (measured).
+pub const OCCLUSION_PACKET: usize = 16;
+
 /// The closest hit of a ray, as Embree reports it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RawHit {
@@ -570,33 +575,57 @@ fn intersect_context() -> sys::RTCIntersectContext {
     ctx
 }
 
-/// The valid mask of an 8-ray packet, aligned to the packet's size in bytes as Embree
-/// requires.
-#[repr(C, align(32))]
-struct Valid8([i32; PACKET]);
+/// The valid mask of a packet of up to 16 rays, aligned as Embree requires (to the packet's
+/// size in bytes: 32 for 8 rays, 64 for 16).
+#[repr(C, align(64))]
+struct Valid<const N: usize>([i32; N]);
 
-/// Writes `ray(&rays[i])` = (org, dir, tnear, tfar) into lane i of `r8` and returns the mask
-/// with those lanes valid.
+/// Embree's structure-of-arrays ray packets (`RTCRay8`, `RTCRay16`), written lane by lane.
+trait RayLanes<const N: usize> {
+    fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32);
+    /// True when an occlusion query found an occluder for lane i (Embree sets tfar to −∞).
+    fn occluded(&self, i: usize) -> bool;
+}
+
+macro_rules! ray_lanes {
+    ($packet:ty, $n:literal) => {
+        impl RayLanes<$n> for $packet {
+            #[inline(always)]
+            fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) {
+                self.org_x[i] = org[0];
+                self.org_y[i] = org[1];
+                self.org_z[i] = org[2];
+                self.tnear[i] = tnear;
+                self.dir_x[i] = dir[0];
+                self.dir_y[i] = dir[1];
+                self.dir_z[i] = dir[2];
+                self.tfar[i] = tfar;
+                // Embree 4 enables ray masks by default: a zero mask would miss everything.
+                self.mask[i] = u32::MAX;
+            }
+            #[inline(always)]
+            fn occluded(&self, i: usize) -> bool {
+                self.tfar[i] == f32::NEG_INFINITY
+            }
+        }
+    };
+}
+ray_lanes!(sys::RTCRay8, 8);
+ray_lanes!(sys::RTCRay16, 16);
+
+/// Writes `ray(&rays[i])` = (org, dir, tnear, tfar) into lane i of `packet` and returns the
+/// mask with those lanes valid.
 #[inline(always)]
-fn pack8<R>(
+fn pack<const N: usize, R>(
     rays: &[R],
     ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
-    r8: &mut sys::RTCRay8,
-) -> Valid8 {
-    assert!(rays.len() <= PACKET, "more rays than a packet holds");
-    let mut valid = Valid8([0; PACKET]);
+    packet: &mut impl RayLanes<N>,
+) -> Valid<N> {
+    assert!(rays.len() <= N, "more rays than a packet holds");
+    let mut valid = Valid([0; N]);
     for (i, r) in rays.iter().enumerate() {
         let (org, dir, tnear, tfar) = ray(r);
-        r8.org_x[i] = org[0];
-        r8.org_y[i] = org[1];
-        r8.org_z[i] = org[2];
-        r8.tnear[i] = tnear;
-        r8.dir_x[i] = dir[0];
-        r8.dir_y[i] = dir[1];
-        r8.dir_z[i] = dir[2];
-        r8.tfar[i] = tfar;
-        // Embree 4 enables ray masks by default: a zero mask would miss everything.
-        r8.mask[i] = u32::MAX;
+        packet.set(i, org, dir, tnear, tfar);
         valid.0[i] = -1;
     }
     valid
@@ -715,7 +744,7 @@ impl Scene {
         // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
         // integers.
         let mut rh: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
-        let valid = pack8(rays, ray, &mut rh.ray);
+        let valid: Valid<PACKET> = pack(rays, ray, &mut rh.ray);
         rh.hit.geomID = [INVALID_GEOMETRY_ID; PACKET];
         #[cfg(embree3)]
         {
@@ -749,9 +778,10 @@ impl Scene {
         }
     }
 
-    /// Any-hit queries of up to [`PACKET`] rays in one call of Embree's 8-wide packet API,
-    /// for rays that share much of their path (the AO rays of one surface point):
-    /// `occluded(i)` receives ray i's answer. As [`Scene::intersect_packet`] otherwise.
+    /// Any-hit queries of up to [`OCCLUSION_PACKET`] rays in one call of Embree's packet API
+    /// (8-wide for up to 8 rays, else 16-wide), for rays that share much of their path (the
+    /// AO rays of one surface point): `occluded(i)` receives ray i's answer. As
+    /// [`Scene::intersect_packet`] otherwise.
     #[inline]
     pub fn occluded_packet<R>(
         &self,
@@ -759,25 +789,44 @@ impl Scene {
         ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
         mut occluded: impl FnMut(usize, bool),
     ) {
-        // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
-        // integers.
-        let mut r8: sys::RTCRay8 = unsafe { std::mem::zeroed() };
-        let valid = pack8(rays, ray, &mut r8);
-        #[cfg(embree3)]
-        {
-            let mut ctx = intersect_context();
-            // SAFETY: the scene is committed; `valid` is aligned as the packet API requires;
-            // `r8` and `ctx` are valid locals Embree uses only during the call.
-            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx, &mut r8) };
-        }
-        #[cfg(embree4)]
-        {
-            // SAFETY: as above; null arguments select Embree 4's defaults.
-            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut r8, std::ptr::null_mut()) };
-        }
-        for i in 0..rays.len() {
-            // Embree sets tfar to -inf when an occluder is found.
-            occluded(i, r8.tfar[i] == f32::NEG_INFINITY);
+        if rays.len() <= PACKET {
+            // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
+            // integers.
+            let mut r8: sys::RTCRay8 = unsafe { std::mem::zeroed() };
+            let valid: Valid<8> = pack(rays, ray, &mut r8);
+            #[cfg(embree3)]
+            {
+                let mut ctx = intersect_context();
+                // SAFETY: the scene is committed; `valid` is aligned as the packet API
+                // requires; `r8` and `ctx` are valid locals Embree uses only during the call.
+                unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx, &mut r8) };
+            }
+            #[cfg(embree4)]
+            {
+                // SAFETY: as above; null arguments select Embree 4's defaults.
+                unsafe {
+                    sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut r8, std::ptr::null_mut())
+                };
+            }
+            (0..rays.len()).for_each(|i| occluded(i, r8.occluded(i)));
+        } else {
+            // SAFETY: as above.
+            let mut r16: sys::RTCRay16 = unsafe { std::mem::zeroed() };
+            let valid: Valid<16> = pack(rays, ray, &mut r16);
+            #[cfg(embree3)]
+            {
+                let mut ctx = intersect_context();
+                // SAFETY: as for the 8-wide call.
+                unsafe { sys::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut ctx, &mut r16) };
+            }
+            #[cfg(embree4)]
+            {
+                // SAFETY: as above; null arguments select Embree 4's defaults.
+                unsafe {
+                    sys::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut r16, std::ptr::null_mut())
+                };
+            }
+            (0..rays.len()).for_each(|i| occluded(i, r16.occluded(i)));
         }
     }
 
