@@ -3,18 +3,20 @@
 //!     cargo bench --bench overhead
 //!
 //! The rays are exactly those of an AO render of the bundled flight helmet (320×240, 8 spp,
-//! one thread): every camera ray, and the AO ray of every camera hit, made with the
-//! renderer's own sampler, camera and offsets, in the renderer's order (pass, 16×16 tile,
-//! 4×2-pixel block, sample, pixel). Four ways of tracing them then alternate for `ROUNDS`
-//! rounds:
+//! one thread), once with one AO ray per camera hit and once with 16 (`--ao-samples 16`):
+//! every camera ray, and the AO rays of every camera hit, made with the renderer's own
+//! sampler, camera and offsets, in the renderer's order (pass, 16×16 tile, 4×2-pixel block,
+//! sample, pixel). Four ways of tracing them then alternate for `ROUNDS` rounds:
 //!
 //! - **raw, single rays**: `rtcIntersect1` / `rtcOccluded1` in tight loops over rays already
 //!   in Embree's layout, one intersection context per batch: the most any renderer could get
 //!   from Embree one ray at a time;
-//! - **raw, camera packets**: the camera rays as the render groups them, one `rtcIntersect8`
-//!   per packet (packing included), the AO rays as above: the raw counterpart of the render;
-//! - **accel**: the same packets and rays through [`Accel::intersect_packet`] /
-//!   [`Accel::occluded`], the calls the render makes;
+//! - **raw, packets**: the camera rays as the render groups them, one `rtcIntersect8` per
+//!   packet (packing included), and each hit's AO rays as the render traces them (one
+//!   `rtcOccluded1` for a single ray, else `rtcOccluded8` or `rtcOccluded16` per group of up
+//!   to 16): the raw counterpart of the render;
+//! - **accel**: the same packets and rays through [`Accel::intersect_packet`],
+//!   [`Accel::occluded`] and [`Accel::occluded_packet`], the calls the render makes;
 //! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
 //!   which traces the same rays.
 //!
@@ -22,17 +24,17 @@
 //! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
 //! for the render/raw ratio.
 //!
-//! Alternating rounds and taking the median of per-round ratios cancels most of the drift of
-//! a shared machine. Printed: each way's median Mrays/s, and the median ratios accel/raw
-//! packets (target ≥ 0.97: our layer costs under 3%) and render/raw, against both raw ways
-//! (target ≥ 0.85).
+//! All four run on the render's one-thread pool, and alternating rounds and taking the median
+//! of per-round ratios cancels most of the drift of a shared machine. Printed: each way's
+//! median Mrays/s, and the median ratios accel/raw packets (target ≥ 0.97: our layer costs
+//! under 3%) and render/raw, against both raw ways (target ≥ 0.85).
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use indicatif::ProgressBar;
-use strata::accel::{Accel, AccelOptions, Ray, PACKET};
+use strata::accel::{Accel, AccelOptions, Ray, OCCLUSION_PACKET, PACKET};
 use strata::embree::RawRay;
 use strata::integrators::{AoSettings, Integrator, Prepared};
 use strata::interaction::SurfaceInteraction;
@@ -47,13 +49,20 @@ const SPP: u32 = 8;
 const TILE: u32 = 16;
 const ROUNDS: usize = 15;
 
-/// The camera rays and AO rays of the render, generated as `render::render` and the AO
+/// The rays of one AO render: camera rays grouped by packet (the block's pixels at one
+/// sample index), and the AO rays of each camera hit in the groups the integrator traces
+/// together (one query for a single ray, else packets of up to [`OCCLUSION_PACKET`]).
+struct Rays {
+    packets: Vec<Vec<Ray>>,
+    ao_groups: Vec<Vec<Ray>>,
+}
+
+/// The rays of an AO render with `n` rays per hit, generated as `render::render` and the AO
 /// integrator do, in the render's order: pass, 16×16 tile, 4×2-pixel block, sample, pixel.
-/// Camera rays come grouped by packet (the block's pixels at one sample index).
-fn render_rays(scene: &Scene, accel: &Accel) -> (Vec<Vec<Ray>>, Vec<Ray>) {
+fn render_rays(scene: &Scene, accel: &Accel, n: u32) -> Rays {
     let camera = scene.cameras[0].ray_generator(W, H);
     let mut sampler = PixelSampler::new(SamplerKind::Sobol, SPP, 0);
-    let (mut packets, mut ao_rays) = (Vec::new(), Vec::new());
+    let (mut packets, mut ao_groups) = (Vec::new(), Vec::new());
     for (s0, s1) in render::passes(SPP) {
         for ty in (0..H).step_by(TILE as usize) {
             for tx in (0..W).step_by(TILE as usize) {
@@ -74,12 +83,14 @@ fn render_rays(scene: &Scene, accel: &Accel) -> (Vec<Vec<Ray>>, Vec<Ray>) {
                                     continue;
                                 };
                                 let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
-                                let set = sampler.next_2d_set(1);
-                                let local = square_to_cosine_hemisphere(set.get(0));
-                                let wi = Onb::from_normal(si.ns).to_world(local);
-                                if wi.dot(si.ng) > 0.0 {
-                                    ao_rays.push(si.spawn_ray(wi, f32::INFINITY));
-                                }
+                                let onb = Onb::from_normal(si.ns);
+                                let set = sampler.next_2d_set(n);
+                                let rays: Vec<Ray> = (0..n)
+                                    .map(|k| onb.to_world(square_to_cosine_hemisphere(set.get(k))))
+                                    .filter(|wi| wi.dot(si.ng) >= 0.0)
+                                    .map(|wi| si.spawn_ray(wi, f32::INFINITY))
+                                    .collect();
+                                ao_groups.extend(rays.chunks(OCCLUSION_PACKET).map(|c| c.to_vec()));
                             }
                             packets.push(packet.into_iter().map(|(r, _)| r).collect());
                         }
@@ -88,13 +99,18 @@ fn render_rays(scene: &Scene, accel: &Accel) -> (Vec<Vec<Ray>>, Vec<Ray>) {
             }
         }
     }
-    (packets, ao_rays)
+    Rays { packets, ao_groups }
 }
 
 fn raw(rays: &[Ray]) -> Vec<RawRay> {
     rays.iter()
         .map(|r| RawRay::new(r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max))
         .collect()
+}
+
+/// A ray as the packet calls of the Embree module take it.
+fn lanes(r: &Ray) -> ([f32; 3], [f32; 3], f32, f32) {
+    (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -112,12 +128,27 @@ fn main() {
     );
     let scene = scene::load(&path, &LoadOptions::default()).expect("scene");
     let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
-    let embree = accel.as_embree().expect("Embree backend").raw();
+    let pool = render::thread_pool(1).expect("thread pool");
+    println!(
+        "{} ({} triangles), AO {W}x{H} {SPP} spp, 1 thread, {} rounds",
+        path.file_name().unwrap_or_default().to_string_lossy(),
+        scene.triangles.len(),
+        if quick { 1 } else { ROUNDS }
+    );
+    for n in [1, 16] {
+        pool.install(|| measure(&scene, &accel, &pool, n, quick));
+    }
+}
 
-    let (packets, ao_rays) = render_rays(&scene, &accel);
+/// Measures the four ways on the rays of an AO render with `n` rays per hit, and prints.
+fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick: bool) {
+    let embree = accel.as_embree().expect("Embree backend").raw();
+    let Rays { packets, ao_groups } = render_rays(scene, accel, n);
     let camera_rays: Vec<Ray> = packets.iter().flatten().copied().collect();
+    let ao_rays: Vec<Ray> = ao_groups.iter().flatten().copied().collect();
     let (raw_camera, raw_ao) = (raw(&camera_rays), raw(&ao_rays));
     let raw_packets: Vec<Vec<RawRay>> = packets.iter().map(|p| raw(p)).collect();
+    let raw_groups: Vec<Vec<RawRay>> = ao_groups.iter().map(|g| raw(g)).collect();
     let total = (camera_rays.len() + ao_rays.len()) as f64;
     let accel_camera_hits = || {
         let mut hits = [None; PACKET];
@@ -129,16 +160,44 @@ fn main() {
             })
             .sum::<usize>()
     };
+    let accel_occluded = || {
+        let mut occluded = [false; OCCLUSION_PACKET];
+        ao_groups
+            .iter()
+            .map(|g| {
+                if g.len() == 1 {
+                    accel.occluded(&g[0]) as usize
+                } else {
+                    accel.occluded_packet(g, &mut occluded);
+                    occluded[..g.len()].iter().filter(|&&o| o).count()
+                }
+            })
+            .sum::<usize>()
+    };
     let raw_packet_hits = || {
         raw_packets
             .iter()
             .map(|p| embree.intersect8_count_raw(p))
             .sum::<usize>()
     };
+    let raw_occluded_groups = || {
+        ao_groups
+            .iter()
+            .zip(&raw_groups)
+            .map(|(g, raw)| {
+                if g.len() == 1 {
+                    embree.occluded_count_raw(raw)
+                } else {
+                    let mut count = 0;
+                    embree.occluded_packet(g, lanes, |_, o| count += o as usize);
+                    count
+                }
+            })
+            .sum::<usize>()
+    };
 
     let prepared = Prepared::default();
-    let ctx = prepared.context(&scene, &accel);
-    let pool = render::thread_pool(1).expect("thread pool");
+    let ctx = prepared.context(scene, accel);
     let settings = RenderSettings {
         camera: scene.cameras[0].clone(),
         crop: None,
@@ -148,14 +207,17 @@ fn main() {
         spp: SPP,
         seed: 0,
         sampler: SamplerKind::Sobol,
-        integrator: Integrator::Ao(AoSettings::default()),
+        integrator: Integrator::Ao(AoSettings {
+            samples: n,
+            ..AoSettings::default()
+        }),
         tile_size: TILE,
     };
     let render_once = || {
         render::render(
             &ctx,
             &settings,
-            &pool,
+            pool,
             &ProgressBar::hidden(),
             &AtomicBool::new(false),
         )
@@ -166,8 +228,8 @@ fn main() {
     assert_eq!(hits_raw, raw_packet_hits(), "packet hits differ");
     assert_eq!(hits_raw, accel_camera_hits(), "Accel hits differ");
     let occluded_raw = embree.occluded_count_raw(&raw_ao);
-    let occluded_accel = ao_rays.iter().filter(|r| accel.occluded(r)).count();
-    assert_eq!(occluded_raw, occluded_accel, "AO occlusion differs");
+    assert_eq!(occluded_raw, raw_occluded_groups(), "AO packets differ");
+    assert_eq!(occluded_raw, accel_occluded(), "AO occlusion differs");
     let rendered = render_once().stats.rays;
     assert_eq!(
         (rendered.camera as usize, rendered.shadow as usize),
@@ -179,50 +241,37 @@ fn main() {
     let mut t: [Vec<f64>; 4] = Default::default();
     for _ in 0..rounds {
         let start = Instant::now();
-        let n = embree.intersect_count_raw(&raw_camera) + embree.occluded_count_raw(&raw_ao);
+        let hits = embree.intersect_count_raw(&raw_camera) + embree.occluded_count_raw(&raw_ao);
         t[0].push(start.elapsed().as_secs_f64());
-        std::hint::black_box(n);
+        std::hint::black_box(hits);
 
         let start = Instant::now();
-        let n = raw_packet_hits() + embree.occluded_count_raw(&raw_ao);
+        let hits = raw_packet_hits() + raw_occluded_groups();
         t[1].push(start.elapsed().as_secs_f64());
-        std::hint::black_box(n);
+        std::hint::black_box(hits);
 
         let start = Instant::now();
-        let n = accel_camera_hits() + ao_rays.iter().filter(|r| accel.occluded(r)).count();
+        let hits = accel_camera_hits() + accel_occluded();
         t[2].push(start.elapsed().as_secs_f64());
-        std::hint::black_box(n);
+        std::hint::black_box(hits);
 
-        // The render runs on a one-thread pool; its own timer excludes the pool hand-off.
+        // The render's own timer.
         t[3].push(render_once().stats.seconds);
     }
     let ratio = |a: &[f64], b: &[f64]| median(a.iter().zip(b).map(|(x, y)| y / x).collect());
     let mrays = |t: &[f64]| total / median(t.to_vec()) / 1e6;
     println!(
-        "{} ({} triangles), AO {W}x{H} {SPP} spp, 1 thread: {} camera rays ({} packets) + {} AO rays, {rounds} rounds",
-        path.file_name().unwrap_or_default().to_string_lossy(),
-        scene.triangles.len(),
+        "{n} AO ray(s) per hit: {} camera rays ({} packets) + {} AO rays ({} groups)",
         camera_rays.len(),
         packets.len(),
-        ao_rays.len()
+        ao_rays.len(),
+        ao_groups.len()
     );
     let [single, packet, through, whole] = &t;
-    println!(
-        "  raw Embree, single rays          {:6.2} Mrays/s",
-        mrays(single)
-    );
-    println!(
-        "  raw Embree, camera rays packets  {:6.2} Mrays/s",
-        mrays(packet)
-    );
-    println!(
-        "  through Accel (packets)          {:6.2} Mrays/s",
-        mrays(through)
-    );
-    println!(
-        "  full AO render                   {:6.2} Mrays/s",
-        mrays(whole)
-    );
+    println!("  raw Embree, single rays   {:6.2} Mrays/s", mrays(single));
+    println!("  raw Embree, packets       {:6.2} Mrays/s", mrays(packet));
+    println!("  through Accel (packets)   {:6.2} Mrays/s", mrays(through));
+    println!("  full AO render            {:6.2} Mrays/s", mrays(whole));
     println!(
         "  Accel / raw packets {:.3}; render / raw single {:.3}, render / raw packets {:.3} (medians of per-round ratios)",
         ratio(through, packet),
