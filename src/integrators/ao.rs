@@ -22,7 +22,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::accel::{Hit, Ray, OCCLUSION_PACKET};
 use crate::integrators::{Context, RayCounts};
@@ -172,7 +172,7 @@ pub fn li(
         let group: [Option<(Ray, f32)>; OCCLUSION_PACKET] =
             if settings.hemisphere == Hemisphere::Cosine {
                 // Lanes past m repeat the last point; their directions are not used.
-                let u: [glam::Vec2; OCCLUSION_PACKET] =
+                let u: [Vec2; OCCLUSION_PACKET] =
                     std::array::from_fn(|j| set.get(k0 + (j as u32).min(m - 1)));
                 let local = square_to_cosine_hemisphere_lanes(&u);
                 std::array::from_fn(|j| ray_toward(local[j], 1.0))
