@@ -14,7 +14,8 @@
 # frame (--benchmark 1 N prints frames/s and, from its ray counters, Mrays/s); strata's path
 # integrator with --max-depth 4 (the same path length: 1 = direct lighting in both) and
 # --background 1,1,1, 4 spp. AO: Embree's viewer --shader ao (one camera ray and 64 AO rays
-# per pixel); strata's ao integrator with --ao-samples 64 (the same rays), 2 spp.
+# per pixel); strata's ao integrator with --ao-samples 64 (the same rays), 2 spp. Rows marked
+# "robust off" run strata without RTC_SCENE_FLAG_ROBUST, as the tutorials do.
 # Prints a Markdown table: samples/s (camera samples) and Mrays/s (every ray each renderer
 # counts), the median of RUNS runs (default 3).
 set -euo pipefail
@@ -75,4 +76,5 @@ done
 for t in 1 2; do
     row "Embree viewer, AO shader" "$t" bash -c "$(declare -f tutorial fps_to_samples); size=$size; cam=(${cam[*]}); tutorial viewer -i '$dir/sphere_plane.obj' --shader ao --threads $t | fps_to_samples"
     row "strata ao, 64 AO rays per hit" "$t" strata 2 --integrator ao --ao-samples 64 --threads "$t"
+    row "strata ao, 64 AO rays per hit, robust off" "$t" strata 2 --integrator ao --ao-samples 64 --threads "$t" --no-robust
 done
