@@ -148,7 +148,6 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick
     let ao_rays: Vec<Ray> = ao_groups.iter().flatten().copied().collect();
     let (raw_camera, raw_ao) = (raw(&camera_rays), raw(&ao_rays));
     let raw_packets: Vec<Vec<RawRay>> = packets.iter().map(|p| raw(p)).collect();
-    let raw_groups: Vec<Vec<RawRay>> = ao_groups.iter().map(|g| raw(g)).collect();
     let total = (camera_rays.len() + ao_rays.len()) as f64;
     let accel_camera_hits = || {
         let mut hits = [None; PACKET];
@@ -165,12 +164,8 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick
         ao_groups
             .iter()
             .map(|g| {
-                if g.len() == 1 {
-                    accel.occluded(&g[0]) as usize
-                } else {
-                    accel.occluded_packet(g, &mut occluded);
-                    occluded[..g.len()].iter().filter(|&&o| o).count()
-                }
+                accel.occluded_packet(g, &mut occluded);
+                occluded[..g.len()].iter().filter(|&&o| o).count()
             })
             .sum::<usize>()
     };
@@ -181,19 +176,11 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick
             .sum::<usize>()
     };
     let raw_occluded_groups = || {
-        ao_groups
-            .iter()
-            .zip(&raw_groups)
-            .map(|(g, raw)| {
-                if g.len() == 1 {
-                    embree.occluded_count_raw(raw)
-                } else {
-                    let mut count = 0;
-                    embree.occluded_packet(g, lanes, |_, o| count += o as usize);
-                    count
-                }
-            })
-            .sum::<usize>()
+        let mut count = 0;
+        for g in &ao_groups {
+            embree.occluded_packet(g, lanes, |_, o| count += o as usize);
+        }
+        count
     };
 
     let prepared = Prepared::default();

@@ -213,7 +213,8 @@ impl Accel {
     }
 
     /// Any-hit answers for up to [`OCCLUSION_PACKET`] rays (`occluded[i]` for `rays[i]`): one
-    /// packet query with Embree, one query per ray with obvhs.
+    /// query with Embree (a single-ray one for one ray, else a packet), one query per ray with
+    /// obvhs.
     #[inline]
     pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; OCCLUSION_PACKET]) {
         match self {

@@ -581,15 +581,25 @@ fn intersect_context() -> sys::RTCIntersectContext {
 struct Valid<const N: usize>([i32; N]);
 
 /// Embree's structure-of-arrays ray packets (`RTCRay8`, `RTCRay16`), written lane by lane.
-trait RayLanes<const N: usize> {
+trait RayLanes<const N: usize>: Sized {
+    /// The packet with every field zero.
+    fn zeroed() -> Self;
     fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32);
+    /// Embree's any-hit query of the lanes `valid` marks, in `scene` (committed).
+    fn occlude(&mut self, valid: &Valid<N>, scene: sys::RTCScene);
     /// True when an occlusion query found an occluder for lane i (Embree sets tfar to −∞).
     fn occluded(&self, i: usize) -> bool;
 }
 
 macro_rules! ray_lanes {
-    ($packet:ty, $n:literal) => {
+    ($packet:ty, $n:literal, $occluded:ident) => {
         impl RayLanes<$n> for $packet {
+            #[inline(always)]
+            fn zeroed() -> Self {
+                // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
+                // integers.
+                unsafe { std::mem::zeroed() }
+            }
             #[inline(always)]
             fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) {
                 self.org_x[i] = org[0];
@@ -604,14 +614,30 @@ macro_rules! ray_lanes {
                 self.mask[i] = u32::MAX;
             }
             #[inline(always)]
+            fn occlude(&mut self, valid: &Valid<$n>, scene: sys::RTCScene) {
+                #[cfg(embree3)]
+                {
+                    let mut ctx = intersect_context();
+                    // SAFETY: the caller's scene is committed; `valid` is aligned as the
+                    // packet API requires; `self` and `ctx` are valid and Embree uses them
+                    // only during the call.
+                    unsafe { sys::$occluded(valid.0.as_ptr(), scene, &mut ctx, self) };
+                }
+                #[cfg(embree4)]
+                {
+                    // SAFETY: as above; null arguments select Embree 4's defaults.
+                    unsafe { sys::$occluded(valid.0.as_ptr(), scene, self, std::ptr::null_mut()) };
+                }
+            }
+            #[inline(always)]
             fn occluded(&self, i: usize) -> bool {
                 self.tfar[i] == f32::NEG_INFINITY
             }
         }
     };
 }
-ray_lanes!(sys::RTCRay8, 8);
-ray_lanes!(sys::RTCRay16, 16);
+ray_lanes!(sys::RTCRay8, 8, rtcOccluded8);
+ray_lanes!(sys::RTCRay16, 16, rtcOccluded16);
 
 /// Writes `ray(&rays[i])` = (org, dir, tnear, tfar) into lane i of `packet` and returns the
 /// mask with those lanes valid.
@@ -778,10 +804,10 @@ impl Scene {
         }
     }
 
-    /// Any-hit queries of up to [`OCCLUSION_PACKET`] rays in one call of Embree's packet API
-    /// (8-wide for up to 8 rays, else 16-wide), for rays that share much of their path (the
-    /// AO rays of one surface point): `occluded(i)` receives ray i's answer. As
-    /// [`Scene::intersect_packet`] otherwise.
+    /// Any-hit queries of up to [`OCCLUSION_PACKET`] rays in one call of Embree's API (a
+    /// single-ray query for one ray, 8-wide for up to 8, else 16-wide), for rays that share
+    /// much of their path (the AO rays of one surface point): `occluded(i)` receives ray i's
+    /// answer. As [`Scene::intersect_packet`] otherwise.
     #[inline]
     pub fn occluded_packet<R>(
         &self,
@@ -789,45 +815,29 @@ impl Scene {
         ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
         mut occluded: impl FnMut(usize, bool),
     ) {
-        if rays.len() <= PACKET {
-            // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
-            // integers.
-            let mut r8: sys::RTCRay8 = unsafe { std::mem::zeroed() };
-            let valid: Valid<8> = pack(rays, ray, &mut r8);
-            #[cfg(embree3)]
-            {
-                let mut ctx = intersect_context();
-                // SAFETY: the scene is committed; `valid` is aligned as the packet API
-                // requires; `r8` and `ctx` are valid locals Embree uses only during the call.
-                unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx, &mut r8) };
+        match rays.len() {
+            0 => {}
+            1 => {
+                let (org, dir, tnear, tfar) = ray(&rays[0]);
+                occluded(0, self.occluded(org, dir, tnear, tfar));
             }
-            #[cfg(embree4)]
-            {
-                // SAFETY: as above; null arguments select Embree 4's defaults.
-                unsafe {
-                    sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut r8, std::ptr::null_mut())
-                };
-            }
-            (0..rays.len()).for_each(|i| occluded(i, r8.occluded(i)));
-        } else {
-            // SAFETY: as above.
-            let mut r16: sys::RTCRay16 = unsafe { std::mem::zeroed() };
-            let valid: Valid<16> = pack(rays, ray, &mut r16);
-            #[cfg(embree3)]
-            {
-                let mut ctx = intersect_context();
-                // SAFETY: as for the 8-wide call.
-                unsafe { sys::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut ctx, &mut r16) };
-            }
-            #[cfg(embree4)]
-            {
-                // SAFETY: as above; null arguments select Embree 4's defaults.
-                unsafe {
-                    sys::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut r16, std::ptr::null_mut())
-                };
-            }
-            (0..rays.len()).for_each(|i| occluded(i, r16.occluded(i)));
+            2..=PACKET => self.occluded_lanes::<PACKET, sys::RTCRay8, R>(rays, ray, occluded),
+            _ => self.occluded_lanes::<OCCLUSION_PACKET, sys::RTCRay16, R>(rays, ray, occluded),
         }
+    }
+
+    /// [`Scene::occluded_packet`] with packets of `N` rays.
+    #[inline(always)]
+    fn occluded_lanes<const N: usize, P: RayLanes<N>, R>(
+        &self,
+        rays: &[R],
+        ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+        mut occluded: impl FnMut(usize, bool),
+    ) {
+        let mut packet = P::zeroed();
+        let valid = pack(rays, ray, &mut packet);
+        packet.occlude(&valid, self.raw);
+        (0..rays.len()).for_each(|i| occluded(i, packet.occluded(i)));
     }
 
     /// True when anything lies along `org + t·dir` for t in `[tnear, tfar]`.

@@ -17,7 +17,8 @@
 //! set ([`PixelSampler::next_2d_set`]), not from independent slots. Directions are drawn
 //! around the shading normal; one that points below the geometric
 //! surface would enter the object, and counts as occluded. Each AO ray is an any-hit query
-//! leaving the surface through [`SurfaceInteraction::spawn_ray`].
+//! leaving the surface as [`SurfaceInteraction::spawn_ray`] would send it (from the origins
+//! of [`SurfaceInteraction::front_origins`], computed once per hit).
 
 use std::fmt;
 use std::str::FromStr;
@@ -144,14 +145,10 @@ pub fn li(
     }
     // The rays leave one point, so they share the first nodes of their traversal: Embree's
     // packet queries pay for packets of up to 16 (8-wide 1.1x faster than single rays on 64
-    // rays per hit, 16-wide another 1.1x; BENCHMARKS.md), a single query for one ray.
+    // rays per hit, 16-wide another 1.1x; BENCHMARKS.md).
     let flush = |packet: &[Ray], weights: &[f32], rays: &mut RayCounts| {
         let mut occluded = [false; OCCLUSION_PACKET];
-        if packet.len() == 1 {
-            occluded[0] = accel.occluded(&packet[0]);
-        } else {
-            accel.occluded_packet(packet, &mut occluded);
-        }
+        accel.occluded_packet(packet, &mut occluded);
         rays.shadow += packet.len() as u64;
         let mut s = 0.0;
         for (w, o) in weights.iter().zip(occluded) {
