@@ -127,34 +127,29 @@ fn sobol(c: &mut Criterion) {
     let mut g = c.benchmark_group("sobol point");
     g.throughput(Throughput::Elements(1 << 16));
     let seed = |i: u32| i.wrapping_mul(0x9e37_79b9);
-    g.bench_function("4D, sobol_burley::sample_4d", |b| {
-        b.iter(|| {
-            (0..1u32 << 16)
-                .map(|i| sobol_burley::sample_4d(i, 0, seed(i)).iter().sum::<f32>())
-                .sum::<f32>()
-        })
+    // One row: the sum of every dimension of the points of indices 0..2^16 (`point` is
+    // generic, so each row's point function is inlined as in the renderer).
+    fn row<M: criterion::measurement::Measurement, const N: usize>(
+        g: &mut criterion::BenchmarkGroup<M>,
+        name: &str,
+        point: impl Fn(u32) -> [f32; N],
+    ) {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                (0..1u32 << 16)
+                    .map(|i| point(i).iter().sum::<f32>())
+                    .sum::<f32>()
+            })
+        });
+    }
+    row(&mut g, "4D, sobol_burley::sample_4d", |i| {
+        sobol_burley::sample_4d(i, 0, seed(i))
     });
-    g.bench_function("4D, strata::sampling::sobol::sample_4d", |b| {
-        b.iter(|| {
-            (0..1u32 << 16)
-                .map(|i| {
-                    strata::sampling::sobol::sample_4d(i, seed(i))
-                        .iter()
-                        .sum::<f32>()
-                })
-                .sum::<f32>()
-        })
+    row(&mut g, "4D, strata::sampling::sobol::sample_4d", |i| {
+        strata::sampling::sobol::sample_4d(i, seed(i))
     });
-    g.bench_function("2D, strata::sampling::sobol::sample_2d", |b| {
-        b.iter(|| {
-            (0..1u32 << 16)
-                .map(|i| {
-                    strata::sampling::sobol::sample_2d(i, seed(i))
-                        .iter()
-                        .sum::<f32>()
-                })
-                .sum::<f32>()
-        })
+    row(&mut g, "2D, strata::sampling::sobol::sample_2d", |i| {
+        strata::sampling::sobol::sample_2d(i, seed(i))
     });
     g.finish();
 }

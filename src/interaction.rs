@@ -289,13 +289,8 @@ mod tests {
     /// surface and exactly in its tangent plane, with and without the offset.
     #[test]
     fn front_origins_give_the_rays_of_spawn_ray() {
-        let mut state = 0x1234_5678u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut uniform = crate::sampling::hash::uniform_sequence(11);
+        let mut next = || 2.0 * uniform() - 1.0;
         let mut tangent_rays = 0;
         for _ in 0..20_000 {
             let ng = Vec3::new(next(), next(), next()).normalize();

@@ -887,9 +887,16 @@ const STRATIFIED_SPP: [u32; 19] = [
     1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 16, 32, 50, 64, 100, 128, 256, 512,
 ];
 
-/// The 2D points of dimension slot `slot` (reached by `slot` earlier `next_2d` calls) of all
-/// `spp` samples of one pixel.
-fn slot_points_2d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: u32) -> Vec<Vec2> {
+/// `draw` applied in dimension slot `slot` (reached by `slot` earlier `next_2d` calls) of
+/// each of the `spp` samples of one pixel, in sample order.
+fn in_slot<T>(
+    kind: SamplerKind,
+    spp: u32,
+    seed: u64,
+    px: (u32, u32),
+    slot: u32,
+    mut draw: impl FnMut(&mut PixelSampler) -> T,
+) -> Vec<T> {
     let mut s = PixelSampler::new(kind, spp, seed);
     (0..spp)
         .map(|i| {
@@ -897,9 +904,14 @@ fn slot_points_2d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: 
             for _ in 0..slot {
                 s.next_2d();
             }
-            s.next_2d()
+            draw(&mut s)
         })
         .collect()
+}
+
+/// The 2D points of dimension slot `slot` of all `spp` samples of one pixel.
+fn slot_points_2d(kind: SamplerKind, spp: u32, seed: u64, px: (u32, u32), slot: u32) -> Vec<Vec2> {
+    in_slot(kind, spp, seed, px, slot, |s| s.next_2d())
 }
 
 /// The 1D values of dimension slot `slot` (reached by `slot` earlier `next_1d` calls).
@@ -1439,17 +1451,10 @@ fn set_points_2d(
     px: (u32, u32),
     slot: u32,
 ) -> Vec<Vec<Vec2>> {
-    let mut s = PixelSampler::new(kind, spp, seed);
-    (0..spp)
-        .map(|i| {
-            s.start(px.0, px.1, i);
-            for _ in 0..slot {
-                s.next_2d();
-            }
-            let set = s.next_2d_set(n);
-            (0..n).map(|k| set.get(k)).collect()
-        })
-        .collect()
+    in_slot(kind, spp, seed, px, slot, |s| {
+        let set = s.next_2d_set(n);
+        (0..n).map(|k| set.get(k)).collect()
+    })
 }
 
 #[test]

@@ -34,6 +34,17 @@ pub fn unit_f32(h: u64) -> f32 {
     u32_to_unit_f32((h >> 32) as u32)
 }
 
+/// Uniform floats in (0, 1), the i-th being `unit_f32(hash_words(&[seed, i]))`: random
+/// inputs for unit tests.
+#[cfg(test)]
+pub(crate) fn uniform_sequence(seed: u64) -> impl FnMut() -> f32 {
+    let mut i = 0;
+    move || {
+        i += 1;
+        unit_f32(hash_words(&[seed, i]))
+    }
+}
+
 /// A bijection on `[0, 2^bits)` keyed by `key`: a chain of steps each invertible modulo
 /// 2^bits (xor with a key, multiplication by an odd constant, xorshift right), in the spirit
 /// of Kensler's hash-based permutations (Correlated Multi-Jittered Sampling, 2013).

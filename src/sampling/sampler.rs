@@ -179,8 +179,8 @@ impl PixelSampler {
     }
 
     /// Two 2D values from one dimension slot. `sobol` evaluates one 4D point (dimensions 0–3
-    /// of the Sobol sequence in one 4-lane call, about the cost of two
-    /// [`PixelSampler::next_2d`] but one slot key); `stratified` gives two independently
+    /// of the Sobol sequence, one index shuffle for the four: a little less than two
+    /// [`PixelSampler::next_2d`], and one slot key); `stratified` gives two independently
     /// permuted CMJ patterns; `random` two independent pairs. For consumers that draw several
     /// values per bounce.
     #[inline]

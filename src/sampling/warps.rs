@@ -286,13 +286,7 @@ mod tests {
     /// the square's centre, its edges and its diagonals (where the wedge changes).
     #[test]
     fn cosine_warp_lanes_equal_the_scalar_warp() {
-        let mut state = 0x51f1_5eedu32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = crate::sampling::hash::uniform_sequence(5);
         let mut points = Vec::new();
         for k in 0..=64 {
             let t = k as f32 / 64.0;
@@ -339,14 +333,8 @@ mod tests {
             }
         }
         assert!(worst <= 2.0, "worst error {worst} ulps");
-        let mut state = 0x9e37_79b9u32;
+        let mut next = crate::sampling::hash::uniform_sequence(3);
         for _ in 0..100_000 {
-            let mut next = || {
-                state ^= state << 13;
-                state ^= state >> 17;
-                state ^= state << 5;
-                (state >> 8) as f32 / (1u32 << 24) as f32
-            };
             let u = Vec2::new(next(), next());
             let d = square_to_concentric_disk(u);
             // The exact map, in f64.

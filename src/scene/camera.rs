@@ -224,13 +224,7 @@ mod tests {
         };
         for cam in [perspective, orthographic] {
             let g = cam.ray_generator(640, 360);
-            let mut state = 0x2545_f491_u32;
-            let mut next = || {
-                state ^= state << 13;
-                state ^= state >> 17;
-                state ^= state << 5;
-                (state >> 8) as f32 / (1u32 << 24) as f32
-            };
+            let mut next = crate::sampling::hash::uniform_sequence(7);
             for _ in 0..2000 {
                 let fx: [f32; 8] = std::array::from_fn(|_| next() * 640.0);
                 let fy: [f32; 8] = std::array::from_fn(|_| next() * 360.0);
