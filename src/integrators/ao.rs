@@ -120,10 +120,9 @@ pub fn li(
         }
         Some((origins.ray(wi, settings.max_distance), weight))
     };
-    // Direction k, sampled in the shading normal's hemisphere and weighted by
+    // The direction of point u, sampled in the shading normal's hemisphere and weighted by
     // cos θ / (π·pdf).
-    let sample = |k: u32| -> Option<(Ray, f32)> {
-        let u = set.get(k);
+    let sample = |u: Vec2| -> Option<(Ray, f32)> {
         let (local, weight) = match settings.hemisphere {
             Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
             Hemisphere::Uniform => {
@@ -137,7 +136,7 @@ pub fn li(
     };
     if n == 1 {
         // One ray: a single query, and no packet to fill.
-        let Some((ray, weight)) = sample(0) else {
+        let Some((ray, weight)) = sample(set.get(0)) else {
             return 0.0;
         };
         rays.shadow += 1;
@@ -169,7 +168,7 @@ pub fn li(
             let local = square_to_cosine_hemisphere_lanes(&u);
             std::array::from_fn(|j| ray_toward(local[j], 1.0))
         } else {
-            std::array::from_fn(|j| (j < m as usize).then(|| sample(k0 + j as u32)).flatten())
+            std::array::from_fn(|j| (j < m as usize).then(|| sample(u[j])).flatten())
         };
         (u, rays)
     };
