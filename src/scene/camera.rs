@@ -135,28 +135,27 @@ impl RayGenerator {
     /// vectorises the loops) instead of each waiting on its predecessor.
     #[inline]
     pub fn rays<const N: usize>(&self, fx: &[f32; N], fy: &[f32; N]) -> [Ray; N] {
-        match *self {
-            RayGenerator::Perspective {
-                org,
-                corner,
-                du,
-                dv,
-            } => {
-                // The operations of `ray`, in its order: (corner + fx·du) + fy·dv, then
-                // d · (1 / √(d·d)) as glam's `normalize`.
-                let axis = |c: usize| -> [f32; N] {
-                    std::array::from_fn(|i| corner[c] + fx[i] * du[c] + fy[i] * dv[c])
-                };
-                let (x, y, z) = (axis(0), axis(1), axis(2));
-                let inv: [f32; N] = std::array::from_fn(|i| {
-                    1.0 / ((x[i] * x[i]) + (y[i] * y[i]) + (z[i] * z[i])).sqrt()
-                });
-                std::array::from_fn(|i| {
-                    Ray::new(org, Vec3::new(x[i] * inv[i], y[i] * inv[i], z[i] * inv[i]))
-                })
-            }
-            RayGenerator::Orthographic { .. } => std::array::from_fn(|i| self.ray(fx[i], fy[i])),
-        }
+        let RayGenerator::Perspective {
+            org,
+            corner,
+            du,
+            dv,
+        } = *self
+        else {
+            // Orthographic rays need no normalisation: nothing to overlap.
+            return std::array::from_fn(|i| self.ray(fx[i], fy[i]));
+        };
+        // The operations of `ray`, in its order: (corner + fx·du) + fy·dv, then
+        // d · (1 / √(d·d)) as glam's `normalize`.
+        let axis = |c: usize| -> [f32; N] {
+            std::array::from_fn(|i| corner[c] + fx[i] * du[c] + fy[i] * dv[c])
+        };
+        let (x, y, z) = (axis(0), axis(1), axis(2));
+        let inv: [f32; N] =
+            std::array::from_fn(|i| 1.0 / ((x[i] * x[i]) + (y[i] * y[i]) + (z[i] * z[i])).sqrt());
+        std::array::from_fn(|i| {
+            Ray::new(org, Vec3::new(x[i] * inv[i], y[i] * inv[i], z[i] * inv[i]))
+        })
     }
 }
 
