@@ -154,7 +154,11 @@ fn bench(c: &mut Criterion) {
         let blocks = block_ordered(&coherent);
         let raw = reference.as_embree().expect("Embree").raw();
         let hits = raw.intersect_count_raw(&blocks);
-        assert_eq!(raw.intersect8_count_raw(&blocks), hits, "packets disagree");
+        assert_eq!(
+            raw.intersect8_count_raw(&blocks, true),
+            hits,
+            "packets disagree"
+        );
         let mut g = c.benchmark_group(format!("packets/{name}"));
         g.sample_size(10).measurement_time(Duration::from_secs(3));
         g.throughput(Throughput::Elements(blocks.len() as u64));
@@ -162,13 +166,13 @@ fn bench(c: &mut Criterion) {
             b.iter(|| raw.intersect_count_raw(&blocks))
         });
         g.bench_function("rtcIntersect4, 1 thread", |b| {
-            b.iter(|| raw.intersect4_count_raw(&blocks))
+            b.iter(|| raw.intersect4_count_raw(&blocks, true))
         });
         g.bench_function("rtcIntersect8, 1 thread", |b| {
-            b.iter(|| raw.intersect8_count_raw(&blocks))
+            b.iter(|| raw.intersect8_count_raw(&blocks, true))
         });
         g.bench_function("rtcIntersect16, 1 thread", |b| {
-            b.iter(|| raw.intersect16_count_raw(&blocks))
+            b.iter(|| raw.intersect16_count_raw(&blocks, true))
         });
         // The diffuse rays, consecutive ones (from neighbouring camera hits) in a packet:
         // what packets of a path tracer's secondary rays would meet.
@@ -180,9 +184,18 @@ fn bench(c: &mut Criterion) {
         g.bench_function("incoherent, rtcIntersect1, 1 thread", |b| {
             b.iter(|| raw.intersect_count_raw(&scattered))
         });
-        g.bench_function("incoherent, rtcIntersect8, 1 thread", |b| {
-            b.iter(|| raw.intersect8_count_raw(&scattered))
+        // With the coherent hint (packet traversal throughout) and with the default one
+        // (Embree 3's hybrid traversal: one ray at a time once the rays part).
+        g.bench_function("incoherent, rtcIntersect8 coherent hint, 1 thread", |b| {
+            b.iter(|| raw.intersect8_count_raw(&scattered, true))
         });
+        g.bench_function("incoherent, rtcIntersect8 incoherent hint, 1 thread", |b| {
+            b.iter(|| raw.intersect8_count_raw(&scattered, false))
+        });
+        g.bench_function(
+            "incoherent, rtcIntersect16 incoherent hint, 1 thread",
+            |b| b.iter(|| raw.intersect16_count_raw(&scattered, false)),
+        );
         g.finish();
         let mut g = c.benchmark_group(format!("trace/{name}"));
         g.sample_size(10).measurement_time(Duration::from_secs(3));

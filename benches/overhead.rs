@@ -172,7 +172,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick
     let raw_packet_hits = || {
         raw_packets
             .iter()
-            .map(|p| embree.intersect8_count_raw(p))
+            .map(|p| embree.intersect8_count_raw(p, true))
             .sum::<usize>()
     };
     let raw_occluded_groups = || {

@@ -306,9 +306,11 @@ fn packets_agree_with_single_rays() {
         single > 100 && single < rays.len(),
         "{single} hits: pick rays that both hit and miss"
     );
-    assert_eq!(raw.intersect4_count_raw(&rays), single);
-    assert_eq!(raw.intersect8_count_raw(&rays), single);
-    assert_eq!(raw.intersect16_count_raw(&rays), single);
+    for coherent in [true, false] {
+        assert_eq!(raw.intersect4_count_raw(&rays, coherent), single);
+        assert_eq!(raw.intersect8_count_raw(&rays, coherent), single);
+        assert_eq!(raw.intersect16_count_raw(&rays, coherent), single);
+    }
 }
 
 /// The scene's acceleration structure from each backend.

@@ -658,22 +658,27 @@ fn pack<const N: usize, R>(
 }
 
 /// Generates a measuring function that traces rays as packets of `$n` with Embree's packet
-/// API (`$func`), for comparison with one-ray-at-a-time tracing on coherent rays.
+/// API (`$func`), for comparison with one-ray-at-a-time tracing.
 macro_rules! packet_count_raw {
     ($name:ident, $n:literal, $rayhit:ident, $func:ident) => {
-        /// Closest hits of `rays` traced in packets (Embree's packet API, with the coherent
-        /// hint on Embree 3); returns how many hit. Includes the cost of packing the rays into
-        /// Embree's structure-of-arrays layout, which a renderer would pay too. Lanes past the
-        /// end of `rays` are masked off.
-        pub fn $name(&self, rays: &[RawRay]) -> usize {
+        /// Closest hits of `rays` traced in packets (Embree's packet API; on Embree 3 with the
+        /// coherent hint if `coherent`, which selects packet traversal, else with the default
+        /// hint, which lets Embree switch to one ray at a time as the rays part); returns how
+        /// many hit. Includes the cost of packing the rays into Embree's structure-of-arrays
+        /// layout, which a renderer would pay too. Lanes past the end of `rays` are masked
+        /// off. Embree 4 has its defaults either way.
+        pub fn $name(&self, rays: &[RawRay], coherent: bool) -> usize {
             /// The valid mask must be aligned to the packet's size in bytes.
             #[repr(C, align(64))]
             struct Valid([i32; $n]);
             #[cfg(embree3)]
-            let mut ctx = sys::RTCIntersectContext {
-                flags: sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
-                ..intersect_context()
-            };
+            let mut ctx = intersect_context();
+            #[cfg(embree3)]
+            if coherent {
+                ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+            }
+            #[cfg(embree4)]
+            let _ = coherent;
             let mut count = 0;
             for chunk in rays.chunks($n) {
                 // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
