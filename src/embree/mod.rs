@@ -562,6 +562,24 @@ impl VectorRay {
     }
 }
 
+/// Embree 4's intersect arguments as `rtcInitIntersectArguments` (an inline function bindgen
+/// cannot bind) makes them, with the coherent hint if `coherent`: packet traversal for rays
+/// that travel together, instead of the default hybrid traversal.
+#[cfg(embree4)]
+#[inline]
+fn intersect_arguments(coherent: bool) -> sys::RTCIntersectArguments {
+    // SAFETY: all-zero bytes are a valid value of this C struct: null context, no filter or
+    // intersect callbacks.
+    let mut args: sys::RTCIntersectArguments = unsafe { std::mem::zeroed() };
+    args.flags = if coherent {
+        sys::RTC_RAY_QUERY_FLAG_COHERENT
+    } else {
+        sys::RTC_RAY_QUERY_FLAG_INCOHERENT
+    };
+    args.feature_mask = sys::RTC_FEATURE_FLAG_ALL;
+    args
+}
+
 #[cfg(embree3)]
 #[inline]
 fn intersect_context() -> sys::RTCIntersectContext {
@@ -661,12 +679,12 @@ fn pack<const N: usize, R>(
 /// API (`$func`), for comparison with one-ray-at-a-time tracing.
 macro_rules! packet_count_raw {
     ($name:ident, $n:literal, $rayhit:ident, $func:ident) => {
-        /// Closest hits of `rays` traced in packets (Embree's packet API; on Embree 3 with the
-        /// coherent hint if `coherent`, which selects packet traversal, else with the default
-        /// hint, which lets Embree switch to one ray at a time as the rays part); returns how
-        /// many hit. Includes the cost of packing the rays into Embree's structure-of-arrays
+        /// Closest hits of `rays` traced in packets (Embree's packet API, with the coherent
+        /// hint if `coherent`, which selects packet traversal, else with the default hint,
+        /// which lets Embree switch to one ray at a time as the rays part); returns how many
+        /// hit. Includes the cost of packing the rays into Embree's structure-of-arrays
         /// layout, which a renderer would pay too. Lanes past the end of `rays` are masked
-        /// off. Embree 4 has its defaults either way.
+        /// off.
         pub fn $name(&self, rays: &[RawRay], coherent: bool) -> usize {
             /// The valid mask must be aligned to the packet's size in bytes.
             #[repr(C, align(64))]
@@ -678,7 +696,7 @@ macro_rules! packet_count_raw {
                 ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
             }
             #[cfg(embree4)]
-            let _ = coherent;
+            let mut args = intersect_arguments(coherent);
             let mut count = 0;
             for chunk in rays.chunks($n) {
                 // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
@@ -706,9 +724,9 @@ macro_rules! packet_count_raw {
                     sys::$func(valid.0.as_ptr(), self.raw, &mut ctx, &mut rh)
                 };
                 #[cfg(embree4)]
-                // SAFETY: as above; null arguments select Embree 4's defaults.
+                // SAFETY: as above, with `args` a valid local too.
                 unsafe {
-                    sys::$func(valid.0.as_ptr(), self.raw, &mut rh, std::ptr::null_mut())
+                    sys::$func(valid.0.as_ptr(), self.raw, &mut rh, &mut args)
                 };
                 count += rh.hit.geomID[..chunk.len()]
                     .iter()
@@ -760,7 +778,7 @@ impl Scene {
     }
 
     /// The closest hits of up to [`PACKET`] coherent rays (camera rays of neighbouring pixels)
-    /// in one call of Embree's 8-wide packet API, with the coherent hint on Embree 3.
+    /// in one call of Embree's 8-wide packet API, with the coherent hint.
     /// `ray(&rays[i])` gives ray i as (org, dir, tnear, tfar), and `hit(i, …)` receives its
     /// answer, for every i < `rays.len()`; the other lanes are masked off. (Closures, so that
     /// callers pack from and unpack into their own types without intermediate copies.) The
@@ -789,10 +807,9 @@ impl Scene {
         }
         #[cfg(embree4)]
         {
-            // SAFETY: as above; null arguments select Embree 4's defaults.
-            unsafe {
-                sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut rh, std::ptr::null_mut())
-            };
+            let mut args = intersect_arguments(true);
+            // SAFETY: as above, with `args` a valid local too.
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut rh, &mut args) };
         }
         for i in 0..rays.len() {
             hit(
