@@ -12,9 +12,10 @@
 //!   in Embree's layout, one intersection context per batch: the most any renderer could get
 //!   from Embree one ray at a time;
 //! - **raw, packets**: the camera rays as the render groups them, one `rtcIntersect8` per
-//!   packet (packing included), and each hit's AO rays as the render traces them (one
-//!   `rtcOccluded1` for a single ray, else `rtcOccluded8` or `rtcOccluded16` per group of up
-//!   to 16): the raw counterpart of the render;
+//!   packet (packing included), and the AO rays as the render traces them (with one ray per
+//!   hit, those of a camera packet's hits in one `rtcOccluded8`; with more, each hit's in
+//!   `rtcOccluded8` or `rtcOccluded16` per group of up to 16, `rtcOccluded1` for a lone
+//!   ray): the raw counterpart of the render;
 //! - **accel**: the same packets and rays through [`Accel::intersect_packet`],
 //!   [`Accel::occluded`] and [`Accel::occluded_packet`], the calls the render makes;
 //! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
@@ -50,8 +51,9 @@ const TILE: u32 = 16;
 const ROUNDS: usize = 15;
 
 /// The rays of one AO render: camera rays grouped by packet (the block's pixels at one
-/// sample index), and the AO rays of each camera hit in the groups the integrator traces
-/// together (one query for a single ray, else packets of up to [`OCCLUSION_PACKET`]).
+/// sample index), and the AO rays in the groups the integrator traces together (with one ray
+/// per hit, those of a camera packet's hits; with more, each hit's in packets of up to
+/// [`OCCLUSION_PACKET`]; one query for a lone ray).
 struct Rays {
     packets: Vec<Vec<Ray>>,
     ao_groups: Vec<Vec<Ray>>,
@@ -78,6 +80,8 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32) -> Rays {
                                     packet.push((ray, sampler.clone()));
                                 }
                             }
+                            // With one ray per hit the packet's AO rays form one group.
+                            let mut one_each = Vec::new();
                             for (ray, mut sampler) in packet.iter().cloned() {
                                 let Some(hit) = accel.intersect(&ray) else {
                                     continue;
@@ -90,7 +94,15 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32) -> Rays {
                                     .filter(|wi| wi.dot(si.ng) >= 0.0)
                                     .map(|wi| si.spawn_ray(wi, f32::INFINITY))
                                     .collect();
-                                ao_groups.extend(rays.chunks(OCCLUSION_PACKET).map(|c| c.to_vec()));
+                                if n == 1 {
+                                    one_each.extend(rays);
+                                } else {
+                                    ao_groups
+                                        .extend(rays.chunks(OCCLUSION_PACKET).map(|c| c.to_vec()));
+                                }
+                            }
+                            if !one_each.is_empty() {
+                                ao_groups.push(one_each);
                             }
                             packets.push(packet.into_iter().map(|(r, _)| r).collect());
                         }

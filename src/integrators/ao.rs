@@ -25,9 +25,9 @@ use std::str::FromStr;
 
 use glam::{Vec2, Vec3};
 
-use crate::accel::{Hit, Ray, OCCLUSION_PACKET};
+use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
 use crate::integrators::{Context, RayCounts};
-use crate::interaction::SurfaceInteraction;
+use crate::interaction::{FrontOrigins, SurfaceInteraction};
 use crate::sampling::warps::{
     square_to_cosine_hemisphere, square_to_cosine_hemisphere_lanes, square_to_uniform_hemisphere,
 };
@@ -87,6 +87,107 @@ impl Default for AoSettings {
     }
 }
 
+/// [`li`] for the camera rays of a packet (`rays[k]` with closest hit `hits[k]`, sampled by
+/// `samplers[lanes[k]]`, estimate into `l[k]`). With one AO ray per hit, the packet's AO rays
+/// go to Embree as one occlusion packet: they leave neighbouring points, which lets them share
+/// traversal (1.03–1.18× the render's rate on seven scenes, BENCHMARKS.md), and Embree answers
+/// them as it would one by one (tests/embree.rs), so the estimates are those of [`li`]. With
+/// more rays per hit, each hit traces its own packets ([`li`]).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn li_packet(
+    ctx: &Context,
+    rays: &[Ray],
+    hits: &[Option<Hit>],
+    samplers: &mut [PixelSampler],
+    lanes: &[usize],
+    settings: &AoSettings,
+    counts: &mut RayCounts,
+    l: &mut [f32],
+) {
+    if settings.samples > 1 {
+        for k in 0..rays.len() {
+            let sampler = &mut samplers[lanes[k]];
+            l[k] = li(ctx, hits[k], &rays[k], sampler, settings, counts);
+        }
+        return;
+    }
+    let mut ao_rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+    let mut owners = [(0usize, 0f32); PACKET];
+    let mut m = 0;
+    for k in 0..rays.len() {
+        l[k] = 0.0;
+        let Some(hit) = hits[k] else { continue };
+        let sampler = &mut samplers[lanes[k]];
+        if let Some((ray, weight)) = one_ray(ctx, &hit, &rays[k], sampler, settings) {
+            (ao_rays[m], owners[m]) = (ray, (k, weight));
+            m += 1;
+        }
+    }
+    let mut occluded = [false; OCCLUSION_PACKET];
+    ctx.accel.occluded_packet(&ao_rays[..m], &mut occluded);
+    counts.shadow += m as u64;
+    for (&(k, weight), &o) in owners[..m].iter().zip(&occluded[..m]) {
+        if !o {
+            l[k] = weight;
+        }
+    }
+}
+
+/// The local direction of point `u` in the shading normal's hemisphere and its weight
+/// cos θ / (π·pdf) (1 for cosine-weighted directions).
+#[inline]
+fn direction(u: Vec2, hemisphere: Hemisphere) -> (Vec3, f32) {
+    match hemisphere {
+        Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
+        Hemisphere::Uniform => {
+            let w = square_to_uniform_hemisphere(u);
+            // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
+            (w, 2.0 * w.z)
+        }
+        Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
+    }
+}
+
+/// The AO ray toward local direction `local` (weight `weight`) from the hit `si` with frame
+/// `onb`, or None for a direction that cannot see the sky.
+#[inline(always)]
+fn ray_toward(
+    si: &SurfaceInteraction,
+    onb: &Onb,
+    origins: &FrontOrigins,
+    local: Vec3,
+    weight: f32,
+    max_distance: f32,
+) -> Option<(Ray, f32)> {
+    let wi = onb.to_world(local);
+    // A direction below the geometric surface enters the object: occluded. One exactly in the
+    // tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim) is
+    // traced: the offset origin lies above the surface, so on an open plane it escapes, as
+    // every other sample does.
+    if wi.dot(si.ng) < 0.0 || weight == 0.0 {
+        return None;
+    }
+    Some((origins.ray(wi, max_distance), weight))
+}
+
+/// The one AO ray of a hit (with `samples` = 1) and its weight, from the dimension slot that
+/// [`li`] draws; None where the direction cannot see the sky.
+#[inline]
+fn one_ray(
+    ctx: &Context,
+    hit: &Hit,
+    ray: &Ray,
+    sampler: &mut PixelSampler,
+    settings: &AoSettings,
+) -> Option<(Ray, f32)> {
+    let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
+    let onb = Onb::from_normal(si.ns);
+    let (local, weight) = direction(sampler.next_2d_set(1).get(0), settings.hemisphere);
+    let origins = si.front_origins(ctx.ray_offset);
+    ray_toward(&si, &onb, &origins, local, weight, settings.max_distance)
+}
+
 /// One AO estimate along the camera ray.
 #[inline]
 pub fn li(
@@ -101,47 +202,23 @@ pub fn li(
     let Some(hit) = camera_hit else {
         return 0.0;
     };
-    let si = SurfaceInteraction::from_hit(scene, ray, &hit);
-    let onb = Onb::from_normal(si.ns);
     let n = settings.samples.max(1);
-    // The n directions of this camera sample are one stratified set (one dimension slot).
-    let set = sampler.next_2d_set(n);
-    let origins = si.front_origins(ctx.ray_offset);
-    // The ray toward local direction `local` with its weight, or None for a direction that
-    // cannot see the sky.
-    let ray_toward = |local: Vec3, weight: f32| -> Option<(Ray, f32)> {
-        let wi = onb.to_world(local);
-        // A direction below the geometric surface enters the object: occluded. One exactly in
-        // the tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim)
-        // is traced: the offset origin lies above the surface, so on an open plane it escapes,
-        // as every other sample does.
-        if wi.dot(si.ng) < 0.0 || weight == 0.0 {
-            return None;
-        }
-        Some((origins.ray(wi, settings.max_distance), weight))
-    };
-    // The direction of point u, sampled in the shading normal's hemisphere and weighted by
-    // cos θ / (π·pdf).
-    let sample = |u: Vec2| -> Option<(Ray, f32)> {
-        let (local, weight) = match settings.hemisphere {
-            Hemisphere::Cosine => (square_to_cosine_hemisphere(u), 1.0),
-            Hemisphere::Uniform => {
-                let w = square_to_uniform_hemisphere(u);
-                // (1/π)·cos θ / (1/(2π)) = 2 cos θ.
-                (w, 2.0 * w.z)
-            }
-            Hemisphere::UniformUnweighted => (square_to_uniform_hemisphere(u), 1.0),
-        };
-        ray_toward(local, weight)
-    };
     if n == 1 {
         // One ray: a single query, and no packet to fill.
-        let Some((ray, weight)) = sample(set.get(0)) else {
+        let Some((ray, weight)) = one_ray(ctx, &hit, ray, sampler, settings) else {
             return 0.0;
         };
         rays.shadow += 1;
         return if accel.occluded(&ray) { 0.0 } else { weight };
     }
+    let si = SurfaceInteraction::from_hit(scene, ray, &hit);
+    let onb = Onb::from_normal(si.ns);
+    // The n directions of this camera sample are one stratified set (one dimension slot).
+    let set = sampler.next_2d_set(n);
+    let origins = si.front_origins(ctx.ray_offset);
+    let toward = |local: Vec3, weight: f32| {
+        ray_toward(&si, &onb, &origins, local, weight, settings.max_distance)
+    };
     // The rays leave one point, so they share the first nodes of their traversal: Embree's
     // packet queries pay for packets of up to 16 (8-wide 1.1x faster than single rays on 64
     // rays per hit, 16-wide another 1.1x; BENCHMARKS.md).
@@ -158,7 +235,7 @@ pub fn li(
         s
     };
     // The directions in groups of a packet's size, with the points they came from;
-    // cosine-weighted ones warped lane by lane (bit-identical to `sample`, tested in
+    // cosine-weighted ones warped lane by lane (bit-identical to `direction`, tested in
     // warps.rs), which lets their arithmetic overlap.
     let group = |k0: u32, m: u32| -> Group {
         // Lanes past m repeat the last point; they are not used.
@@ -166,9 +243,16 @@ pub fn li(
             std::array::from_fn(|j| set.get(k0 + (j as u32).min(m - 1)));
         let rays = if settings.hemisphere == Hemisphere::Cosine {
             let local = square_to_cosine_hemisphere_lanes(&u);
-            std::array::from_fn(|j| ray_toward(local[j], 1.0))
+            std::array::from_fn(|j| toward(local[j], 1.0))
         } else {
-            std::array::from_fn(|j| (j < m as usize).then(|| sample(u[j])).flatten())
+            std::array::from_fn(|j| {
+                (j < m as usize)
+                    .then(|| {
+                        let (local, weight) = direction(u[j], settings.hemisphere);
+                        toward(local, weight)
+                    })
+                    .flatten()
+            })
         };
         (u, rays)
     };

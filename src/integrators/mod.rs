@@ -198,6 +198,40 @@ impl Integrator {
         self.li_from_camera_hit(ctx, ray, ctx.accel.intersect(ray), sampler, rays)
     }
 
+    /// [`Integrator::li_from_camera_hit`] for the camera rays of a packet: `rays[k]`, with
+    /// closest hit `hits[k]`, sampled by `samplers[lanes[k]]`, its estimate into `l[k]`
+    /// (see [`ao::li_packet`]). The estimates are those of one ray at a time.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn li_packet_from_camera_hits(
+        &self,
+        ctx: &Context,
+        rays: &[Ray],
+        hits: &[Option<Hit>],
+        samplers: &mut [PixelSampler],
+        lanes: &[usize],
+        counts: &mut RayCounts,
+        l: &mut [Vec3],
+    ) {
+        match self {
+            Integrator::Ao(settings) => {
+                counts.camera += rays.len() as u64;
+                let mut ao = [0f32; crate::accel::PACKET];
+                let ao = &mut ao[..rays.len()];
+                ao::li_packet(ctx, rays, hits, samplers, lanes, settings, counts, ao);
+                for (l, a) in l.iter_mut().zip(ao.iter()) {
+                    *l = Vec3::splat(*a);
+                }
+            }
+            _ => {
+                for k in 0..rays.len() {
+                    let sampler = &mut samplers[lanes[k]];
+                    l[k] = self.li_from_camera_hit(ctx, &rays[k], hits[k], sampler, counts);
+                }
+            }
+        }
+    }
+
     /// [`Integrator::li`] given the camera ray's closest hit, found by the caller (for
     /// camera rays traced in packets). Only called when [`Integrator::traces_rays`].
     #[inline]

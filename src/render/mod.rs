@@ -360,16 +360,19 @@ fn render_tile(
                 let rays = camera.rays(&fx, &fy);
                 let mut hits = [None; PACKET];
                 ctx.accel.intersect_packet(&rays[..n], &mut hits);
-                for k in 0..n {
+                let mut l = [Vec3::ZERO; PACKET];
+                integrator.li_packet_from_camera_hits(
+                    ctx,
+                    &rays[..n],
+                    &hits[..n],
+                    &mut samplers,
+                    &which[..n],
+                    &mut out.rays,
+                    &mut l[..n],
+                );
+                for (k, &l) in l[..n].iter().enumerate() {
                     let lane = which[k];
                     let (x, y, a, _) = lanes[lane];
-                    let l = integrator.li_from_camera_hit(
-                        ctx,
-                        &rays[k],
-                        hits[k],
-                        &mut samplers[lane],
-                        &mut out.rays,
-                    );
                     accumulate(
                         &mut acc[lane],
                         l,
