@@ -91,8 +91,9 @@ impl Default for AoSettings {
 /// `samplers[lanes[k]]`, estimate into `l[k]`). With one AO ray per hit, the packet's AO rays
 /// go to Embree as one occlusion packet: they leave neighbouring points, which lets them share
 /// traversal (1.03–1.18× the render's rate on seven scenes, BENCHMARKS.md), and Embree answers
-/// them as it would one by one (tests/embree.rs), so the estimates are those of [`li`]. With
-/// more rays per hit, each hit traces its own packets ([`li`]).
+/// them as it would one by one, so the estimates are those of [`li`] (tests/ao_rays.rs checks
+/// every pixel of such packets against its ray traced alone). With more rays per hit, each
+/// hit traces its own packets ([`li`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn li_packet(
