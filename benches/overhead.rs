@@ -21,6 +21,12 @@
 //! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
 //!   which traces the same rays.
 //!
+//! `STRATA_OVERHEAD_SPP=N` renders N samples per pixel instead of 8 (the rays are held in
+//! memory: about 0.4 GB per 8 spp on the helmet). The render's progressive passes (1, 1, 2,
+//! 4, … spp over the whole image, each merged into the film, each revisiting every tile)
+//! weigh more in a short render: at 8 spp, two passes instead of four made the render 1.10×
+//! as fast.
+//!
 //! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera); the helmet
 //! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
 //! for the render/raw ratio.
@@ -46,7 +52,6 @@ use strata::scene::{self, LoadOptions, Scene};
 
 const W: u32 = 320;
 const H: u32 = 240;
-const SPP: u32 = 8;
 const TILE: u32 = 16;
 const ROUNDS: usize = 15;
 
@@ -61,11 +66,11 @@ struct Rays {
 
 /// The rays of an AO render with `n` rays per hit, generated as `render::render` and the AO
 /// integrator do, in the render's order: pass, 16×16 tile, 4×2-pixel block, sample, pixel.
-fn render_rays(scene: &Scene, accel: &Accel, n: u32) -> Rays {
+fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
     let camera = scene.cameras[0].ray_generator(W, H);
-    let mut sampler = PixelSampler::new(SamplerKind::Sobol, SPP, 0);
+    let mut sampler = PixelSampler::new(SamplerKind::Sobol, spp, 0);
     let (mut packets, mut ao_groups) = (Vec::new(), Vec::new());
-    for (s0, s1) in render::passes(SPP) {
+    for (s0, s1) in render::passes(spp) {
         for ty in (0..H).step_by(TILE as usize) {
             for tx in (0..W).step_by(TILE as usize) {
                 for by in (ty..(ty + TILE).min(H)).step_by(2) {
@@ -80,10 +85,16 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32) -> Rays {
                                     packet.push((ray, sampler.clone()));
                                 }
                             }
+                            // The hits as the render finds them: from one packet query
+                            // (at an edge shared by two triangles, packet and single-ray
+                            // traversal may name different ones; 1 ray in 4.9 M here).
+                            let mut hits = [None; PACKET];
+                            let rays: Vec<Ray> = packet.iter().map(|(r, _)| *r).collect();
+                            accel.intersect_packet(&rays, &mut hits);
                             // With one ray per hit the packet's AO rays form one group.
                             let mut one_each = Vec::new();
-                            for (ray, mut sampler) in packet.iter().cloned() {
-                                let Some(hit) = accel.intersect(&ray) else {
+                            for ((ray, mut sampler), hit) in packet.iter().cloned().zip(hits) {
+                                let Some(hit) = hit else {
                                     continue;
                                 };
                                 let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
@@ -134,6 +145,12 @@ fn main() {
     // `cargo bench` passes --bench; `cargo test --benches` runs this once as a smoke test.
     let quick = !std::env::args().any(|a| a == "--bench");
     strata::embree::enable_ftz_daz();
+    let spp: u32 = std::env::var("STRATA_OVERHEAD_SPP").map_or(8, |s| {
+        s.parse()
+            .ok()
+            .filter(|&n| n > 0)
+            .expect("STRATA_OVERHEAD_SPP: a positive number of samples per pixel")
+    });
     let path = std::env::var_os("STRATA_OVERHEAD_SCENE").map_or_else(
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/flight-helmet.gltf"),
         Into::into,
@@ -142,20 +159,20 @@ fn main() {
     let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
     let pool = render::thread_pool(1).expect("thread pool");
     println!(
-        "{} ({} triangles), AO {W}x{H} {SPP} spp, 1 thread, {} rounds",
+        "{} ({} triangles), AO {W}x{H} {spp} spp, 1 thread, {} rounds",
         path.file_name().unwrap_or_default().to_string_lossy(),
         scene.triangles.len(),
         if quick { 1 } else { ROUNDS }
     );
     for n in [1, 16] {
-        pool.install(|| measure(&scene, &accel, &pool, n, quick));
+        pool.install(|| measure(&scene, &accel, &pool, n, spp, quick));
     }
 }
 
 /// Measures the four ways on the rays of an AO render with `n` rays per hit, and prints.
-fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick: bool) {
+fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: u32, quick: bool) {
     let embree = accel.as_embree().expect("Embree backend").raw();
-    let Rays { packets, ao_groups } = render_rays(scene, accel, n);
+    let Rays { packets, ao_groups } = render_rays(scene, accel, n, spp);
     // Copied in order, so that each way reads its rays from consecutive allocations: made
     // while the render's other allocations came and went, the packets lay scattered over the
     // heap, and the cache and TLB misses of reading them cost the `Accel` way a fifth of its
@@ -209,7 +226,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, quick
         stopping: Default::default(),
         width: W,
         height: H,
-        spp: SPP,
+        spp,
         seed: 0,
         sampler: SamplerKind::Sobol,
         integrator: Integrator::Ao(AoSettings {

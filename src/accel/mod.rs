@@ -205,7 +205,8 @@ impl Accel {
     /// The closest hits of up to [`PACKET`] rays (`hits[i]` for `rays[i]`; the rest `None`):
     /// one packet query with Embree, which pays on coherent rays such as the camera rays of
     /// neighbouring pixels; one query per ray with obvhs. The answers are those of
-    /// [`Accel::intersect`] ray by ray.
+    /// [`Accel::intersect`] ray by ray, but at exact ties (a ray meeting an edge shared by two
+    /// triangles), where either triangle may be reported.
     #[inline]
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
         match self {

@@ -782,7 +782,9 @@ impl Scene {
     /// `ray(&rays[i])` gives ray i as (org, dir, tnear, tfar), and `hit(i, …)` receives its
     /// answer, for every i < `rays.len()`; the other lanes are masked off. (Closures, so that
     /// callers pack from and unpack into their own types without intermediate copies.) The
-    /// answers equal those of [`Scene::intersect`] ray by ray (tested in tests/embree.rs).
+    /// answers equal those of [`Scene::intersect`] ray by ray (tested in tests/embree.rs),
+    /// except where a ray meets two triangles at the same distance (an edge they share): the
+    /// traversals visit them in different orders and may report either.
     #[inline]
     pub fn intersect_packet<R>(
         &self,
