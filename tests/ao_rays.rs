@@ -12,7 +12,7 @@ use strata::integrators::{ao, AoSettings, Hemisphere, Integrator, Prepared, RayC
 use strata::interaction::SurfaceInteraction;
 use strata::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
 use strata::sampling::{Onb, PixelSampler, SamplerKind};
-use strata::scene::{self, LoadOptions};
+use strata::scene::{self, LoadOptions, Scene};
 
 const SIZE: u32 = 48;
 const SPP: u32 = 2;
@@ -49,13 +49,20 @@ fn single_ray_estimate(
     (sum / n as f32, traced)
 }
 
-#[test]
-fn each_ao_ray_of_a_hit_is_counted_once_with_its_own_answer() {
+/// The flight helmet, whose hits see partial occlusion, with its BVH and what the AO
+/// integrator prepares.
+fn helmet() -> (Scene, Accel, Prepared) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/flight-helmet.gltf");
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let integrator = Integrator::Ao(AoSettings::default());
     let prepared = Prepared::new(&scene, &path, &integrator, Vec3::ZERO).unwrap();
+    (scene, accel, prepared)
+}
+
+#[test]
+fn each_ao_ray_of_a_hit_is_counted_once_with_its_own_answer() {
+    let (scene, accel, prepared) = helmet();
     let ctx = prepared.context(&scene, &accel);
     let camera = &scene.cameras[0];
     // Counts below 16, 16 itself, the first counts with quadrant packets (32, 33), full
@@ -135,11 +142,7 @@ fn each_ao_ray_of_a_hit_is_counted_once_with_its_own_answer() {
 #[test]
 fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
     use strata::accel::PACKET;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/flight-helmet.gltf");
-    let scene = scene::load(&path, &LoadOptions::default()).unwrap();
-    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
-    let integrator = Integrator::Ao(AoSettings::default());
-    let prepared = Prepared::new(&scene, &path, &integrator, Vec3::ZERO).unwrap();
+    let (scene, accel, prepared) = helmet();
     let ctx = prepared.context(&scene, &accel);
     let camera = &scene.cameras[0];
     let (w, h) = (SIZE - 2, SIZE - 3);
