@@ -564,20 +564,39 @@ impl VectorRay {
 
 /// Embree 4's intersect arguments as `rtcInitIntersectArguments` (an inline function bindgen
 /// cannot bind) makes them, with the coherent hint if `coherent`: packet traversal for rays
-/// that travel together, instead of the default hybrid traversal.
+/// that travel together, instead of the default hybrid traversal. Zeroed bytes follow them:
+/// a library built with `RTC_MIN_WIDTH` has one more field than headers without it declare
+/// (the CI's Embree 4 pairs 4.2 headers with a 4.4 library), and reads it as 0 there instead
+/// of past the struct.
+#[cfg(embree4)]
+#[repr(C)]
+struct IntersectArguments {
+    args: sys::RTCIntersectArguments,
+    _tail: [u64; 4],
+}
+
+#[cfg(embree4)]
+impl IntersectArguments {
+    /// The arguments for Embree, as a pointer to the whole struct (padding included).
+    #[inline]
+    fn as_mut_ptr(&mut self) -> *mut sys::RTCIntersectArguments {
+        (self as *mut IntersectArguments).cast()
+    }
+}
+
 #[cfg(embree4)]
 #[inline]
-fn intersect_arguments(coherent: bool) -> sys::RTCIntersectArguments {
-    // SAFETY: all-zero bytes are a valid value of this C struct: null context, no filter or
-    // intersect callbacks.
-    let mut args: sys::RTCIntersectArguments = unsafe { std::mem::zeroed() };
-    args.flags = if coherent {
+fn intersect_arguments(coherent: bool) -> IntersectArguments {
+    // SAFETY: all-zero bytes are a valid value of this C struct (null context, no filter or
+    // intersect callbacks) and of the padding.
+    let mut a: IntersectArguments = unsafe { std::mem::zeroed() };
+    a.args.flags = if coherent {
         sys::RTC_RAY_QUERY_FLAG_COHERENT
     } else {
         sys::RTC_RAY_QUERY_FLAG_INCOHERENT
     };
-    args.feature_mask = sys::RTC_FEATURE_FLAG_ALL;
-    args
+    a.args.feature_mask = sys::RTC_FEATURE_FLAG_ALL;
+    a
 }
 
 #[cfg(embree3)]
@@ -726,7 +745,7 @@ macro_rules! packet_count_raw {
                 #[cfg(embree4)]
                 // SAFETY: as above, with `args` a valid local too.
                 unsafe {
-                    sys::$func(valid.0.as_ptr(), self.raw, &mut rh, &mut args)
+                    sys::$func(valid.0.as_ptr(), self.raw, &mut rh, args.as_mut_ptr())
                 };
                 count += rh.hit.geomID[..chunk.len()]
                     .iter()
@@ -811,7 +830,7 @@ impl Scene {
         {
             let mut args = intersect_arguments(true);
             // SAFETY: as above, with `args` a valid local too.
-            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut rh, &mut args) };
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut rh, args.as_mut_ptr()) };
         }
         for i in 0..rays.len() {
             hit(
