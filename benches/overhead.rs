@@ -89,8 +89,8 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
                             // (at an edge shared by two triangles, packet and single-ray
                             // traversal may name different ones; 1 ray in 4.9 M here).
                             let mut hits = [None; PACKET];
-                            let rays: Vec<Ray> = packet.iter().map(|(r, _)| *r).collect();
-                            accel.intersect_packet(&rays, &mut hits);
+                            let camera_rays: Vec<Ray> = packet.iter().map(|(r, _)| *r).collect();
+                            accel.intersect_packet(&camera_rays, &mut hits);
                             // With one ray per hit the packet's AO rays form one group.
                             let mut one_each = Vec::new();
                             for ((ray, mut sampler), hit) in packet.iter().cloned().zip(hits) {
@@ -115,7 +115,7 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
                             if !one_each.is_empty() {
                                 ao_groups.push(one_each);
                             }
-                            packets.push(packet.into_iter().map(|(r, _)| r).collect());
+                            packets.push(camera_rays);
                         }
                     }
                 }

@@ -612,6 +612,19 @@ fn intersect_context() -> sys::RTCIntersectContext {
     ctx
 }
 
+/// [`intersect_context`] with the coherent hint if `coherent`: packet traversal for rays that
+/// travel together, instead of the default hybrid traversal (Embree 3's counterpart of
+/// `intersect_arguments`).
+#[cfg(embree3)]
+#[inline]
+fn hinted_context(coherent: bool) -> sys::RTCIntersectContext {
+    let mut ctx = intersect_context();
+    if coherent {
+        ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    }
+    ctx
+}
+
 /// The valid mask of a packet of up to 16 rays, aligned as Embree requires (to the packet's
 /// size in bytes: 32 for 8 rays, 64 for 16).
 #[repr(C, align(64))]
@@ -709,11 +722,7 @@ macro_rules! packet_count_raw {
             #[repr(C, align(64))]
             struct Valid([i32; $n]);
             #[cfg(embree3)]
-            let mut ctx = intersect_context();
-            #[cfg(embree3)]
-            if coherent {
-                ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-            }
+            let mut ctx = hinted_context(coherent);
             #[cfg(embree4)]
             let mut args = intersect_arguments(coherent);
             let mut count = 0;
@@ -818,10 +827,7 @@ impl Scene {
         rh.hit.geomID = [INVALID_GEOMETRY_ID; PACKET];
         #[cfg(embree3)]
         {
-            let mut ctx = sys::RTCIntersectContext {
-                flags: sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
-                ..intersect_context()
-            };
+            let mut ctx = hinted_context(true);
             // SAFETY: the scene is committed; `valid` is aligned as the packet API requires;
             // `rh` and `ctx` are valid locals Embree uses only during the call.
             unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut ctx, &mut rh) };

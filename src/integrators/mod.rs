@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::fmt;
 use std::str::FromStr;
 
-use crate::accel::{Accel, Hit, Ray};
+use crate::accel::{Accel, Hit, Ray, PACKET};
 use crate::lights::{BackgroundSampling, LightSet};
 use crate::material::{Materials, Need};
 use crate::sampling::PixelSampler;
@@ -218,7 +218,7 @@ impl Integrator {
         match self {
             Integrator::Ao(settings) => {
                 counts.camera += rays.len() as u64;
-                let mut ao = [0f32; crate::accel::PACKET];
+                let mut ao = [0f32; PACKET];
                 let ao = &mut ao[..rays.len()];
                 ao::li_packet(ctx, rays, hits, samplers, lanes, settings, counts, ao);
                 for (l, a) in l.iter_mut().zip(ao.iter()) {
