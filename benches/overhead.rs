@@ -22,10 +22,10 @@
 //!   which traces the same rays.
 //!
 //! `STRATA_OVERHEAD_SPP=N` renders N samples per pixel instead of 8 (the rays are held in
-//! memory: about 0.4 GB per 8 spp on the helmet). The render's progressive passes (1, 1, 2,
-//! 4, … spp over the whole image, each merged into the film, each revisiting every tile)
-//! weigh more in a short render: at 8 spp, two passes instead of four made the render 1.10×
-//! as fast.
+//! memory: about 0.4 GB per 8 spp on the helmet). Each pass of the render sweeps the whole
+//! image; the bench renders with passes of at least [`MIN_PASS_SECONDS`] (one sample per
+//! pixel, then the rest: what the default half second gives these short renders) and its
+//! rays follow the same passes.
 //!
 //! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera); the helmet
 //! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
@@ -54,6 +54,22 @@ const W: u32 = 320;
 const H: u32 = 240;
 const TILE: u32 = 16;
 const ROUNDS: usize = 15;
+/// The render's `min_pass_seconds`: unbounded, so that its passes do not depend on the
+/// machine's speed and the rays below can follow them.
+const MIN_PASS_SECONDS: f64 = f64::INFINITY;
+
+/// The render's passes ([`render::fixed_pass_end`]): with [`MIN_PASS_SECONDS`] unbounded,
+/// one sample per pixel, then the rest.
+fn passes(spp: u32) -> Vec<(u32, u32)> {
+    let mut out = Vec::new();
+    let mut done = 0;
+    while done < spp {
+        let end = render::fixed_pass_end(done, spp, 1.0, MIN_PASS_SECONDS);
+        out.push((done, end));
+        done = end;
+    }
+    out
+}
 
 /// The rays of one AO render: camera rays grouped by packet (the block's pixels at one
 /// sample index), and the AO rays in the groups the integrator traces together (with one ray
@@ -70,7 +86,7 @@ fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
     let camera = scene.cameras[0].ray_generator(W, H);
     let mut sampler = PixelSampler::new(SamplerKind::Sobol, spp, 0);
     let (mut packets, mut ao_groups) = (Vec::new(), Vec::new());
-    for (s0, s1) in render::passes(spp) {
+    for (s0, s1) in passes(spp) {
         for ty in (0..H).step_by(TILE as usize) {
             for tx in (0..W).step_by(TILE as usize) {
                 for by in (ty..(ty + TILE).min(H)).step_by(2) {
@@ -234,6 +250,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
             ..AoSettings::default()
         }),
         tile_size: TILE,
+        min_pass_seconds: MIN_PASS_SECONDS,
     };
     let render_once = || {
         render::render(

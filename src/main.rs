@@ -175,6 +175,11 @@ struct Cli {
     /// Tile edge in pixels.
     #[arg(long, default_value_t = 16, hide = true)]
     tile_size: u32,
+
+    /// Least length of a pass after the first, in seconds, at the rate measured so far (0:
+    /// passes of 1, 1, 2, 4, … samples per pixel, for measuring what passes cost).
+    #[arg(long, default_value_t = render::DEFAULT_MIN_PASS_SECONDS, hide = true)]
+    min_pass_seconds: f64,
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -541,6 +546,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         sampler: cli.sampler,
         integrator,
         tile_size: cli.tile_size,
+        min_pass_seconds: cli.min_pass_seconds,
         stopping: Stopping {
             target_error: cli.target_error,
             min_spp,

@@ -28,12 +28,14 @@ fn render_scene(
     threads: usize,
 ) -> RenderResult {
     let packets = true;
+    let min_pass = render::DEFAULT_MIN_PASS_SECONDS;
     render_scene_with(
-        scene_file, integrator, background, size, spp, stopping, threads, packets,
+        scene_file, integrator, background, size, spp, stopping, threads, packets, min_pass,
     )
 }
 
-/// [`render_scene`], with camera rays traced in packets or one by one.
+/// [`render_scene`], with camera rays traced in packets or one by one, and passes of at
+/// least `min_pass_seconds` (fixed spp).
 #[allow(clippy::too_many_arguments)]
 fn render_scene_with(
     scene_file: &str,
@@ -44,6 +46,7 @@ fn render_scene_with(
     stopping: Stopping,
     threads: usize,
     camera_packets: bool,
+    min_pass_seconds: f64,
 ) -> RenderResult {
     let path = repo_path(scene_file);
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
@@ -62,6 +65,7 @@ fn render_scene_with(
         sampler: SamplerKind::Sobol,
         integrator,
         tile_size: 16,
+        min_pass_seconds,
         crop: None,
         stopping,
     };
@@ -559,6 +563,7 @@ fn camera_packets_do_not_change_the_image() {
                 stopping,
                 2,
                 packets,
+                render::DEFAULT_MIN_PASS_SECONDS,
             )
         });
         assert_eq!(with.stats.rays, without.stats.rays, "{name}: rays");
@@ -581,6 +586,52 @@ fn camera_packets_do_not_change_the_image() {
                 counts.iter().copied().fold(0.0, f32::max),
             );
             assert!(lo < hi, "{name}: every pixel took {lo} samples");
+        }
+    }
+}
+
+/// Where the passes of a fixed-spp render end follows the clock (`min_pass_seconds`), so the
+/// film must not depend on it: each pixel's sums continue from the film, one sample at a time
+/// in index order. Compared here on the film's f64 sums, bit for bit, which the EXR's f32
+/// means would mostly hide: passes of 1, 1, 2, 4, … samples against one sample then all the
+/// rest, on one and on three threads. A film whose rounds summed their samples from zero and
+/// then added them would differ in the last bits.
+#[test]
+fn where_passes_end_does_not_change_the_film() {
+    let run = |min_pass: f64, threads: usize, packets: bool| {
+        let r = render_scene_with(
+            "scenes/cornell-box.gltf",
+            path(),
+            Vec3::ZERO,
+            (40, 40),
+            100,
+            Stopping::default(),
+            threads,
+            packets,
+            min_pass,
+        );
+        assert_eq!(r.film.count_range(), (100, 100));
+        r.film
+    };
+    let totals = |film: &Film| -> Vec<([u64; 3], [u64; 3], u32)> {
+        (0..film.height)
+            .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let (s, q, n) = film.totals(x, y);
+                (s.map(f64::to_bits), q.map(f64::to_bits), n)
+            })
+            .collect()
+    };
+    for packets in [true, false] {
+        let doubling = totals(&run(0.0, 1, packets));
+        for (min_pass, threads) in [(f64::INFINITY, 1), (f64::INFINITY, 3), (0.0, 3)] {
+            let other = totals(&run(min_pass, threads, packets));
+            let differing = doubling.iter().zip(&other).filter(|(a, b)| a != b).count();
+            assert_eq!(
+                differing, 0,
+                "packets {packets}, min_pass_seconds {min_pass}, {threads} threads: \
+                 {differing} pixels' sums differ from doubling passes on one thread"
+            );
         }
     }
 }

@@ -176,6 +176,10 @@ fn interrupted_image_records_its_samples_per_pixel() {
             "--sampler",
             "random",
             "--no-png",
+            // Passes of 1, 1, 2, 4, … samples, not grown to last half a second, so that the
+            // counts below are known.
+            "--min-pass-seconds",
+            "0",
         ],
     );
     std::thread::sleep(Duration::from_millis(1000));

@@ -46,13 +46,19 @@ pub struct FilmRows<'a> {
 }
 
 impl FilmRows<'_> {
-    /// [`Film::add`] for a pixel of these rows.
+    /// Replaces pixel (x, y)'s sums and count (the running totals a round continued from
+    /// [`Film::totals`]).
     #[inline]
-    pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
+    pub fn set(&mut self, x: u32, y: u32, (sum, sq_sum, count): PixelTotals) {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
-        add_at(self.sums, self.sq_sums, self.counts, i, sum, sq_sum, count);
+        self.sums[i] = sum;
+        self.sq_sums[i] = sq_sum;
+        self.counts[i] = count;
     }
 }
+
+/// A pixel's sum of sample values, sum of their squares, and number of samples.
+pub type PixelTotals = ([f64; 3], [f64; 3], u32);
 
 /// Adds (sum, sum of squares, count) to entry `i` of a film's arrays.
 #[inline(always)]
@@ -181,6 +187,13 @@ impl Film {
             .flat_map(|y| (0..self.width).map(move |x| (x, y)))
             .map(|(x, y)| self.variance_of_mean(x, y))
             .collect()
+    }
+
+    /// Pixel (x, y)'s sums and count so far.
+    #[inline]
+    pub fn totals(&self, x: u32, y: u32) -> PixelTotals {
+        let i = self.index(x, y);
+        (self.sums[i], self.sq_sums[i], self.counts[i])
     }
 
     /// Samples taken by pixel (x, y).

@@ -1,10 +1,11 @@
 //! The parallel frontend: the image is cut into tiles that rayon renders in passes of
-//! samples; a film accumulates each pixel's samples in sample-index order, so the image is
-//! bit-identical whatever the thread count.
+//! samples; a film accumulates each pixel's samples one by one in sample-index order, so the
+//! image is bit-identical whatever the thread count, and whatever the passes.
 //!
-//! Passes split the samples per pixel into ranges of doubling size ([`passes`]). Between
-//! passes (and before each tile) the render checks its cancel flag, so an interrupted render
-//! still holds a usable image, with the number of samples each pixel received.
+//! Passes split the samples per pixel into ranges of doubling size, or longer ones that last
+//! at least [`RenderSettings::min_pass_seconds`] ([`fixed_pass_end`]). Between passes (and
+//! before each tile) the render checks its cancel flag, so an interrupted render still holds
+//! a usable image, with the number of samples each pixel received.
 //!
 //! With a [`Checkpoint`], each pass renders its tiles in groups and hands the running film to
 //! a callback between groups, at most once per period. The groups are merged in tile order,
@@ -32,7 +33,11 @@ use crate::accel::PACKET;
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::Camera;
-pub use film::{BadSample, Film, FilmRows};
+pub use film::{BadSample, Film, FilmRows, PixelTotals};
+
+/// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
+/// few percent each for sweeping the image again.
+pub const DEFAULT_MIN_PASS_SECONDS: f64 = 0.5;
 
 /// How many NaN/Inf samples are kept for the report.
 pub const BAD_SAMPLES_KEPT: usize = 8;
@@ -47,6 +52,10 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     pub integrator: Integrator,
     pub tile_size: u32,
+    /// Fixed-spp renders: a pass after the first takes at least the samples per pixel that
+    /// fill this many seconds at the rate measured so far ([`fixed_pass_end`]). The image does
+    /// not depend on it.
+    pub min_pass_seconds: f64,
     /// Render only pixels x0 ≤ x < x1, y0 ≤ y < y1 (the rest of the film stays empty).
     pub crop: Option<(u32, u32, u32, u32)>,
     /// When to stop before `spp` samples per pixel.
@@ -150,26 +159,29 @@ fn tiles((x0, y0, x1, y1): (u32, u32, u32, u32), size: u32) -> Vec<Tile> {
     out
 }
 
-/// Sample-index ranges of the passes: 1, 1, 2, 4, 8, … samples, doubling until `spp` is
-/// covered (the last pass takes the remainder). An interrupted render thus has every pixel
-/// sampled after the first pass, and at least half of its samples when stopped in the last.
-pub fn passes(spp: u32) -> Vec<(u32, u32)> {
-    let mut out = Vec::new();
-    let mut start = 0u32;
-    let mut size = 1u32;
-    while start < spp {
-        let end = start.saturating_add(size).min(spp);
-        out.push((start, end));
-        if out.len() > 1 {
-            size = size.saturating_mul(2);
-        }
-        start = end;
-    }
-    out
+/// The end of the pass after `done` samples per pixel, in a render of `spp` that has run
+/// for `seconds`: the doubling (passes of 1, 1, 2, 4, … samples end at 1, 2, 4, 8, …), or,
+/// when more, the samples that take `min_pass_seconds` at the rate of the passes so far. An
+/// interrupted render thus has every pixel sampled after the first pass, and at least half
+/// of its samples when it has run for longer than about `min_pass_seconds`.
+///
+/// Each pass costs a sweep over the whole image, whose rays, BVH nodes and film no longer sit
+/// in the caches: at 8 spp the four doubling passes made a one-AO-ray render 1.2× as slow as
+/// one pass. The image does not depend on where passes end, since each pixel's totals
+/// continue from the film in sample order ([`render_tile`]), so passes may follow the clock.
+pub fn fixed_pass_end(done: u32, spp: u32, seconds: f64, min_pass_seconds: f64) -> u32 {
+    let doubling = done.saturating_mul(2).max(1);
+    let by_time = if done > 0 && seconds > 0.0 {
+        let more = (done as f64 / seconds * min_pass_seconds).ceil();
+        (done as f64 + more).min(u32::MAX as f64) as u32
+    } else {
+        0
+    };
+    doubling.max(by_time).min(spp)
 }
 
 /// The end of the next pass of a pixel that has `count` samples, in a progressive render
-/// (adaptive or time-limited): doubling as in [`passes`] up to `min_spp` samples, then
+/// (adaptive or time-limited): doubling as in [`fixed_pass_end`] up to `min_spp` samples, then
 /// growing by about a quarter (a power of two, at least 8, dividing `count`, so passes end
 /// on round numbers), so a pixel overshoots the count at which it converged by at most
 /// ~25%, and the film is judged about 3 log2(spp) times. Never past `spp`.
@@ -225,10 +237,10 @@ impl Round<'_> {
     }
 }
 
-/// A pixel's (sum, sum of squares, number) of one round's samples.
-type PixelSums = ([f64; 3], [f64; 3], u32);
+/// A pixel's (sum, sum of squares, number) of its samples, as a round leaves them.
+type PixelSums = PixelTotals;
 
-/// Every tile's [`PixelSums`] of the current round, tile after tile in one allocation made
+/// Every tile's [`PixelSums`] after the current round, tile after tile in one allocation made
 /// once per render. Buffers allocated per round came back from the allocator as fresh zero
 /// pages, each taking a copy-on-write fault (and a TLB flush of the other threads) on first
 /// use; buffers allocated per tile grew the per-thread heaps by some 4 000 `mprotect` calls
@@ -279,7 +291,9 @@ struct TileResult {
 }
 
 /// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
-/// scanline order; the tile's part of [`TileSums`]).
+/// scanline order; the tile's part of [`TileSums`]): each pixel's totals in the film, with
+/// the round's samples added one by one in index order. A pixel's totals are thus the same
+/// sequential sums however its samples were split into rounds.
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
@@ -302,12 +316,12 @@ fn render_tile(
     // Pixel (x, y)'s entry in `sums`.
     let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
     if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
-        sums.fill(([0f64; 3], [0f64; 3], 0));
         let mut sampler = new_sampler();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let samples = round.samples(x, y);
                 let pixel = &mut sums[at(x, y)];
+                *pixel = round.film.totals(x, y);
                 for index in samples.0..samples.1 {
                     sampler.start(x, y, index);
                     // The first two dimensions place the sample on the film.
@@ -316,7 +330,7 @@ fn render_tile(
                     let l = integrator.li(ctx, &ray, &mut sampler, &mut out.rays);
                     accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
                 }
-                pixel.2 = samples.1 - samples.0;
+                pixel.2 += samples.1 - samples.0;
             }
         }
         return out;
@@ -327,7 +341,7 @@ fn render_tile(
     // its samples in index order, from the same sampler dimensions, and packet hits equal
     // single-ray hits, so the image is the one the loop above makes (but for a ray that meets
     // an edge shared by two triangles at one distance, where the two traversals may name
-    // different triangles: 1 camera ray in 4.9 M on the helmet). A block's sums stay in
+    // different triangles: 1 camera ray in 4.9 M on the helmet). A block's totals stay in
     // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
@@ -345,6 +359,9 @@ fn render_tile(
             // Round::samples gives b ≥ a.
             let most = lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0);
             let mut acc: [PixelSums; PACKET] = [([0f64; 3], [0f64; 3], 0); PACKET];
+            for (acc, &(x, y, _, _)) in acc.iter_mut().zip(lanes) {
+                *acc = round.film.totals(x, y);
+            }
             for j in 0..most {
                 let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
                 let mut which = [0usize; PACKET];
@@ -385,7 +402,7 @@ fn render_tile(
                 }
             }
             for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
-                acc.2 = b - a;
+                acc.2 += b - a;
                 sums[at(x, y)] = *acc;
             }
         }
@@ -473,38 +490,27 @@ pub fn render_with_checkpoints(
     let mut tile_sums = TileSums::new(&tiles);
     let stopping = settings.stopping;
     let spp = settings.spp;
-    // Each round takes every pixel from its count to the next pass end.
-    let fixed = passes(spp);
-    let next_fixed = |c: u32| fixed.iter().find(|p| p.0 == c).map_or(c, |p| p.1);
+    // Each round takes every pixel from its count to the next pass end: in a progressive
+    // render by the pixel's count, otherwise the same for all (`done` samples so far).
+    let progressive = stopping.is_progressive();
     let next_progressive = |c: u32| progressive_next(c, stopping.min_spp, spp);
-    let next: &(dyn Fn(u32) -> u32 + Sync) = if stopping.is_progressive() {
-        &next_progressive
-    } else {
-        &next_fixed
-    };
+    let mut done = 0u32;
     let deadline = stopping.time_limit.map(|t| start + t);
     // The progress bar counts milliseconds when a time limit is set, converged pixels in an
-    // adaptive render without one (set after each judgement), and tile rounds otherwise.
+    // adaptive render without one (set after each judgement), and pixel samples otherwise.
     let window_pixels = (window.2 - window.0) as u64 * (window.3 - window.1) as u64;
     let adaptive_bar = stopping.time_limit.is_none() && stopping.target_error.is_some();
     let bar_length = match stopping.time_limit {
         Some(t) => t.as_millis().max(1) as u64,
         None if adaptive_bar => window_pixels,
-        None => {
-            let mut rounds = 0u64;
-            let mut c = 0;
-            while c < spp {
-                c = next(c).max(c + 1);
-                rounds += 1;
-            }
-            tiles.len() as u64 * rounds
-        }
+        None => window_pixels * spp as u64,
     };
     progress.set_length(bar_length);
-    let tick = || match stopping.time_limit {
+    // After a tile: `samples` is the pixel samples it took (counted in fixed-spp renders).
+    let tick = |samples: u64| match stopping.time_limit {
         Some(_) => progress.set_position((start.elapsed().as_millis() as u64).min(bar_length)),
         None if adaptive_bar => {}
-        None => progress.inc(1),
+        None => progress.inc(samples),
     };
     // The first round (one sample per pixel) always completes, so even a time limit shorter
     // than one sample per pixel gives a whole image rather than a partly black one.
@@ -566,10 +572,23 @@ pub fn render_with_checkpoints(
                 pool.install(|| adaptive::select_most_useful(&film, window, mask, &judged, s));
             }
         }
+        let fixed_end = (!progressive).then(|| {
+            let seconds = start.elapsed().as_secs_f64();
+            fixed_pass_end(done, spp, seconds, settings.min_pass_seconds)
+        });
+        let next_fixed = |c: u32| fixed_end.map_or(c, |end| end.max(c));
         let round = Round {
             film: &film,
             selection: selected.as_deref().or(active.as_deref()),
-            next,
+            next: if progressive {
+                &next_progressive
+            } else {
+                &next_fixed
+            },
+        };
+        let tile_samples = |t: &Tile| {
+            let per_pixel = fixed_end.map_or(0, |end| end.saturating_sub(done));
+            ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * per_pixel as u64
         };
         let work: Vec<bool> = if round.selection.is_none() {
             tiles.iter().map(|t| round.tile_has_work(t)).collect()
@@ -601,14 +620,14 @@ pub fn render_with_checkpoints(
                     .zip(chunk_sums)
                     .map(|((&tile, &has_work), sums)| {
                         if !has_work {
-                            tick();
+                            tick(0);
                             return None;
                         }
                         if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
                             return None;
                         }
                         let r = render_tile(ctx, settings, tile, &round, sums);
-                        tick();
+                        tick(tile_samples(&tile));
                         Some(r)
                     })
                     .collect()
@@ -654,6 +673,7 @@ pub fn render_with_checkpoints(
             break 'rounds;
         }
         first_round = false;
+        done = fixed_end.unwrap_or(done);
         if let Some(c) = checkpoint.as_mut() {
             let done = film.count_range().0 >= spp;
             if !done && last_checkpoint.elapsed() >= c.every {
@@ -679,7 +699,7 @@ pub fn render_with_checkpoints(
     }
 }
 
-/// Adds a round's tiles (`merged`: indices into `tiles` and `sums`, in scanline order, as
+/// Writes a round's tiles (`merged`: indices into `tiles` and `sums`, in scanline order, as
 /// [`tiles`] makes them) to the film, one band of tile rows per task.
 fn merge_round(
     film: &mut Film,
@@ -705,27 +725,24 @@ fn merge_round(
             .zip(groups)
             .for_each(|(mut rows, group)| {
                 for (i, _) in group {
-                    add_tile(&mut rows, &tiles[*i], sums.get(*i));
+                    write_tile(&mut rows, &tiles[*i], sums.get(*i));
                 }
             })
     });
 }
 
-/// Adds a tile's round to the film (for a checkpoint's snapshot: one tile at a time).
+/// Writes a tile's round into the film (for a checkpoint's snapshot: one tile at a time).
 fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelSums]) {
     let mut rows = film.rows_mut(&[(tile.y0, tile.y1)]);
-    add_tile(&mut rows[0], tile, sums);
+    write_tile(&mut rows[0], tile, sums);
 }
 
-/// Adds a tile's round to the film rows that hold it.
-fn add_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelSums]) {
+/// Writes a tile's totals after the round into the film rows that hold it.
+fn write_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelSums]) {
     let mut pixel = sums.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
-            let (sum, sq, n) = pixel.next().expect("one sum per tile pixel");
-            if *n > 0 {
-                rows.add(x, y, *sum, *sq, *n);
-            }
+            rows.set(x, y, *pixel.next().expect("one sum per tile pixel"));
         }
     }
 }
@@ -734,19 +751,40 @@ fn add_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelSums]) {
 mod tests {
     use super::*;
 
-    #[test]
-    fn passes_cover_every_sample_once() {
-        for spp in [1u32, 2, 7, 16, 17, 100, 1024, 100_000, u32::MAX] {
-            let p = passes(spp);
-            // Doubling sizes: about log2(spp) + 2 passes.
-            assert!(p.len() as u32 <= 34, "{spp}: {} passes", p.len());
-            assert_eq!(p[0], (0, 1));
-            assert_eq!(p.first().unwrap().0, 0);
-            assert_eq!(p.last().unwrap().1, spp);
-            for w in p.windows(2) {
-                assert_eq!(w[0].1, w[1].0);
-            }
+    /// The pass ends from `fixed_pass_end`, with the render taking `per_sample` seconds per
+    /// sample per pixel.
+    fn fixed_passes(spp: u32, per_sample: f64, min_pass: f64) -> Vec<u32> {
+        let mut ends = Vec::new();
+        let mut done = 0;
+        while done < spp {
+            let end = fixed_pass_end(done, spp, done as f64 * per_sample, min_pass);
+            assert!(done < end && end <= spp, "{done} → {end} of {spp}");
+            ends.push(end);
+            done = end;
         }
+        ends
+    }
+
+    #[test]
+    fn fixed_passes_double_and_last_at_least_the_minimum() {
+        for spp in [1u32, 2, 7, 16, 17, 100, 1024, 100_000, u32::MAX] {
+            // Without a minimum: 1, 1, 2, 4, … samples, about log2(spp) + 2 passes.
+            let ends = fixed_passes(spp, 1e-3, 0.0);
+            let doubling: Vec<u32> = (0..32)
+                .map(|k| 1u32 << k)
+                .take_while(|&e| e < spp)
+                .chain([spp])
+                .collect();
+            assert_eq!(ends, doubling, "spp {spp}");
+            // Unbounded: one sample per pixel first (a whole image soon), then the rest.
+            let ends = fixed_passes(spp, 1e-3, f64::INFINITY);
+            assert_eq!(ends, if spp == 1 { vec![1] } else { vec![1, spp] });
+        }
+        // 10 ms per sample per pixel and passes of at least 0.1 s: 1, then 10 more, then
+        // doubling once the doubling is longer.
+        assert_eq!(fixed_passes(100, 0.01, 0.1), vec![1, 11, 22, 44, 88, 100]);
+        // A clock that reads zero after the first pass cannot divide: doubling.
+        assert_eq!(fixed_pass_end(1, 100, 0.0, 0.5), 2);
     }
 
     #[test]
