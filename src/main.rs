@@ -178,7 +178,8 @@ struct Cli {
 
     /// Least length of a pass after the first, in seconds, at the rate measured so far (0:
     /// passes of 1, 1, 2, 4, … samples per pixel, for measuring what passes cost).
-    #[arg(long, default_value_t = render::DEFAULT_MIN_PASS_SECONDS, hide = true)]
+    #[arg(long, default_value_t = render::DEFAULT_MIN_PASS_SECONDS, hide = true,
+          value_parser = parse_seconds_or_zero)]
     min_pass_seconds: f64,
 }
 
@@ -267,6 +268,15 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(v) if v > 0.0 && v.is_finite() && v < 1e9 => Ok(v),
         _ => Err(format!("'{s}': expected a positive number of seconds")),
+    }
+}
+
+/// [`parse_seconds`], but 0 is allowed.
+fn parse_seconds_or_zero(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(0.0) => Ok(0.0),
+        _ => parse_seconds(s)
+            .map_err(|_| format!("'{s}': expected 0 or a positive number of seconds")),
     }
 }
 

@@ -232,6 +232,24 @@ fn error_resolution_zero() {
     assert_entries(tmp.path(), &[]);
 }
 
+#[test]
+fn error_min_pass_seconds_negative_or_not_a_number() {
+    for value in ["-1", "nan", "inf", "soon"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out.exr");
+        let arg = format!("--min-pass-seconds={value}");
+        let run = render(tmp.path(), &[s(&ao_wall()), "-o", s(&out), &arg]);
+        assert!(!run.status.success(), "{value}: stderr:\n{}", run.stderr);
+        assert_no_panic(&run.stderr);
+        assert!(
+            run.stderr.contains("--min-pass-seconds") && run.stderr.contains(value),
+            "{value}: stderr should name the option and the value:\n{}",
+            run.stderr
+        );
+        assert_entries(tmp.path(), &[]);
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // 2. Determinism.
 

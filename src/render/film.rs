@@ -251,7 +251,7 @@ mod tests {
     fn variance_of_the_mean_matches_the_textbook_formula() {
         let samples = [0.0f64, 1.0, 1.0, 3.0, 5.0];
         let mut film = Film::new(1, 1);
-        // Added in two passes, as the renderer does.
+        // Added in two parts.
         for part in [&samples[..2], &samples[2..]] {
             let sum = part.iter().sum::<f64>();
             let sq = part.iter().map(|v| v * v).sum::<f64>();
