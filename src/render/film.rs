@@ -60,25 +60,6 @@ impl FilmRows<'_> {
 /// A pixel's sum of sample values, sum of their squares, and number of samples.
 pub type PixelTotals = ([f64; 3], [f64; 3], u32);
 
-/// Adds (sum, sum of squares, count) to entry `i` of a film's arrays.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn add_at(
-    sums: &mut [[f64; 3]],
-    sq_sums: &mut [[f64; 3]],
-    counts: &mut [u32],
-    i: usize,
-    sum: [f64; 3],
-    sq_sum: [f64; 3],
-    count: u32,
-) {
-    for c in 0..3 {
-        sums[i][c] += sum[c];
-        sq_sums[i][c] += sq_sum[c];
-    }
-    counts[i] += count;
-}
-
 impl Film {
     /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), a
     /// round's tile results collected before they are merged (sums, squares and count: 52
@@ -155,15 +136,11 @@ impl Film {
     #[inline]
     pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
         let i = self.index(x, y);
-        add_at(
-            &mut self.sums,
-            &mut self.sq_sums,
-            &mut self.counts,
-            i,
-            sum,
-            sq_sum,
-            count,
-        );
+        for c in 0..3 {
+            self.sums[i][c] += sum[c];
+            self.sq_sums[i][c] += sq_sum[c];
+        }
+        self.counts[i] += count;
     }
 
     /// The estimated variance of pixel (x, y)'s mean: the unbiased sample variance of its

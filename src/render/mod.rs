@@ -237,16 +237,13 @@ impl Round<'_> {
     }
 }
 
-/// A pixel's (sum, sum of squares, number) of its samples, as a round leaves them.
-type PixelSums = PixelTotals;
-
-/// Every tile's [`PixelSums`] after the current round, tile after tile in one allocation made
+/// Every tile's [`PixelTotals`] after the current round, tile after tile in one allocation made
 /// once per render. Buffers allocated per round came back from the allocator as fresh zero
 /// pages, each taking a copy-on-write fault (and a TLB flush of the other threads) on first
 /// use; buffers allocated per tile grew the per-thread heaps by some 4 000 `mprotect` calls
 /// in the first round.
 struct TileSums {
-    data: Vec<PixelSums>,
+    data: Vec<PixelTotals>,
     /// Tile i's sums are `data[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<usize>,
 }
@@ -265,12 +262,12 @@ impl TileSums {
         }
     }
 
-    fn get(&self, tile: usize) -> &[PixelSums] {
+    fn get(&self, tile: usize) -> &[PixelTotals] {
         &self.data[self.offsets[tile]..self.offsets[tile + 1]]
     }
 
     /// The sums of tiles `range`, one mutable slice per tile.
-    fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<&mut [PixelSums]> {
+    fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<&mut [PixelTotals]> {
         let mut rest = &mut self.data[self.offsets[range.start]..self.offsets[range.end]];
         let mut out = Vec::with_capacity(range.len());
         for i in range {
@@ -283,7 +280,7 @@ impl TileSums {
     }
 }
 
-/// What a tile's round produced besides its [`PixelSums`].
+/// What a tile's round produced besides its [`PixelTotals`].
 struct TileResult {
     rays: RayCounts,
     bad: u64,
@@ -299,7 +296,7 @@ fn render_tile(
     settings: &RenderSettings,
     tile: Tile,
     round: &Round,
-    sums: &mut [PixelSums],
+    sums: &mut [PixelTotals],
 ) -> TileResult {
     let camera = settings
         .camera
@@ -358,10 +355,13 @@ fn render_tile(
             let lanes = &lanes[..n_lanes];
             // Round::samples gives b ≥ a.
             let most = lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0);
-            let mut acc: [PixelSums; PACKET] = [([0f64; 3], [0f64; 3], 0); PACKET];
-            for (acc, &(x, y, _, _)) in acc.iter_mut().zip(lanes) {
-                *acc = round.film.totals(x, y);
-            }
+            let mut acc: [PixelTotals; PACKET] = std::array::from_fn(|i| {
+                lanes
+                    .get(i)
+                    .map_or(([0f64; 3], [0f64; 3], 0), |&(x, y, _, _)| {
+                        round.film.totals(x, y)
+                    })
+            });
             for j in 0..most {
                 let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
                 let mut which = [0usize; PACKET];
@@ -418,7 +418,7 @@ const PACKET_H: u32 = PACKET as u32 / PACKET_W;
 /// bad (NaN or infinite) and keeps the first few.
 #[inline]
 fn accumulate(
-    pixel: &mut PixelSums,
+    pixel: &mut PixelTotals,
     l: Vec3,
     (x, y, index): (u32, u32, u32),
     bad: &mut u64,
@@ -586,10 +586,9 @@ pub fn render_with_checkpoints(
                 &next_fixed
             },
         };
-        let tile_samples = |t: &Tile| {
-            let per_pixel = fixed_end.map_or(0, |end| end.saturating_sub(done));
-            ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * per_pixel as u64
-        };
+        // A fixed-spp round's samples per pixel (for the progress bar).
+        let per_pixel = fixed_end.map_or(0, |end| end - done) as u64;
+        let tile_samples = |t: &Tile| ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * per_pixel;
         let work: Vec<bool> = if round.selection.is_none() {
             tiles.iter().map(|t| round.tile_has_work(t)).collect()
         } else {
@@ -675,8 +674,8 @@ pub fn render_with_checkpoints(
         first_round = false;
         done = fixed_end.unwrap_or(done);
         if let Some(c) = checkpoint.as_mut() {
-            let done = film.count_range().0 >= spp;
-            if !done && last_checkpoint.elapsed() >= c.every {
+            let finished = film.count_range().0 >= spp;
+            if !finished && last_checkpoint.elapsed() >= c.every {
                 stats.seconds = start.elapsed().as_secs_f64();
                 (c.save)(&film, &stats);
                 last_checkpoint = Instant::now();
@@ -732,13 +731,13 @@ fn merge_round(
 }
 
 /// Writes a tile's round into the film (for a checkpoint's snapshot: one tile at a time).
-fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelSums]) {
+fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelTotals]) {
     let mut rows = film.rows_mut(&[(tile.y0, tile.y1)]);
     write_tile(&mut rows[0], tile, sums);
 }
 
 /// Writes a tile's totals after the round into the film rows that hold it.
-fn write_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelSums]) {
+fn write_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelTotals]) {
     let mut pixel = sums.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
