@@ -152,6 +152,31 @@ fn sobol(c: &mut Criterion) {
     row(&mut g, "2D, strata::sampling::sobol::sample_2d", |i| {
         strata::sampling::sobol::sample_2d(i, seed(i))
     });
+    let sequences: Vec<strata::sampling::sobol::Sequence> = (0..1u32 << 16)
+        .map(|i| strata::sampling::sobol::Sequence::new(seed(i)))
+        .collect();
+    g.bench_function("2D, Sequence::sample_2d", |b| {
+        b.iter(|| {
+            (0..1u32 << 16)
+                .map(|i| sequences[i as usize].sample_2d(i).iter().sum::<f32>())
+                .sum::<f32>()
+        })
+    });
+    g.bench_function("2D, sample_2d_lanes, 8 lanes", |b| {
+        b.iter(|| {
+            (0..1u32 << 13)
+                .map(|k| {
+                    let s: [strata::sampling::sobol::Sequence; 8] =
+                        std::array::from_fn(|j| sequences[(8 * k) as usize + j]);
+                    let idx: [u32; 8] = std::array::from_fn(|j| 8 * k + j as u32);
+                    strata::sampling::sobol::sample_2d_lanes(&s, &idx)
+                        .iter()
+                        .map(|p| p[0] + p[1])
+                        .sum::<f32>()
+                })
+                .sum::<f32>()
+        })
+    });
     g.finish();
 }
 

@@ -1526,3 +1526,55 @@ fn point_set_checks_reject_independent_points() {
     let sets = set_points_2d(SamplerKind::Random, 1, 64, 0, (3, 7), 0);
     assert!(check_02_net(&sets[0], 6).is_err());
 }
+
+/// `next_2d_lanes` gives each sampler the values its own `next_2d` calls would, in the same
+/// slots: for any number of lanes (one to more than a group of eight), any subset and order
+/// of samplers, and samplers at different pixels, sample indices and slots.
+#[test]
+fn side_by_side_2d_values_are_each_samplers_own() {
+    let mut rng = Pcg32::new(3, 17);
+    for kind in KINDS {
+        for lanes in 1..=11usize {
+            let spp = 64;
+            let new = || -> Vec<PixelSampler> {
+                (0..12).map(|_| PixelSampler::new(kind, spp, 42)).collect()
+            };
+            let (mut together, mut alone) = (new(), new());
+            // Each sampler at its own pixel and index; some a slot further on than others.
+            for s in 0..12 {
+                let (x, y, i) = (rng.below(4000), rng.below(4000), rng.below(spp));
+                let skip = rng.below(3);
+                for samplers in [&mut together, &mut alone] {
+                    samplers[s].start(x, y, i);
+                    for _ in 0..skip {
+                        samplers[s].next_1d();
+                    }
+                }
+            }
+            // A random choice of `lanes` distinct samplers, in random order.
+            let mut which: Vec<usize> = (0..12).collect();
+            for k in (1..which.len()).rev() {
+                which.swap(k, rng.below(k as u32 + 1) as usize);
+            }
+            which.truncate(lanes);
+            for _round in 0..3 {
+                let mut got = vec![Vec2::ZERO; lanes];
+                PixelSampler::next_2d_lanes(&mut together, &which, &mut got);
+                let want: Vec<Vec2> = which.iter().map(|&s| alone[s].next_2d()).collect();
+                assert_eq!(
+                    bits(&got.iter().flat_map(|p| [p.x, p.y]).collect::<Vec<_>>()),
+                    bits(&want.iter().flat_map(|p| [p.x, p.y]).collect::<Vec<_>>()),
+                    "{kind}, {lanes} lanes"
+                );
+            }
+            // And the slots after them are the same.
+            for s in 0..12 {
+                assert_eq!(
+                    together[s].next_1d().to_bits(),
+                    alone[s].next_1d().to_bits(),
+                    "{kind}, {lanes} lanes: sampler {s} left in another slot"
+                );
+            }
+        }
+    }
+}

@@ -25,7 +25,7 @@ pub mod output;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
@@ -363,18 +363,22 @@ fn render_tile(
                     })
             });
             for j in 0..most {
-                let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
                 let mut which = [0usize; PACKET];
                 let mut n = 0;
                 for (lane, &(x, y, a, b)) in lanes.iter().enumerate() {
                     if a + j < b {
-                        let sampler = &mut samplers[lane];
-                        sampler.start(x, y, a + j);
-                        let film_uv = sampler.next_2d();
-                        (fx[n], fy[n]) = (x as f32 + film_uv.x, y as f32 + film_uv.y);
+                        samplers[lane].start(x, y, a + j);
                         which[n] = lane;
                         n += 1;
                     }
+                }
+                // The first two dimensions place the samples on the film.
+                let mut film_uv = [Vec2::ZERO; PACKET];
+                PixelSampler::next_2d_lanes(&mut samplers, &which[..n], &mut film_uv[..n]);
+                let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
+                for k in 0..n {
+                    let (x, y, _, _) = lanes[which[k]];
+                    (fx[k], fy[k]) = (x as f32 + film_uv[k].x, y as f32 + film_uv[k].y);
                 }
                 let rays = camera.rays(&fx, &fy);
                 let mut hits = [None; PACKET];

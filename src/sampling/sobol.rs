@@ -45,7 +45,12 @@ fn tables() -> &'static Tables {
 /// bit-reversal is `index_rev` (only its top 16 bits are read).
 #[inline]
 fn sobol_rev_of_rev(index_rev: u32) -> [u32; 4] {
-    let t = tables();
+    lookup(tables(), index_rev)
+}
+
+/// [`sobol_rev_of_rev`] in the given tables.
+#[inline(always)]
+fn lookup(t: &Tables, index_rev: u32) -> [u32; 4] {
     let (top, next) = (
         t.top[(index_rev >> 24) as usize],
         t.next[((index_rev >> 16) & 0xff) as usize],
@@ -53,16 +58,16 @@ fn sobol_rev_of_rev(index_rev: u32) -> [u32; 4] {
     std::array::from_fn(|d| top[d] ^ next[d])
 }
 
-/// The index shuffle of Burley §4, an Owen scramble of the index's bits keyed by `seed`;
-/// returns the shuffled index bit-reversed, as the tables take it.
+/// The index shuffle of Burley §4, an Owen scramble of the index's bits with the hashed key
+/// `scramble`; returns the shuffled index bit-reversed, as the tables take it.
 #[inline]
-fn shuffled_rev(index: u32, seed: u32) -> u32 {
+fn shuffled_rev(index: u32, scramble: u32) -> u32 {
     debug_assert!(index < MAX_INDEX);
     // The 16-bit index reversed by bytes: two loads instead of a 32-bit reversal (x86-64
     // has no bit-reversal instruction).
     let index_rev = ((REVERSED_BYTE[(index & 0xff) as usize] as u32) << 24)
         | ((REVERSED_BYTE[((index >> 8) & 0xff) as usize] as u32) << 16);
-    owen_scramble_rev(index_rev, hash(seed ^ 0x2c1b_3c6d))
+    owen_scramble_rev(index_rev, scramble)
 }
 
 /// Each byte value with its bits in reverse order.
@@ -90,34 +95,102 @@ const DIMENSION_KEYS: [u32; 4] = [0x8f1b_bcdc, 0x3c6e_f372, 0xa54f_f53a, 0x510e_
 /// `cargo bench --bench ao -- sobol`, in BENCHMARKS.md.
 #[inline]
 pub fn sample_4d(index: u32, seed: u32) -> [f32; 4] {
-    sample::<4>(index, seed)
+    Sequence::new(seed).sample_4d(index)
 }
 
 /// Dimensions 0 and 1 of [`sample_4d`], for about half its cost.
 #[inline]
 pub fn sample_2d(index: u32, seed: u32) -> [f32; 2] {
-    sample::<2>(index, seed)
+    Sequence::new(seed).sample_2d(index)
 }
 
 /// Dimension 0 of [`sample_4d`].
 #[inline]
 pub fn sample_1d(index: u32, seed: u32) -> f32 {
-    sample::<1>(index, seed)[0]
+    Sequence::new(seed).sample_1d(index)
 }
 
-/// The first `N` ≤ 4 dimensions of [`sample_4d`].
-#[inline(always)]
-fn sample<const N: usize>(index: u32, seed: u32) -> [f32; N] {
-    // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point, then
-    // scramble each dimension with its own key.
-    let sobol = sobol_rev_of_rev(shuffled_rev(index, seed));
-    std::array::from_fn(|d| scrambled(sobol[d], seed ^ DIMENSION_KEYS[d]))
+/// The Sobol sequence keyed by one seed, with the hashed scramble keys of its index shuffle
+/// and its first two dimensions: they depend on the seed alone, so a caller that draws
+/// several points of one sequence (a pixel's samples in one dimension slot) hashes them once.
+/// Its points are those of [`sample_4d`] with the same seed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sequence {
+    seed: u32,
+    shuffle: u32,
+    dims: [u32; 2],
 }
 
-/// One dimension's nested uniform scramble with key `key`, as a float in [0, 1).
+impl Sequence {
+    #[inline]
+    pub fn new(seed: u32) -> Sequence {
+        Sequence {
+            seed,
+            shuffle: hash(seed ^ 0x2c1b_3c6d),
+            dims: [
+                hash(seed ^ DIMENSION_KEYS[0]),
+                hash(seed ^ DIMENSION_KEYS[1]),
+            ],
+        }
+    }
+
+    #[inline]
+    pub fn sample_4d(&self, index: u32) -> [f32; 4] {
+        self.sample::<4>(index)
+    }
+
+    #[inline]
+    pub fn sample_2d(&self, index: u32) -> [f32; 2] {
+        self.sample::<2>(index)
+    }
+
+    #[inline]
+    pub fn sample_1d(&self, index: u32) -> f32 {
+        self.sample::<1>(index)[0]
+    }
+
+    /// The first `N` ≤ 4 dimensions of point `index`.
+    #[inline(always)]
+    fn sample<const N: usize>(&self, index: u32) -> [f32; N] {
+        // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point,
+        // then scramble each dimension with its own key (dimensions 2 and 3, drawn less
+        // often, hash theirs here).
+        let sobol = sobol_rev_of_rev(shuffled_rev(index, self.shuffle));
+        std::array::from_fn(|d| {
+            let key = match d {
+                0 | 1 => self.dims[d],
+                _ => hash(self.seed ^ DIMENSION_KEYS[d]),
+            };
+            scrambled(sobol[d], key)
+        })
+    }
+}
+
+/// [`Sequence::sample_2d`] of `N` points (`indices[i]` of `sequences[i]`), computed a step at
+/// a time over all of them: each point is one long dependent chain of multiplies and table
+/// lookups, and interleaving the chains of independent points lets them overlap.
 #[inline]
-fn scrambled(sobol_rev: u32, key: u32) -> f32 {
-    let v = owen_scramble_rev(sobol_rev, hash(key));
+pub fn sample_2d_lanes<const N: usize>(
+    sequences: &[Sequence; N],
+    indices: &[u32; N],
+) -> [[f32; 2]; N] {
+    let shuffled: [u32; N] =
+        std::array::from_fn(|i| shuffled_rev(indices[i], sequences[i].shuffle));
+    let t = tables();
+    let sobol: [[u32; 4]; N] = std::array::from_fn(|i| lookup(t, shuffled[i]));
+    std::array::from_fn(|i| {
+        [
+            scrambled(sobol[i][0], sequences[i].dims[0]),
+            scrambled(sobol[i][1], sequences[i].dims[1]),
+        ]
+    })
+}
+
+/// One dimension's nested uniform scramble with the hashed key `scramble`, as a float in
+/// [0, 1).
+#[inline]
+fn scrambled(sobol_rev: u32, scramble: u32) -> f32 {
+    let v = owen_scramble_rev(sobol_rev, scramble);
     // The float keeps the top 23 bits of the reversed value, which are v's low 23 bits
     // reversed: three byte lookups (bits 24–31 of v would land below bit 8, which the
     // conversion drops).
@@ -218,6 +291,27 @@ mod tests {
                 assert_eq!(sample_2d(i, seed).map(f32::to_bits), [want[0], want[1]]);
                 assert_eq!(sample_1d(i, seed).to_bits(), want[0]);
             }
+        }
+    }
+
+    /// Points computed side by side equal the points computed one at a time, for group
+    /// sizes that do and do not fill the lanes.
+    #[test]
+    fn side_by_side_points_equal_single_points() {
+        let sequences: [Sequence; 8] =
+            std::array::from_fn(|i| Sequence::new(hash(i as u32 ^ 0x51ed)));
+        for start in (0..MAX_INDEX).step_by(8 * 97) {
+            let indices: [u32; 8] = std::array::from_fn(|i| (start + 8191 * i as u32) % MAX_INDEX);
+            let lanes = sample_2d_lanes(&sequences, &indices);
+            for i in 0..8 {
+                let want = sample_2d(indices[i], sequences[i].seed);
+                assert_eq!(lanes[i].map(f32::to_bits), want.map(f32::to_bits));
+            }
+            let three = sample_2d_lanes::<3>(&[sequences[5]; 3], &[indices[0], 7, 1]);
+            assert_eq!(
+                three[1].map(f32::to_bits),
+                sample_2d(7, sequences[5].seed).map(f32::to_bits)
+            );
         }
     }
 
