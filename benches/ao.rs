@@ -180,5 +180,42 @@ fn sobol(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, sobol);
+/// The cosine-weighted hemisphere warp of 4096 points, one at a time and eight at a time
+/// (the AO rays of a packet of camera hits).
+fn warp(c: &mut Criterion) {
+    use strata::sampling::warps::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_lanes};
+    let mut g = c.benchmark_group("cosine warp");
+    let points: Vec<glam::Vec2> = (0..4096u32)
+        .map(|i| {
+            let [x, y] = strata::sampling::sobol::sample_2d(i, 7);
+            glam::Vec2::new(x, y)
+        })
+        .collect();
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("one at a time", |b| {
+        b.iter(|| {
+            points
+                .iter()
+                .map(|&u| square_to_cosine_hemisphere(u).z)
+                .sum::<f32>()
+        })
+    });
+    g.bench_function("eight at a time", |b| {
+        b.iter(|| {
+            points
+                .chunks_exact(8)
+                .map(|c| {
+                    let u: [glam::Vec2; 8] = c.try_into().expect("eight points");
+                    square_to_cosine_hemisphere_lanes(&u)
+                        .iter()
+                        .map(|v| v.z)
+                        .sum::<f32>()
+                })
+                .sum::<f32>()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, sobol, warp);
 criterion_main!(benches);
