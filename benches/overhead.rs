@@ -27,6 +27,9 @@
 //! pixel, then the rest: what the default half second gives these short renders) and its
 //! rays follow the same passes.
 //!
+//! `STRATA_OVERHEAD_AO_RAYS=1` (a comma-separated list) measures only those AO rays per hit
+//! (default: 1,16).
+//!
 //! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera); the helmet
 //! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
 //! for the render/raw ratio.
@@ -180,7 +183,13 @@ fn main() {
         scene.triangles.len(),
         if quick { 1 } else { ROUNDS }
     );
-    for n in [1, 16] {
+    let ao_rays: Vec<u32> = std::env::var("STRATA_OVERHEAD_AO_RAYS").map_or(vec![1, 16], |s| {
+        s.split(',')
+            .map(|n| n.trim().parse().ok().filter(|&n| n > 0))
+            .collect::<Option<_>>()
+            .expect("STRATA_OVERHEAD_AO_RAYS: AO rays per hit, a comma-separated list")
+    });
+    for n in ao_rays {
         pool.install(|| measure(&scene, &accel, &pool, n, spp, quick));
     }
 }

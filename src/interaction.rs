@@ -151,6 +151,21 @@ impl SurfaceInteraction {
         }
     }
 
+    /// [`Self::spawn_ray_with`]'s origin for a direction `w` with w·ng ≥ 0 (leaving on the side
+    /// the ray came from), without branches on `w`: for rays whose directions are a coin toss
+    /// and are checked apart, such as the AO rays of a packet of camera hits. For w·ng < 0
+    /// the point is not that origin, and the caller must discard the ray.
+    #[inline(always)]
+    pub fn front_origin(&self, w: Vec3, ray_offset: bool) -> Vec3 {
+        if !ray_offset {
+            return self.p;
+        }
+        // `wo` for w·ng > 0, and a zero (of either sign, which `offset_origin` reads alike) in
+        // the tangent plane; the offset goes along +ng for both, as `origin` sends it.
+        let back = self.wo * (w.dot(self.ng) > 0.0) as u8 as f32;
+        offset_origin(self.p, self.p_error, self.ng, self.ng, back)
+    }
+
     /// The origin of a ray leaving toward `w`: past the error bound, or `p` itself when
     /// `ray_offset` is false (one predictable branch; the default path always takes the first).
     ///
@@ -320,6 +335,11 @@ mod tests {
                         tangent_rays += 1;
                     }
                     let want = si.spawn_ray_with(dir, t_max, offset);
+                    assert_eq!(
+                        si.front_origin(dir, offset).to_array(),
+                        want.org.to_array(),
+                        "ng {ng} dir {dir} offset {offset}"
+                    );
                     let got = origins.ray(dir, t_max);
                     assert_eq!(
                         (got.org.to_array(), got.dir, got.t_min, got.t_max),

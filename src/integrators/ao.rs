@@ -17,8 +17,8 @@
 //! set ([`PixelSampler::next_2d_set`]), not from independent slots. Directions are drawn
 //! around the shading normal; one that points below the geometric
 //! surface would enter the object, and counts as occluded. Each AO ray is an any-hit query
-//! leaving the surface as [`SurfaceInteraction::spawn_ray`] would send it (from the origins
-//! of [`SurfaceInteraction::front_origins`], computed once per hit).
+//! leaving the surface as [`SurfaceInteraction::spawn_ray`] sends it (with several rays per
+//! hit, from the origins of [`SurfaceInteraction::front_origins`], computed once per hit).
 
 use std::fmt;
 use std::str::FromStr;
@@ -27,7 +27,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
 use crate::integrators::{Context, RayCounts};
-use crate::interaction::{FrontOrigins, SurfaceInteraction};
+use crate::interaction::SurfaceInteraction;
 use crate::sampling::warps::{
     square_to_cosine_hemisphere, square_to_cosine_hemisphere_lanes, square_to_uniform_hemisphere,
 };
@@ -113,17 +113,49 @@ pub fn li_packet(
         }
         return;
     }
+    // Sweeps over the hits, each lane's work independent of the others': the surface
+    // interactions; the sample points, computed side by side; the directions, warped four
+    // at a time without branches when cosine-weighted (the concentric map's wedge test is a
+    // coin toss per hit, which a branch per lane would mispredict); then the frames and the
+    // rays. Each lane draws from its own sampler in the order `one_ray` does, so the rays
+    // are its.
+    let mut interactions = [None; PACKET];
+    let (mut hit_lanes, mut hit_k) = ([0usize; PACKET], [0usize; PACKET]);
+    let mut n_hits = 0;
+    for k in 0..rays.len() {
+        l[k] = 0.0;
+        if let Some(hit) = &hits[k] {
+            interactions[n_hits] = Some(SurfaceInteraction::from_hit(ctx.scene, &rays[k], hit));
+            (hit_lanes[n_hits], hit_k[n_hits]) = (lanes[k], k);
+            n_hits += 1;
+        }
+    }
+    // A set of one point is the slot's `next_2d` point. Points past `n_hits` are not used.
+    let mut u = [Vec2::splat(0.5); PACKET];
+    PixelSampler::next_2d_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
+    let directions: [(Vec3, f32); PACKET] = if settings.hemisphere == Hemisphere::Cosine {
+        square_to_cosine_hemisphere_lanes(&u).map(|local| (local, 1.0))
+    } else {
+        u.map(|u| direction(u, settings.hemisphere))
+    };
     let mut ao_rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
     let mut owners = [(0usize, 0f32); PACKET];
     let mut m = 0;
-    for k in 0..rays.len() {
-        l[k] = 0.0;
-        let Some(hit) = hits[k] else { continue };
-        let sampler = &mut samplers[lanes[k]];
-        if let Some((ray, weight)) = one_ray(ctx, &hit, &rays[k], sampler, settings) {
-            (ao_rays[m], owners[m]) = (ray, (k, weight));
-            m += 1;
-        }
+    for ((&k, &(local, weight)), si) in hit_k[..n_hits].iter().zip(&directions).zip(&interactions) {
+        let Some(si) = si else { continue };
+        let onb = Onb::from_normal(si.ns);
+        let wi = onb.to_world(local);
+        // Written whether or not the direction can see the sky, and kept (m advanced) only
+        // if it can: whether it can is a coin toss where shading normals bend, which a
+        // branch would mispredict.
+        ao_rays[m] = Ray {
+            org: si.front_origin(wi, ctx.ray_offset),
+            dir: wi,
+            t_min: 0.0,
+            t_max: settings.max_distance,
+        };
+        owners[m] = (k, weight);
+        m += sees_sky(si, wi, weight) as usize;
     }
     let mut occluded = [false; OCCLUSION_PACKET];
     ctx.accel.occluded_packet(&ao_rays[..m], &mut occluded);
@@ -150,26 +182,22 @@ fn direction(u: Vec2, hemisphere: Hemisphere) -> (Vec3, f32) {
     }
 }
 
-/// The AO ray toward local direction `local` (weight `weight`) from the hit `si` with frame
-/// `onb`, or None for a direction that cannot see the sky.
+/// The world direction of local direction `local` (weight `weight`) at the hit `si` with
+/// frame `onb`, or None for a direction that cannot see the sky.
 #[inline(always)]
-fn ray_toward(
-    si: &SurfaceInteraction,
-    onb: &Onb,
-    origins: &FrontOrigins,
-    local: Vec3,
-    weight: f32,
-    max_distance: f32,
-) -> Option<(Ray, f32)> {
+fn world_direction(si: &SurfaceInteraction, onb: &Onb, local: Vec3, weight: f32) -> Option<Vec3> {
     let wi = onb.to_world(local);
-    // A direction below the geometric surface enters the object: occluded. One exactly in the
-    // tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim) is
-    // traced: the offset origin lies above the surface, so on an open plane it escapes, as
-    // every other sample does.
-    if wi.dot(si.ng) < 0.0 || weight == 0.0 {
-        return None;
-    }
-    Some((origins.ray(wi, max_distance), weight))
+    sees_sky(si, wi, weight).then_some(wi)
+}
+
+/// Whether an AO ray from `si` toward world direction `wi` with weight `weight` can see the
+/// sky. A direction below the geometric surface enters the object: occluded. One exactly in
+/// the tangent plane (u within 2⁻²⁴ of the square's edge puts cosine samples on the rim) is
+/// traced: the offset origin lies above the surface, so on an open plane it escapes, as
+/// every other sample does.
+#[inline(always)]
+fn sees_sky(si: &SurfaceInteraction, wi: Vec3, weight: f32) -> bool {
+    !(wi.dot(si.ng) < 0.0 || weight == 0.0)
 }
 
 /// The one AO ray of a hit (with `samples` = 1) and its weight, from the dimension slot that
@@ -183,10 +211,13 @@ fn one_ray(
     settings: &AoSettings,
 ) -> Option<(Ray, f32)> {
     let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
-    let onb = Onb::from_normal(si.ns);
     let (local, weight) = direction(sampler.next_2d_set(1).get(0), settings.hemisphere);
-    let origins = si.front_origins(ctx.ray_offset);
-    ray_toward(&si, &onb, &origins, local, weight, settings.max_distance)
+    let onb = Onb::from_normal(si.ns);
+    let wi = world_direction(&si, &onb, local, weight)?;
+    // Its one origin, where [`SurfaceInteraction::front_origins`] prepares both kinds for
+    // many rays.
+    let ray = si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset);
+    Some((ray, weight))
 }
 
 /// One AO estimate along the camera ray.
@@ -218,7 +249,8 @@ pub fn li(
     let set = sampler.next_2d_set(n);
     let origins = si.front_origins(ctx.ray_offset);
     let toward = |local: Vec3, weight: f32| {
-        ray_toward(&si, &onb, &origins, local, weight, settings.max_distance)
+        let wi = world_direction(&si, &onb, local, weight)?;
+        Some((origins.ray(wi, settings.max_distance), weight))
     };
     // The rays leave one point, so they share the first nodes of their traversal: Embree's
     // packet queries pay for packets of up to 16 (8-wide 1.1x faster than single rays on 64
