@@ -5,7 +5,7 @@
 //! The rays are exactly those of an AO render of the bundled flight helmet (320×240, 8 spp,
 //! one thread), once with one AO ray per camera hit and once with 16 (`--ao-samples 16`):
 //! every camera ray, and the AO rays of every camera hit, made with the renderer's own
-//! sampler, camera and offsets, in the renderer's order (pass, 16×16 tile, 4×2-pixel block,
+//! sampler, camera and offsets, in the renderer's order (round, 16×16 tile, 4×2-pixel block,
 //! sample, pixel). Four ways of tracing them then alternate for `ROUNDS` rounds:
 //!
 //! - **raw, single rays**: `rtcIntersect1` / `rtcOccluded1` in tight loops over rays already
@@ -23,9 +23,9 @@
 //!
 //! `STRATA_OVERHEAD_SPP=N` renders N samples per pixel instead of 8 (the rays are held in
 //! memory: about 0.4 GB per 8 spp on the helmet). Each pass of the render sweeps the whole
-//! image; the bench renders with passes of at least [`MIN_PASS_SECONDS`] (one sample per
-//! pixel, then the rest: what the default half second gives these short renders) and its
-//! rays follow the same passes.
+//! image; the bench renders with passes of at least [`MIN_PASS_SECONDS`] (the probe's one
+//! sample in one tile in 16, then one pass to the end: what the default half second gives
+//! these short renders) and its rays follow the same passes.
 //!
 //! `STRATA_OVERHEAD_AO_RAYS=1` (a comma-separated list) measures only those AO rays per hit
 //! (default: 1,16).
@@ -61,17 +61,17 @@ const ROUNDS: usize = 15;
 /// machine's speed and the rays below can follow them.
 const MIN_PASS_SECONDS: f64 = f64::INFINITY;
 
-/// The render's passes ([`render::fixed_pass_end`]): with [`MIN_PASS_SECONDS`] unbounded,
-/// one sample per pixel, then the rest.
-fn passes(spp: u32) -> Vec<(u32, u32)> {
-    let mut out = Vec::new();
-    let mut done = 0;
-    while done < spp {
-        let end = render::fixed_pass_end(done, spp, 1.0, MIN_PASS_SECONDS);
-        out.push((done, end));
-        done = end;
+/// The samples that tile `tile` (scanline index) takes in each of the render's rounds, with
+/// passes of at least [`MIN_PASS_SECONDS`]: one sample in the probe's tiles (every
+/// [`render::PROBE_TILE_STRIDE`]-th), then all of them in one pass (`first_pass_end` of an
+/// unbounded minimum is `spp`). Without a probe (1 spp), the one pass.
+fn rounds(tile: usize, spp: u32) -> [Option<(u32, u32)>; 2] {
+    assert_eq!(render::first_pass_end(spp, 1.0, MIN_PASS_SECONDS), spp);
+    let probed = spp > 1 && tile % render::PROBE_TILE_STRIDE == 0;
+    if spp == 1 {
+        return [Some((0, 1)), None];
     }
-    out
+    [probed.then_some((0, 1)), Some((probed as u32, spp))]
 }
 
 /// The rays of one AO render: camera rays grouped by packet (the block's pixels at one
@@ -84,14 +84,19 @@ struct Rays {
 }
 
 /// The rays of an AO render with `n` rays per hit, generated as `render::render` and the AO
-/// integrator do, in the render's order: pass, 16×16 tile, 4×2-pixel block, sample, pixel.
+/// integrator do, in the render's order: round, 16×16 tile, 4×2-pixel block, sample, pixel.
 fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
     let camera = scene.cameras[0].ray_generator(W, H);
     let mut sampler = PixelSampler::new(SamplerKind::Sobol, spp, 0);
     let (mut packets, mut ao_groups) = (Vec::new(), Vec::new());
-    for (s0, s1) in passes(spp) {
+    for round in 0..2 {
+        let mut tile = 0;
         for ty in (0..H).step_by(TILE as usize) {
             for tx in (0..W).step_by(TILE as usize) {
+                tile += 1;
+                let Some((s0, s1)) = rounds(tile - 1, spp)[round] else {
+                    continue;
+                };
                 for by in (ty..(ty + TILE).min(H)).step_by(2) {
                     for bx in (tx..(tx + TILE).min(W)).step_by(4) {
                         for index in s0..s1 {

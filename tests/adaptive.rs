@@ -593,9 +593,9 @@ fn camera_packets_do_not_change_the_image() {
 /// Where the passes of a fixed-spp render end follows the clock (`min_pass_seconds`), so the
 /// film must not depend on it: each pixel's sums continue from the film, one sample at a time
 /// in index order. Compared here on the film's f64 sums, bit for bit, which the EXR's f32
-/// means would mostly hide: passes of 1, 1, 2, 4, … samples against one sample then all the
-/// rest, on one and on three threads. A film whose rounds summed their samples from zero and
-/// then added them would differ in the last bits.
+/// means would mostly hide: passes of 1, 1, 2, 4, … samples against the probe's one sample in
+/// the first tile then all the rest, on one and on three threads. A film whose rounds summed
+/// their samples from zero and then added them would differ in the last bits.
 #[test]
 fn where_passes_end_does_not_change_the_film() {
     let run = |min_pass: f64, threads: usize, packets: bool| {

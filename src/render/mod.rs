@@ -3,9 +3,12 @@
 //! image is bit-identical whatever the thread count, and whatever the passes.
 //!
 //! Passes split the samples per pixel into ranges of doubling size, or longer ones that last
-//! at least [`RenderSettings::min_pass_seconds`] ([`fixed_pass_end`]). Between passes (and
-//! before each tile) the render checks its cancel flag, so an interrupted render still holds
-//! a usable image, with the number of samples each pixel received.
+//! at least [`RenderSettings::min_pass_seconds`] ([`fixed_pass_end`]). A fixed-spp render
+//! whose passes follow the clock first samples one tile in [`PROBE_TILE_STRIDE`] once, to
+//! measure its speed, so that its first pass over the whole image can already last that long
+//! ([`first_pass_end`]): a short render then sweeps the image once. Between passes (and before
+//! each tile) the render checks its cancel flag, so an interrupted render still holds a usable
+//! image, with the number of samples each pixel received.
 //!
 //! With a [`Checkpoint`], each pass renders its tiles in groups and hands the running film to
 //! a callback between groups, at most once per period. The groups are merged in tile order,
@@ -38,6 +41,11 @@ pub use film::{BadSample, Film, FilmRows, PixelTotals};
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
 /// few percent each for sweeping the image again.
 pub const DEFAULT_MIN_PASS_SECONDS: f64 = 0.5;
+
+/// A fixed-spp render whose passes follow the clock begins with a probe: one sample per
+/// pixel in every `PROBE_TILE_STRIDE`-th tile (in scanline order, so spread over the
+/// image's rows), which measures the render's speed before its first full pass.
+pub const PROBE_TILE_STRIDE: usize = 16;
 
 /// How many NaN/Inf samples are kept for the report.
 pub const BAD_SAMPLES_KEPT: usize = 8;
@@ -178,6 +186,20 @@ pub fn fixed_pass_end(done: u32, spp: u32, seconds: f64, min_pass_seconds: f64) 
         0
     };
     doubling.max(by_time).min(spp)
+}
+
+/// The end of the first pass over the whole image of a render of `spp` samples per pixel
+/// that takes `seconds_per_sample` per sample per pixel (measured by the probe): the
+/// samples that fill `min_pass_seconds`, at least 1 and at most `spp`. A short render thus
+/// sweeps the image once, where a first pass of one sample would make it sweep twice (at
+/// 8 spp the second sweep cost a one-AO-ray render 4%); a long one still samples every pixel
+/// in its first pass within about `min_pass_seconds`.
+pub fn first_pass_end(spp: u32, seconds_per_sample: f64, min_pass_seconds: f64) -> u32 {
+    let fill = (min_pass_seconds / seconds_per_sample).ceil();
+    if fill.is_nan() {
+        return 1;
+    }
+    (fill.min(spp as f64) as u32).clamp(1, spp.max(1))
 }
 
 /// The end of the next pass of a pixel that has `count` samples, in a progressive render
@@ -546,6 +568,10 @@ pub fn render_with_checkpoints(
         None => tiles.len().max(1),
     };
     let mut last_checkpoint = Instant::now();
+    // The probe round (one sample in one tile in PROBE_TILE_STRIDE), and the speed it
+    // measured: seconds per sample per pixel of the whole window.
+    let mut probing = !progressive && settings.min_pass_seconds > 0.0 && spp > 1 && tiles.len() > 1;
+    let mut probed: Option<f64> = None;
 
     let judge = |film: &Film, mask: &mut [bool], target: f32| {
         pool.install(|| {
@@ -576,7 +602,14 @@ pub fn render_with_checkpoints(
                 pool.install(|| adaptive::select_most_useful(&film, window, mask, &judged, s));
             }
         }
+        let round_start = Instant::now();
         let fixed_end = (!progressive).then(|| {
+            if probing {
+                return 1;
+            }
+            if let Some(per_sample) = probed {
+                return first_pass_end(spp, per_sample, settings.min_pass_seconds);
+            }
             let seconds = start.elapsed().as_secs_f64();
             fixed_pass_end(done, spp, seconds, settings.min_pass_seconds)
         });
@@ -590,10 +623,20 @@ pub fn render_with_checkpoints(
                 &next_fixed
             },
         };
-        // A fixed-spp round's samples per pixel (for the progress bar).
-        let per_pixel = fixed_end.map_or(0, |end| end - done) as u64;
-        let tile_samples = |t: &Tile| ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * per_pixel;
-        let work: Vec<bool> = if round.selection.is_none() {
+        // A fixed-spp round's samples in a tile (for the progress bar): its pixels all have
+        // the same count.
+        let tile_samples = |t: &Tile| {
+            if progressive {
+                return 0;
+            }
+            let (a, b) = round.samples(t.x0, t.y0);
+            ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * (b - a) as u64
+        };
+        let work: Vec<bool> = if probing {
+            let probe =
+                |(i, t): (usize, &Tile)| i % PROBE_TILE_STRIDE == 0 && round.tile_has_work(t);
+            tiles.iter().enumerate().map(probe).collect()
+        } else if round.selection.is_none() {
             tiles.iter().map(|t| round.tile_has_work(t)).collect()
         } else {
             pool.install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect())
@@ -676,6 +719,18 @@ pub fn render_with_checkpoints(
             break 'rounds;
         }
         first_round = false;
+        if probing {
+            // The probe's pixels have a sample, the others none: `done` stays 0.
+            probing = false;
+            let probe_pixels: u64 = (tiles.iter().zip(&work))
+                .filter(|(_, &w)| w)
+                .map(|(t, _)| ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64)
+                .sum();
+            let seconds = round_start.elapsed().as_secs_f64();
+            probed = Some(seconds * window_pixels as f64 / probe_pixels.max(1) as f64);
+            continue;
+        }
+        probed = None;
         done = fixed_end.unwrap_or(done);
         if let Some(c) = checkpoint.as_mut() {
             let finished = film.count_range().0 >= spp;
@@ -788,6 +843,22 @@ mod tests {
         assert_eq!(fixed_passes(100, 0.01, 0.1), vec![1, 11, 22, 44, 88, 100]);
         // A clock that reads zero after the first pass cannot divide: doubling.
         assert_eq!(fixed_pass_end(1, 100, 0.0, 0.5), 2);
+    }
+
+    /// The first full pass takes the samples that fill the minimum at the probe's speed,
+    /// between one and all of them.
+    #[test]
+    fn the_first_pass_fills_the_minimum() {
+        // 0.01 s a sample: 0.5 s hold 50 samples, more than an 8-spp render has.
+        assert_eq!(first_pass_end(8, 0.01, 0.5), 8);
+        assert_eq!(first_pass_end(1000, 0.01, 0.5), 50);
+        // 0.3 s a sample: 1.67, so 2; 10 s a sample: still one.
+        assert_eq!(first_pass_end(1000, 0.3, 0.5), 2);
+        assert_eq!(first_pass_end(1000, 10.0, 0.5), 1);
+        // A probe too fast to time, and an unbounded minimum: all samples.
+        assert_eq!(first_pass_end(64, 0.0, 0.5), 64);
+        assert_eq!(first_pass_end(64, 1.0, f64::INFINITY), 64);
+        assert_eq!(first_pass_end(64, 0.0, 0.0), 1);
     }
 
     #[test]
