@@ -176,8 +176,9 @@ struct Cli {
     #[arg(long, default_value_t = 16, hide = true)]
     tile_size: u32,
 
-    /// Least length of a pass after the first, in seconds, at the rate measured so far (0:
-    /// passes of 1, 1, 2, 4, … samples per pixel, for measuring what passes cost).
+    /// Least length of a pass, in seconds, at the rate measured so far (by a probe of a few
+    /// tiles, for the first pass; 0: no probe, and passes of 1, 1, 2, 4, … samples per pixel,
+    /// for measuring what passes cost).
     #[arg(long, default_value_t = render::DEFAULT_MIN_PASS_SECONDS, hide = true,
           value_parser = parse_seconds_or_zero)]
     min_pass_seconds: f64,

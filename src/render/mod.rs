@@ -60,9 +60,10 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     pub integrator: Integrator,
     pub tile_size: u32,
-    /// Fixed-spp renders: a pass after the first takes at least the samples per pixel that
-    /// fill this many seconds at the rate measured so far ([`fixed_pass_end`]). The image does
-    /// not depend on it.
+    /// Fixed-spp renders: each pass takes at least the samples per pixel that fill this many
+    /// seconds at the rate measured so far, the first one at the rate of a probe of one tile
+    /// in [`PROBE_TILE_STRIDE`] ([`first_pass_end`], [`fixed_pass_end`]); 0 gives passes of
+    /// 1, 1, 2, 4, … samples and no probe. The image does not depend on it.
     pub min_pass_seconds: f64,
     /// Render only pixels x0 ≤ x < x1, y0 ≤ y < y1 (the rest of the film stays empty).
     pub crop: Option<(u32, u32, u32, u32)>,
