@@ -177,7 +177,7 @@ fn tiles((x0, y0, x1, y1): (u32, u32, u32, u32), size: u32) -> Vec<Tile> {
 /// Each pass costs a sweep over the whole image, whose rays, BVH nodes and film no longer sit
 /// in the caches: at 8 spp the four doubling passes made a one-AO-ray render 1.2× as slow as
 /// one pass. The image does not depend on where passes end, since each pixel's totals
-/// continue from the film in sample order ([`render_tile`]), so passes may follow the clock.
+/// continue from the film in sample order (`render_tile`), so passes may follow the clock.
 pub fn fixed_pass_end(done: u32, spp: u32, seconds: f64, min_pass_seconds: f64) -> u32 {
     let doubling = done.saturating_mul(2).max(1);
     let by_time = if done > 0 && seconds > 0.0 {
