@@ -590,6 +590,31 @@ fn camera_packets_do_not_change_the_image() {
     }
 }
 
+/// A short fixed-spp render sweeps the image once after its probe, where doubling passes
+/// (`min_pass_seconds` 0) sweep it 1 + log2(spp) times, and a one-sample render once.
+#[test]
+fn a_short_render_makes_a_probe_and_one_pass() {
+    let passes = |spp: u32, min_pass: f64| {
+        let r = render_scene_with(
+            "scenes/cornell-box.gltf",
+            path(),
+            Vec3::ZERO,
+            (48, 48),
+            spp,
+            Stopping::default(),
+            1,
+            true,
+            min_pass,
+        );
+        assert_eq!(r.film.count_range(), (spp, spp));
+        r.stats.passes
+    };
+    // A 5-s minimum: the render takes well under a second even on a loaded machine.
+    assert_eq!(passes(8, 5.0), 2, "probe, then all 8 samples");
+    assert_eq!(passes(8, 0.0), 4, "1, 1, 2, 4 samples");
+    assert_eq!(passes(1, 5.0), 1, "no probe for one sample");
+}
+
 /// Where the passes of a fixed-spp render end follows the clock (`min_pass_seconds`), so the
 /// film must not depend on it: each pixel's sums continue from the film, one sample at a time
 /// in index order. Compared here on the film's f64 sums, bit for bit, which the EXR's f32

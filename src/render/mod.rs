@@ -115,6 +115,8 @@ impl Default for Stopping {
 pub struct RenderStats {
     pub rays: RayCounts,
     pub seconds: f64,
+    /// Passes that rendered tiles, the probe of a fixed-spp render included.
+    pub passes: u32,
     /// Samples rejected because their value was NaN or infinite.
     pub bad_samples: u64,
     /// The first few of them, in pixel order, for replay.
@@ -707,6 +709,7 @@ pub fn render_with_checkpoints(
         // merged in parallel (a serial merge, first touching a new film's pages, held back
         // short renders on several threads).
         merge_round(&mut film, &tiles, &tile_sums, &merged, pool);
+        stats.passes += !merged.is_empty() as u32;
         for (_, r) in merged {
             stats.rays.add(&r.rays);
             stats.bad_samples += r.bad;
