@@ -67,10 +67,10 @@ const MIN_PASS_SECONDS: f64 = f64::INFINITY;
 /// unbounded minimum is `spp`). Without a probe (1 spp), the one pass.
 fn rounds(tile: usize, spp: u32) -> [Option<(u32, u32)>; 2] {
     assert_eq!(render::first_pass_end(spp, 1.0, MIN_PASS_SECONDS), spp);
-    let probed = spp > 1 && tile % render::PROBE_TILE_STRIDE == 0;
     if spp == 1 {
         return [Some((0, 1)), None];
     }
+    let probed = tile % render::PROBE_TILE_STRIDE == 0;
     [probed.then_some((0, 1)), Some((probed as u32, spp))]
 }
 

@@ -141,8 +141,8 @@ pub fn li_packet(
     let mut ao_rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
     let mut owners = [(0usize, 0f32); PACKET];
     let mut m = 0;
-    for ((&k, &(local, weight)), si) in hit_k[..n_hits].iter().zip(&directions).zip(&interactions) {
-        let Some(si) = si else { continue };
+    let interactions = interactions.iter().flatten();
+    for ((&k, &(local, weight)), si) in hit_k[..n_hits].iter().zip(&directions).zip(interactions) {
         let onb = Onb::from_normal(si.ns);
         let wi = onb.to_world(local);
         // Written whether or not the direction can see the sky, and kept (m advanced) only

@@ -153,6 +153,13 @@ struct Tile {
     y1: u32,
 }
 
+impl Tile {
+    /// Its number of pixels.
+    fn pixels(&self) -> usize {
+        ((self.x1 - self.x0) * (self.y1 - self.y0)) as usize
+    }
+}
+
 /// Tiles covering the window [x0, x1) × [y0, y1), in scanline order.
 fn tiles((x0, y0, x1, y1): (u32, u32, u32, u32), size: u32) -> Vec<Tile> {
     let size = size.max(1);
@@ -278,7 +285,7 @@ impl TileSums {
         let mut offsets = Vec::with_capacity(tiles.len() + 1);
         offsets.push(0);
         for t in tiles {
-            let n = ((t.x1 - t.x0) * (t.y1 - t.y0)) as usize;
+            let n = t.pixels();
             offsets.push(offsets.last().copied().unwrap_or(0) + n);
         }
         TileSums {
@@ -326,7 +333,7 @@ fn render_tile(
     let camera = settings
         .camera
         .ray_generator(settings.width, settings.height);
-    let pixels = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+    let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
     let mut out = TileResult {
         rays: RayCounts::default(),
@@ -610,7 +617,7 @@ pub fn render_with_checkpoints(
             if probing {
                 return 1;
             }
-            if let Some(per_sample) = probed {
+            if let Some(per_sample) = probed.take() {
                 return first_pass_end(spp, per_sample, settings.min_pass_seconds);
             }
             let seconds = start.elapsed().as_secs_f64();
@@ -633,7 +640,7 @@ pub fn render_with_checkpoints(
                 return 0;
             }
             let (a, b) = round.samples(t.x0, t.y0);
-            ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64 * (b - a) as u64
+            t.pixels() as u64 * (b - a) as u64
         };
         let work: Vec<bool> = if probing {
             let probe =
@@ -728,13 +735,12 @@ pub fn render_with_checkpoints(
             probing = false;
             let probe_pixels: u64 = (tiles.iter().zip(&work))
                 .filter(|(_, &w)| w)
-                .map(|(t, _)| ((t.x1 - t.x0) * (t.y1 - t.y0)) as u64)
+                .map(|(t, _)| t.pixels() as u64)
                 .sum();
             let seconds = round_start.elapsed().as_secs_f64();
             probed = Some(seconds * window_pixels as f64 / probe_pixels.max(1) as f64);
             continue;
         }
-        probed = None;
         done = fixed_end.unwrap_or(done);
         if let Some(c) = checkpoint.as_mut() {
             let finished = film.count_range().0 >= spp;

@@ -152,7 +152,8 @@ impl PixelSampler {
         }
         let key = hash_words(&[self.pixel_key, slot as u64]);
         let sequence = if self.kind == SamplerKind::Sobol {
-            sobol::Sequence::new(sobol_seed(key))
+            // The slot's seed: the top half of its key.
+            sobol::Sequence::new((key >> 32) as u32)
         } else {
             sobol::Sequence::default()
         };
@@ -218,8 +219,8 @@ impl PixelSampler {
                 (sequences[k], indices[k]) = (sequences[0], indices[0]);
             }
             let points = sobol::sample_2d_lanes(&sequences, &indices);
-            for (out, [x, y]) in out.iter_mut().zip(points) {
-                *out = Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL);
+            for (out, point) in out.iter_mut().zip(points) {
+                *out = sobol_open_2d(point);
             }
         }
     }
@@ -330,17 +331,16 @@ impl PointSet2d {
     }
 }
 
-/// The Sobol seed of a dimension slot's key.
-#[inline]
-fn sobol_seed(key: u64) -> u32 {
-    (key >> 32) as u32
-}
-
 /// Dimensions 0 and 1 of point `index` of an Owen-scrambled Sobol sequence, moved to the
 /// centre of their 2^-23 cells.
 #[inline]
 fn sobol_2d(sequence: &sobol::Sequence, index: u32) -> Vec2 {
-    let [x, y] = sequence.sample_2d(index);
+    sobol_open_2d(sequence.sample_2d(index))
+}
+
+/// A 2D Sobol point moved to the centre of its 2^-23 cell (see [`SOBOL_HALF_CELL`]).
+#[inline]
+fn sobol_open_2d([x, y]: [f32; 2]) -> Vec2 {
     Vec2::new(x, y) + Vec2::splat(SOBOL_HALF_CELL)
 }
 
