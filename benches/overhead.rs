@@ -30,9 +30,10 @@
 //! `STRATA_OVERHEAD_AO_RAYS=1` (a comma-separated list) measures only those AO rays per hit
 //! (default: 1,16).
 //!
-//! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera); the helmet
-//! covers a fifth of its image, so most of its camera rays are cheap misses, the hardest case
-//! for the render/raw ratio.
+//! `STRATA_OVERHEAD_SCENE=FILE.gltf` measures another scene (its first camera, or without
+//! one the framing `render` makes). The fewer camera rays hit, the harder the render/raw
+//! ratio: a miss is a cheap ray, but its sample costs the render as much as a hit's (film
+//! point, camera ray, film sums). The helmet covers a fifth of its image.
 //!
 //! All four run on the render's one-thread pool, and alternating rounds and taking the median
 //! of per-round ratios cancels most of the drift of a shared machine. Printed: each way's
@@ -51,7 +52,7 @@ use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderSettings};
 use strata::sampling::warps::square_to_cosine_hemisphere;
 use strata::sampling::{Onb, PixelSampler, SamplerKind};
-use strata::scene::{self, LoadOptions, Scene};
+use strata::scene::{self, Camera, LoadOptions, Scene};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -83,10 +84,19 @@ struct Rays {
     ao_groups: Vec<Vec<Ray>>,
 }
 
+/// The scene's first camera; without one, the framing of its bounds that `render` makes.
+fn camera(scene: &Scene) -> Camera {
+    scene
+        .cameras
+        .first()
+        .cloned()
+        .unwrap_or_else(|| Camera::framing(scene.bounds.0, scene.bounds.1, W as f32 / H as f32))
+}
+
 /// The rays of an AO render with `n` rays per hit, generated as `render::render` and the AO
 /// integrator do, in the render's order: round, 16×16 tile, 4×2-pixel block, sample, pixel.
 fn render_rays(scene: &Scene, accel: &Accel, n: u32, spp: u32) -> Rays {
-    let camera = scene.cameras[0].ray_generator(W, H);
+    let camera = camera(scene).ray_generator(W, H);
     let mut sampler = PixelSampler::new(SamplerKind::Sobol, spp, 0);
     let (mut packets, mut ao_groups) = (Vec::new(), Vec::new());
     for round in 0..2 {
@@ -251,7 +261,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     let prepared = Prepared::default();
     let ctx = prepared.context(scene, accel);
     let settings = RenderSettings {
-        camera: scene.cameras[0].clone(),
+        camera: camera(scene),
         crop: None,
         stopping: Default::default(),
         width: W,

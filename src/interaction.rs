@@ -44,7 +44,11 @@ pub struct SurfaceInteraction {
 }
 
 impl SurfaceInteraction {
-    #[inline]
+    /// Always inlined: called, it returns its 76 bytes through memory written a field at a
+    /// time, and a caller that moves them on (the AO packet's array of hits) reads them back
+    /// 16 bytes at a time, which store-to-load forwarding cannot serve (perf: a stall of
+    /// 1.7% of a one-ray AO render).
+    #[inline(always)]
     pub fn from_hit(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let [p0, p1, p2] = scene.triangle_positions(hit.prim);
         let (b1, b2) = (hit.u, hit.v);

@@ -6,7 +6,7 @@
 pub mod ao;
 pub mod path;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use std::fmt;
 use std::str::FromStr;
 
@@ -213,7 +213,7 @@ impl Integrator {
         samplers: &mut [PixelSampler],
         lanes: &[usize],
         counts: &mut RayCounts,
-        l: &mut [Vec3],
+        l: &mut [Vec3A],
     ) {
         match self {
             Integrator::Ao(settings) => {
@@ -222,13 +222,15 @@ impl Integrator {
                 let ao = &mut ao[..rays.len()];
                 ao::li_packet(ctx, rays, hits, samplers, lanes, settings, counts, ao);
                 for (l, a) in l.iter_mut().zip(ao.iter()) {
-                    *l = Vec3::splat(*a);
+                    *l = Vec3A::splat(*a);
                 }
             }
             _ => {
                 for k in 0..rays.len() {
                     let sampler = &mut samplers[lanes[k]];
-                    l[k] = self.li_from_camera_hit(ctx, &rays[k], hits[k], sampler, counts);
+                    l[k] = self
+                        .li_from_camera_hit(ctx, &rays[k], hits[k], sampler, counts)
+                        .into();
                 }
             }
         }
