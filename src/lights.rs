@@ -58,6 +58,10 @@ pub enum Emitter {
     },
     Triangle {
         prim: u32,
+        /// The triangle's area and unit geometric normal (along e1 × e2), computed once:
+        /// every light sample needs them, and each costs a square root or a division.
+        area: f32,
+        normal: Vec3,
     },
     Background {
         radiance: Vec3,
@@ -290,7 +294,8 @@ impl LightSet {
                 }
                 let (le, two_sided) = materials.emission_power_factor(m);
                 let [a, b, c] = scene.triangle_positions(prim as u32);
-                let area = 0.5 * (b - a).cross(c - a).length();
+                let cross = (b - a).cross(c - a);
+                let area = 0.5 * cross.length();
                 let power =
                     pi * area as f64 * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 };
                 if power > 0.0 {
@@ -298,7 +303,11 @@ impl LightSet {
                         triangle_light = vec![u32::MAX; scene.triangles.len()];
                     }
                     triangle_light[prim] = emitters.len() as u32;
-                    emitters.push(Emitter::Triangle { prim: prim as u32 });
+                    emitters.push(Emitter::Triangle {
+                        prim: prim as u32,
+                        area,
+                        normal: cross / (2.0 * area),
+                    });
                     weights.push(power);
                 }
             }
@@ -370,11 +379,19 @@ impl LightSet {
         if i == u32::MAX {
             return 0.0;
         }
-        let [a, b, c] = scene.triangle_positions(prim);
-        if let Some(omega) = self.spherical_area(a, b, c, p_ref) {
-            return self.table.pmf(i as usize) / omega;
+        if self.triangle_sampling == TriangleSampling::SolidAngle {
+            let [a, b, c] = scene.triangle_positions(prim);
+            if let Some(omega) = self.spherical_area(a, b, c, p_ref) {
+                return self.table.pmf(i as usize) / omega;
+            }
         }
-        let area = 0.5 * (b - a).cross(c - a).length();
+        let area = match self.emitters[i as usize] {
+            Emitter::Triangle { area, .. } => area,
+            _ => {
+                debug_assert!(false, "triangle_light indexes triangle emitters");
+                return 0.0;
+            }
+        };
         let d = p - p_ref;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
@@ -408,19 +425,14 @@ impl LightSet {
         &self,
         scene: &Scene,
         materials: &Materials,
-        prim: u32,
+        (prim, area, n): (u32, f32, Vec3),
         p: Vec3,
         u: Vec2,
     ) -> Option<LightSample> {
-        let [a, b, c] = scene.triangle_positions(prim);
-        let e1 = b - a;
-        let e2 = c - a;
-        let cross = e1.cross(e2);
-        let area = 0.5 * cross.length();
         if area.is_nan() || area <= 0.0 {
             return None;
         }
-        let n = cross / (2.0 * area);
+        let [a, b, c] = scene.triangle_positions(prim);
         let (q, bary, pdf_solid_angle) = match self.spherical_area(a, b, c, p) {
             Some(omega) => {
                 let da = (a - p).normalize();
@@ -432,6 +444,7 @@ impl LightSet {
                     return None;
                 }
                 let q = p + t * w;
+                let (e1, e2) = (b - a, c - a);
                 let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
                 let v = q - a;
                 let (d20, d21) = (v.dot(e1), v.dot(e2));
@@ -550,7 +563,9 @@ impl LightSet {
                 p_light: Vec3::ZERO,
                 infinite: true,
             },
-            Emitter::Triangle { prim } => self.sample_triangle(scene, materials, prim, p, u)?,
+            Emitter::Triangle { prim, area, normal } => {
+                self.sample_triangle(scene, materials, (prim, area, normal), p, u)?
+            }
         };
         Some((s, pmf))
     }
