@@ -12,7 +12,7 @@
 mod embree_backend;
 mod obvhs_backend;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use std::fmt;
 use std::str::FromStr;
 
@@ -48,6 +48,50 @@ impl Ray {
 
     pub fn at(&self, t: f32) -> Vec3 {
         self.org + t * self.dir
+    }
+}
+
+/// A box around all of a scene's triangles, for telling cheaply that a ray cannot hit any
+/// of them: camera rays that miss the scene's bounds then need no traversal.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneBox {
+    lo: Vec3A,
+    hi: Vec3A,
+    /// The box's largest coordinate magnitude.
+    scale: f32,
+}
+
+impl SceneBox {
+    /// The box of `scene`'s vertices.
+    pub fn new(scene: &Scene) -> SceneBox {
+        let (lo, hi) = (Vec3A::from(scene.bounds.0), Vec3A::from(scene.bounds.1));
+        SceneBox {
+            lo,
+            hi,
+            scale: lo.abs().max(hi.abs()).max_element(),
+        }
+    }
+
+    /// True only when `ray` meets no point of the box within [t_min, t_max]: a slab test
+    /// (Kay and Kajiya 1986) against the box widened by 32 ulps of the largest coordinate
+    /// magnitude among the box and the ray's origin. The test's own rounding moves the
+    /// points it compares by a few of those ulps, so a ray that grazes a triangle on the
+    /// box's faces, edges or corners is never called a miss (tests/scene_box.rs). A NaN
+    /// anywhere (an origin on a widened slab's plane with a direction parallel to it, a
+    /// non-finite ray) answers false: the ray is traced.
+    #[inline]
+    pub fn misses(&self, ray: &Ray) -> bool {
+        let org = Vec3A::from(ray.org);
+        let margin = Vec3A::splat(32.0 * f32::EPSILON * self.scale.max(org.abs().max_element()));
+        let inv = Vec3A::ONE / Vec3A::from(ray.dir);
+        let t0 = (self.lo - margin - org) * inv;
+        let t1 = (self.hi + margin - org) * inv;
+        if (t0.is_nan_mask() | t1.is_nan_mask()).any() {
+            return false;
+        }
+        let near = t0.min(t1).max_element().max(ray.t_min);
+        let far = t0.max(t1).min_element().min(ray.t_max);
+        near > far
     }
 }
 
