@@ -45,7 +45,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use indicatif::ProgressBar;
-use strata::accel::{Accel, AccelOptions, Ray, OCCLUSION_PACKET, PACKET};
+use strata::accel::{Accel, AccelOptions, Ray, SceneBox, OCCLUSION_PACKET, PACKET};
 use strata::embree::RawRay;
 use strata::integrators::{AoSettings, Integrator, Prepared};
 use strata::interaction::SurfaceInteraction;
@@ -329,6 +329,17 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
         packets.len(),
         ao_rays.len(),
         ao_groups.len()
+    );
+    // The render hands no packet to the BVH whose rays all miss the scene's box; the raw
+    // and `Accel` ways trace every packet.
+    let scene_box = SceneBox::new(scene);
+    let culled = packets
+        .iter()
+        .filter(|p| p.iter().all(|r| scene_box.misses(r)))
+        .count();
+    println!(
+        "  camera packets outside the scene's box (not traced by the render): {culled} ({:.1}%)",
+        100.0 * culled as f64 / packets.len() as f64
     );
     let [single, packet, through, whole] = &t;
     println!("  raw Embree, single rays   {:6.2} Mrays/s", mrays(single));
