@@ -332,7 +332,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     );
     // The render hands no packet to the BVH whose rays all miss the scene's box; the raw
     // and `Accel` ways trace every packet.
-    let scene_box = SceneBox::new(scene);
+    let scene_box = SceneBox::new(accel);
     let culled = packets
         .iter()
         .filter(|p| p.iter().all(|r| scene_box.misses(r)))

@@ -164,3 +164,48 @@ fn ao_images_agree_between_backends() {
     assert!((mean(&a) - mean(&b)).abs() < 1e-3);
     assert!(mean(&a) > 0.1, "the image is not empty");
 }
+
+/// Axis-aligned rays, with every sign of zero in their other components: a BVH that picks
+/// its traversal order from `d < 0` but takes 1/(−0) as −∞ reads −0 one way and its
+/// reciprocal the other, and misses everything (obvhs 0.4 did, until the backend turned
+/// −0 into +0). From near the Cornell box's centre five of the six axis directions meet a
+/// wall; the box is open toward the camera (+z).
+#[test]
+fn axis_aligned_rays_hit_whatever_the_sign_of_zero() {
+    let scene = load("cornell-box.gltf");
+    // Off the exact centre, so that no ray meets the diagonal shared by a wall's triangles.
+    let (lo, hi) = scene.bounds;
+    let centre = lo + (hi - lo) * Vec3::new(0.513, 0.521, 0.517);
+    let [embree, obvhs] = [Backend::Embree, Backend::Obvhs].map(|b| build(&scene, b));
+    let mut hits = 0;
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            for zeros in 0..4u32 {
+                let mut dir = Vec3::ZERO;
+                let others = [(axis + 1) % 3, (axis + 2) % 3];
+                for (k, &o) in others.iter().enumerate() {
+                    dir[o] = if zeros >> k & 1 == 1 { -0.0 } else { 0.0 };
+                }
+                dir[axis] = sign;
+                let ray = Ray::new(centre, dir);
+                let (a, b) = (embree.intersect(&ray), obvhs.intersect(&ray));
+                match (a, b) {
+                    (Some(a), Some(b)) => {
+                        assert_eq!(a.prim, b.prim, "{dir:?}");
+                        assert!(
+                            (a.t - b.t).abs() <= 1e-5 * a.t,
+                            "{dir:?}: {} vs {}",
+                            a.t,
+                            b.t
+                        );
+                        hits += 1;
+                    }
+                    (None, None) => {}
+                    _ => panic!("along {dir:?}: Embree {a:?}, obvhs {b:?}"),
+                }
+                assert_eq!(embree.occluded(&ray), obvhs.occluded(&ray), "{dir:?}");
+            }
+        }
+    }
+    assert_eq!(hits, 20, "five walls, four signs of zero each");
+}

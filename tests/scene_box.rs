@@ -107,11 +107,11 @@ proptest! {
         let half = Vec3::new(size, size * aspect.0, size * aspect.1) * 0.5;
         let (lo, hi) = (centre - half, centre + half);
         let scene = box_scene(lo, hi);
-        let scene_box = SceneBox::new(&scene);
         let target = surface_point(lo, hi, which, st.0, st.1);
         let org = target + from * (distance * size);
         let ulp = target.abs().max_element() * f32::EPSILON;
         for accel in accels(&scene) {
+            let scene_box = SceneBox::new(&accel);
             for nudge in std::iter::once(Vec3::ZERO).chain(nudges.iter().map(|&n| n * 4.0 * ulp)) {
                 let dir = (target + nudge - org).normalize();
                 let ray = Ray::new(org, dir);
@@ -132,7 +132,7 @@ proptest! {
 fn rays_that_plainly_miss_are_called_misses() {
     for centre in [Vec3::ZERO, Vec3::new(3e3, -2e3, 5e2)] {
         let (lo, hi) = (centre - Vec3::ONE, centre + Vec3::ONE);
-        let scene_box = SceneBox::new(&box_scene(lo, hi));
+        let scene_box = SceneBox::new(&accels(&box_scene(lo, hi))[0]);
         let org = centre + Vec3::new(0.0, 0.0, 10.0);
         // Pointing away, and passing 1% of the box's size outside an edge and a corner.
         let away = Ray::new(org, Vec3::Z);
@@ -160,7 +160,7 @@ fn rays_that_plainly_miss_are_called_misses() {
 
 #[test]
 fn rays_in_a_face_plane_are_traced_and_parallel_rays_outside_culled() {
-    let scene_box = SceneBox::new(&box_scene(Vec3::ZERO, Vec3::ONE));
+    let scene_box = SceneBox::new(&accels(&box_scene(Vec3::ZERO, Vec3::ONE))[0]);
     // In the plane of the face x = 0, crossing it: traced (the slab's direction component is
     // 0, so its distances are infinite).
     let in_plane = Ray::new(Vec3::new(0.0, -1.0, 0.5), Vec3::Y);
@@ -171,4 +171,27 @@ fn rays_in_a_face_plane_are_traced_and_parallel_rays_outside_culled() {
     // A NaN direction makes NaN distances: traced, never culled.
     let nan = Ray::new(Vec3::new(0.5, 0.5, 5.0), Vec3::new(f32::NAN, 0.0, -1.0));
     assert!(!scene_box.misses(&nan));
+}
+
+#[test]
+fn the_box_is_the_bvh_s_own_not_the_scene_s_field() {
+    // A scene whose `bounds` were never computed (a library caller that skipped
+    // `update_summary`) still gets a box around its triangles: the BVH's.
+    let mut scene = box_scene(Vec3::splat(5.0), Vec3::splat(6.0));
+    scene.bounds = (Vec3::ZERO, Vec3::ZERO);
+    let toward = Ray::new(Vec3::new(5.3, 5.6, 20.0), -Vec3::Z);
+    for accel in accels(&scene) {
+        let (lo, hi) = accel.bounds();
+        assert!(
+            lo.cmple(Vec3::splat(5.0)).all() && hi.cmpge(Vec3::splat(6.0)).all(),
+            "{}: bounds {lo} {hi}",
+            accel.describe()
+        );
+        assert!(accel.intersect(&toward).is_some());
+        assert!(
+            !SceneBox::new(&accel).misses(&toward),
+            "{}",
+            accel.describe()
+        );
+    }
 }

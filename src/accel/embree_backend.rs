@@ -108,6 +108,12 @@ impl EmbreeAccel {
         self.memory
     }
 
+    /// The bounds of the committed scene, as Embree computed them.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = self.scene.bounds();
+        (Vec3::from_array(lo), Vec3::from_array(hi))
+    }
+
     /// The committed Embree scene (for measurements against raw Embree calls).
     pub fn raw(&self) -> &embree::Scene {
         &self.scene

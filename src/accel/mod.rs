@@ -62,9 +62,10 @@ pub struct SceneBox {
 }
 
 impl SceneBox {
-    /// The box of `scene`'s vertices.
-    pub fn new(scene: &Scene) -> SceneBox {
-        let (lo, hi) = (Vec3A::from(scene.bounds.0), Vec3A::from(scene.bounds.1));
+    /// The box of the triangles in `accel` ([`Accel::bounds`]).
+    pub fn new(accel: &Accel) -> SceneBox {
+        let (lo, hi) = accel.bounds();
+        let (lo, hi) = (Vec3A::from(lo), Vec3A::from(hi));
         SceneBox {
             lo,
             hi,
@@ -292,6 +293,15 @@ impl Accel {
         match self {
             Accel::Embree(a) => Some(a),
             _ => None,
+        }
+    }
+
+    /// A box around every triangle the structure holds (the BVH's own, so it is right even
+    /// when a scene's `bounds` were not brought up to date).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self {
+            Accel::Embree(a) => a.bounds(),
+            Accel::Obvhs(a) => a.bounds(),
         }
     }
 

@@ -23,6 +23,8 @@ pub struct ObvhsAccel {
     tris: Vec<Triangle>,
     /// Scene triangle index of each leaf slot.
     ids: Vec<u32>,
+    /// The box of the triangles' vertices.
+    bounds: (Vec3, Vec3),
 }
 
 /// Möller & Trumbore (1997): (t, u, v) of the ray's hit with triangle (v0, v1, v2), with
@@ -70,15 +72,37 @@ impl ObvhsAccel {
         };
         let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
         let ids: Vec<u32> = bvh.primitive_indices.clone();
-        let tris = ids.iter().map(|&i| tris[i as usize]).collect();
-        ObvhsAccel { bvh, tris, ids }
+        let tris: Vec<Triangle> = ids.iter().map(|&i| tris[i as usize]).collect();
+        let bounds = tris
+            .iter()
+            .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), t| {
+                (
+                    lo.min(t.v0).min(t.v1).min(t.v2),
+                    hi.max(t.v0).max(t.v1).max(t.v2),
+                )
+            });
+        ObvhsAccel {
+            bvh,
+            tris,
+            ids,
+            bounds: (bounds.0.into(), bounds.1.into()),
+        }
+    }
+
+    /// The box of the triangles' vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
     }
 
     #[inline]
     fn ray(ray: &Ray) -> ORay {
+        // −0 + +0 = +0: obvhs 0.4 picks a ray's octant by `d < 0` (so −0 counts as positive)
+        // but inverts −0 to a large negative number, and the mismatch makes the traversal
+        // miss everything along an axis-aligned ray with a −0 component (a top-down
+        // orthographic camera, a transformed axis). Turning −0 into +0 keeps them agreeing.
         ORay::new(
             Vec3A::from(ray.org),
-            Vec3A::from(ray.dir),
+            Vec3A::from(ray.dir) + Vec3A::ZERO,
             ray.t_min,
             ray.t_max,
         )

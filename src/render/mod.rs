@@ -379,7 +379,7 @@ fn render_tile(
     // different triangles: 1 camera ray in 4.9 M on the helmet). A block's totals stay in
     // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
-    let scene_box = SceneBox::new(ctx.scene);
+    let scene_box = SceneBox::new(ctx.accel);
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
         for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
             let mut lanes = [(0u32, 0u32, 0u32, 0u32); PACKET];
