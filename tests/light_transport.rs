@@ -13,7 +13,7 @@ use std::sync::atomic::AtomicBool;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use indicatif::ProgressBar;
-use strata::accel::{Accel, AccelOptions};
+use strata::accel::{Accel, AccelOptions, Backend};
 use strata::integrators::{Hemisphere, Integrator, PathSettings, Prepared, Strategy};
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
@@ -83,6 +83,7 @@ struct Setup {
     sampler: SamplerKind,
     background: Vec3,
     triangle_sampling: strata::lights::TriangleSampling,
+    backend: Backend,
 }
 
 impl Setup {
@@ -94,6 +95,7 @@ impl Setup {
             sampler: SamplerKind::Random,
             background: Vec3::ZERO,
             triangle_sampling: Default::default(),
+            backend: Backend::Embree,
         }
     }
 }
@@ -105,7 +107,14 @@ fn render_film(
     integrator: Integrator,
     setup: Setup,
 ) -> render::RenderResult {
-    let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
+    let accel = Accel::build(
+        scene,
+        &AccelOptions {
+            backend: setup.backend,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let mut prepared =
         Prepared::new(scene, Path::new("test"), &integrator, setup.background).unwrap();
     prepared.lights.triangle_sampling = setup.triangle_sampling;
@@ -455,38 +464,53 @@ fn textures_are_upright_and_srgb_decoded() {
     )
     .unwrap();
     let scene = textured_quad(png, true);
-    // An orthographic camera looking down −z at the quad, which fills the 8×8 image.
-    let cam = Camera {
-        name: None,
-        projection: Projection::Orthographic { ymag: 1.0 },
-        to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
-        aspect_ratio: None,
-    };
-    // Under a constant environment L = 1, an unoccluded Lambertian plane shows ρ·L.
-    let integrator = direct();
-    let prepared = Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ONE).unwrap();
-    assert_eq!(prepared.materials.decoded_images(), 1);
-    let setup = Setup {
-        sampler: SamplerKind::Stratified,
-        background: Vec3::ONE,
-        ..Setup::new(8, 256, 0)
-    };
-    let film = render_film(&scene, cam, integrator, setup).film;
+    // Orthographic cameras looking down −z at the quad, which fills the 8×8 image: upright,
+    // and turned half a turn about z, its axes written with −0 entries so that every ray is
+    // (−0, −0, −1), which the obvhs backend once missed (tests/backends.rs). Both backends.
+    let upright = Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0));
+    let turned = Mat4::from_cols(
+        Vec4::new(-1.0, -0.0, 0.0, 0.0),
+        Vec4::new(-0.0, -1.0, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 1.0, 0.0),
+        Vec4::new(0.0, 0.0, 2.0, 1.0),
+    );
     // sRGB 128 decodes to 0.2158 (IEC 61966-2-1); 255 to 1.
-    let grey = ((128.0f32 / 255.0 + 0.055) / 1.055).powf(2.4);
-    // Pixels (1, 1), (6, 1), (1, 6), (6, 6) lie inside the four texels' constant regions
-    // (bilinear filtering with clamping only blends within half a texel of the centre line).
-    for ((x, y), want) in [
-        ((1, 1), Vec3::new(1.0, 0.0, 0.0)),
-        ((6, 1), Vec3::new(0.0, 1.0, 0.0)),
-        ((1, 6), Vec3::new(0.0, 0.0, 1.0)),
-        ((6, 6), Vec3::splat(grey)),
-    ] {
-        let got = film.pixel(x, y);
-        assert!(
-            (got - want).abs().max_element() < 0.03,
-            "pixel ({x}, {y}): {got}, expected {want}"
-        );
+    let grey = Vec3::splat(((128.0f32 / 255.0 + 0.055) / 1.055).powf(2.4));
+    let (red, green, blue) = (Vec3::X, Vec3::Y, Vec3::Z);
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        for (to_world, corners) in [
+            (upright, [red, green, blue, grey]),
+            (turned, [grey, blue, green, red]),
+        ] {
+            let cam = Camera {
+                name: None,
+                projection: Projection::Orthographic { ymag: 1.0 },
+                to_world,
+                aspect_ratio: None,
+            };
+            // Under a constant environment L = 1, an unoccluded Lambertian plane shows ρ·L.
+            let integrator = direct();
+            let prepared =
+                Prepared::new(&scene, Path::new("test"), &integrator, Vec3::ONE).unwrap();
+            assert_eq!(prepared.materials.decoded_images(), 1);
+            let setup = Setup {
+                sampler: SamplerKind::Stratified,
+                background: Vec3::ONE,
+                backend,
+                ..Setup::new(8, 256, 0)
+            };
+            let film = render_film(&scene, cam, integrator, setup).film;
+            // Pixels (1, 1), (6, 1), (1, 6), (6, 6) lie inside the four texels' constant
+            // regions (bilinear filtering with clamping only blends within half a texel of
+            // the centre line).
+            for ((x, y), want) in [(1, 1), (6, 1), (1, 6), (6, 6)].into_iter().zip(corners) {
+                let got = film.pixel(x, y);
+                assert!(
+                    (got - want).abs().max_element() < 0.03,
+                    "{backend:?}, camera {to_world}: pixel ({x}, {y}): {got}, expected {want}"
+                );
+            }
+        }
     }
 }
 
