@@ -333,10 +333,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     // The render hands no packet to the BVH whose rays all miss the scene's box; the raw
     // and `Accel` ways trace every packet.
     let scene_box = SceneBox::new(accel);
-    let culled = packets
-        .iter()
-        .filter(|p| p.iter().all(|r| scene_box.misses(r)))
-        .count();
+    let culled = packets.iter().filter(|p| scene_box.misses_all(p)).count();
     println!(
         "  camera packets outside the scene's box (not traced by the render): {culled} ({:.1}%)",
         100.0 * culled as f64 / packets.len() as f64

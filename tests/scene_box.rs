@@ -147,6 +147,9 @@ fn rays_that_plainly_miss_are_called_misses() {
         // Through the box, and stopping short of it.
         let through = Ray::new(org, -Vec3::Z);
         assert!(!scene_box.misses(&through));
+        // A packet misses only if all its rays do.
+        assert!(scene_box.misses_all(&[away, past_edge, past_corner]));
+        assert!(!scene_box.misses_all(&[away, through, past_corner]));
         let short = Ray {
             t_max: 8.0,
             ..through

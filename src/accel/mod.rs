@@ -94,6 +94,13 @@ impl SceneBox {
         let far = t0.max(t1).min_element().min(ray.t_max);
         near > far
     }
+
+    /// True when every ray of `rays` [`misses`](SceneBox::misses) the box: a packet that
+    /// needs no traversal.
+    #[inline]
+    pub fn misses_all(&self, rays: &[Ray]) -> bool {
+        rays.iter().all(|r| self.misses(r))
+    }
 }
 
 /// The closest intersection of a ray with the scene.

@@ -422,7 +422,7 @@ fn render_tile(
                 let rays = camera.rays(&fx, &fy);
                 let mut hits = [None; PACKET];
                 // A packet whose rays all miss the scene's box needs no traversal.
-                if !rays[..n].iter().all(|r| scene_box.misses(r)) {
+                if !scene_box.misses_all(&rays[..n]) {
                     ctx.accel.intersect_packet(&rays[..n], &mut hits);
                 }
                 // In 16-byte lanes: a value stored as three floats and loaded as a pair and
