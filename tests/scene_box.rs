@@ -108,12 +108,15 @@ proptest! {
         let (lo, hi) = (centre - half, centre + half);
         let scene = box_scene(lo, hi);
         let target = surface_point(lo, hi, which, st.0, st.1);
-        let org = target + from * (distance * size);
         let ulp = target.abs().max_element() * f32::EPSILON;
+        // At least 1000 ulps away: nearer, far from the origin, the origin rounds onto the
+        // target and the direction is 0/0, a ray Embree's assertions abort on.
+        let org = target + from * (distance * size).max(1000.0 * ulp);
         for accel in accels(&scene) {
             let scene_box = SceneBox::new(&accel);
             for nudge in std::iter::once(Vec3::ZERO).chain(nudges.iter().map(|&n| n * 4.0 * ulp)) {
                 let dir = (target + nudge - org).normalize();
+                assert!(dir.is_finite(), "a degenerate test ray: {org} toward {target}");
                 let ray = Ray::new(org, dir);
                 if let Some(hit) = accel.intersect(&ray) {
                     prop_assert!(
