@@ -6,7 +6,7 @@
 //! one thread), once with one AO ray per camera hit and once with 16 (`--ao-samples 16`):
 //! every camera ray, and the AO rays of every camera hit, made with the renderer's own
 //! sampler, camera and offsets, in the renderer's order (round, 16×16 tile, 4×2-pixel block,
-//! sample, pixel). Four ways of tracing them then alternate for `ROUNDS` rounds:
+//! sample, pixel). Five ways of tracing them then alternate for `ROUNDS` rounds:
 //!
 //! - **raw, single rays**: `rtcIntersect1` / `rtcOccluded1` in tight loops over rays already
 //!   in Embree's layout, one intersection context per batch: the most any renderer could get
@@ -19,7 +19,12 @@
 //! - **accel**: the same packets and rays through [`Accel::intersect_packet`],
 //!   [`Accel::occluded`] and [`Accel::occluded_packet`], the calls the render makes;
 //! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
-//!   which traces the same rays.
+//!   which traces the same rays but for those it culls: pixel blocks outside the image of
+//!   the scene's box take a miss's estimate untraced, and packets whose rays all miss the
+//!   box are not handed to the BVH;
+//! - **render, no block culling**: the same with every block's camera rays made and tested
+//!   against the box (`Context::cull_blocks` off): the per-ray cost of strata's layers,
+//!   which the first render's ratio hides where much of the image sees nothing.
 //!
 //! `STRATA_OVERHEAD_SPP=N` renders N samples per pixel instead of 8 (the rays are held in
 //! memory: about 0.4 GB per 8 spp on the helmet). Each pass of the render sweeps the whole
@@ -35,7 +40,7 @@
 //! ratio: a miss is a cheap ray, but its sample costs the render as much as a hit's (film
 //! point, camera ray, film sums). The helmet covers a fifth of its image.
 //!
-//! All four run on the render's one-thread pool, and alternating rounds and taking the median
+//! All five run on the render's one-thread pool, and alternating rounds and taking the median
 //! of per-round ratios cancels most of the drift of a shared machine. Printed: each way's
 //! median Mrays/s, and the median ratios accel/raw packets (target ≥ 0.97: our layer costs
 //! under 3%) and render/raw, against both raw ways (target ≥ 0.85).
@@ -209,7 +214,7 @@ fn main() {
     }
 }
 
-/// Measures the four ways on the rays of an AO render with `n` rays per hit, and prints.
+/// Measures the five ways on the rays of an AO render with `n` rays per hit, and prints.
 fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: u32, quick: bool) {
     let embree = accel.as_embree().expect("Embree backend").raw();
     let Rays { packets, ao_groups } = render_rays(scene, accel, n, spp);
@@ -276,15 +281,22 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
         tile_size: TILE,
         min_pass_seconds: MIN_PASS_SECONDS,
     };
-    let render_once = || {
+    // The render as it runs, and with every pixel block's camera rays generated and tested
+    // against the box (no block culling): the per-ray cost of strata's layers.
+    let ctx_all_blocks = strata::integrators::Context {
+        cull_blocks: false,
+        ..ctx
+    };
+    let render_with = |ctx| {
         render::render(
-            &ctx,
+            ctx,
             &settings,
             pool,
             &ProgressBar::hidden(),
             &AtomicBool::new(false),
         )
     };
+    let render_once = || render_with(&ctx);
 
     // The four ways must trace the same rays with the same answers.
     let hits_raw = embree.intersect_count_raw(&raw_camera);
@@ -301,7 +313,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     );
 
     let rounds = if quick { 1 } else { ROUNDS };
-    let mut t: [Vec<f64>; 4] = Default::default();
+    let mut t: [Vec<f64>; 5] = Default::default();
     for _ in 0..rounds {
         let start = Instant::now();
         let hits = embree.intersect_count_raw(&raw_camera) + embree.occluded_count_raw(&raw_ao);
@@ -320,6 +332,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
 
         // The render's own timer.
         t[3].push(render_once().stats.seconds);
+        t[4].push(render_with(&ctx_all_blocks).stats.seconds);
     }
     let ratio = |a: &[f64], b: &[f64]| median(a.iter().zip(b).map(|(x, y)| y / x).collect());
     let mrays = |t: &[f64]| total / median(t.to_vec()) / 1e6;
@@ -338,15 +351,29 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
         "  camera packets outside the scene's box (not traced by the render): {culled} ({:.1}%)",
         100.0 * culled as f64 / packets.len() as f64
     );
-    let [single, packet, through, whole] = &t;
+    let culled_rays = render_once().stats.rays.culled;
+    println!(
+        "  camera rays the render culls (blocks outside the box's image, and packets outside the box): {culled_rays} ({:.1}%)",
+        100.0 * culled_rays as f64 / camera_rays.len() as f64
+    );
+    let [single, packet, through, whole, all_blocks] = &t;
     println!("  raw Embree, single rays   {:6.2} Mrays/s", mrays(single));
     println!("  raw Embree, packets       {:6.2} Mrays/s", mrays(packet));
     println!("  through Accel (packets)   {:6.2} Mrays/s", mrays(through));
     println!("  full AO render            {:6.2} Mrays/s", mrays(whole));
     println!(
+        "  same, no block culling    {:6.2} Mrays/s",
+        mrays(all_blocks)
+    );
+    println!(
         "  Accel / raw packets {:.3}; render / raw single {:.3}, render / raw packets {:.3} (medians of per-round ratios)",
         ratio(through, packet),
         ratio(whole, single),
         ratio(whole, packet)
+    );
+    println!(
+        "  no block culling: render / raw single {:.3}, render / raw packets {:.3}",
+        ratio(all_blocks, single),
+        ratio(all_blocks, packet)
     );
 }

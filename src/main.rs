@@ -724,7 +724,8 @@ fn run(cli: Cli) -> Result<Outcome> {
             eprintln!("  pixel ({}, {}) sample {}: {}", b.x, b.y, b.index, b.value);
         }
     }
-    let rays = stats.rays.total();
+    // Rays that went to the BVH: camera rays culled by the scene's box are not counted.
+    let rays = stats.rays.traced();
     let rays_per_s = rays as f64 / stats.seconds.max(1e-9);
     println!(
         "{}: {width}x{height}, {} spp, {:.2} s, {:.2} Mrays, {:.2} Mrays/s{}",
@@ -816,11 +817,14 @@ fn run(cli: Cli) -> Result<Outcome> {
             prepared.lights.emitters.len()
         );
         println!(
-            "rays: {} camera, {} extension, {} shadow, {} total, {:.3} Mrays/s",
+            "rays: {} camera, {} extension, {} shadow, {} total, {} traced ({} camera rays \
+             culled: outside the scene's box), {:.3} Mrays/s traced",
             stats.rays.camera,
             stats.rays.extension,
             stats.rays.shadow,
+            stats.rays.total(),
             rays,
+            stats.rays.culled,
             rays_per_s * 1e-6
         );
     }

@@ -27,15 +27,34 @@ fn render_scene(
     stopping: Stopping,
     threads: usize,
 ) -> RenderResult {
-    let packets = true;
     let min_pass = render::DEFAULT_MIN_PASS_SECONDS;
     render_scene_with(
-        scene_file, integrator, background, size, spp, stopping, threads, packets, min_pass,
+        scene_file,
+        integrator,
+        background,
+        size,
+        spp,
+        stopping,
+        threads,
+        CameraRays::Packets,
+        min_pass,
     )
 }
 
-/// [`render_scene`], with camera rays traced in packets or one by one, and passes of at
-/// least `min_pass_seconds` (fixed spp).
+/// How the render traces its camera rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum CameraRays {
+    /// One by one.
+    Single,
+    /// In packets of 4×2 pixels, blocks outside the image of the scene's box culled: the
+    /// default.
+    Packets,
+    /// In packets, every block's rays made and tested against the box.
+    PacketsUnculled,
+}
+
+/// [`render_scene`], with camera rays traced as `camera_rays` says, and passes of at least
+/// `min_pass_seconds` (fixed spp).
 #[allow(clippy::too_many_arguments)]
 fn render_scene_with(
     scene_file: &str,
@@ -45,7 +64,7 @@ fn render_scene_with(
     spp: u32,
     stopping: Stopping,
     threads: usize,
-    camera_packets: bool,
+    camera_rays: CameraRays,
     min_pass_seconds: f64,
 ) -> RenderResult {
     let path = repo_path(scene_file);
@@ -53,7 +72,8 @@ fn render_scene_with(
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let prepared = Prepared::new(&scene, &path, &integrator, background).unwrap();
     let ctx = strata::integrators::Context {
-        camera_packets,
+        camera_packets: camera_rays != CameraRays::Single,
+        cull_blocks: camera_rays == CameraRays::Packets,
         ..prepared.context(&scene, &accel)
     };
     let settings = RenderSettings {
@@ -531,61 +551,94 @@ fn checkpoints_and_thread_counts_do_not_change_an_adaptive_image() {
     }
 }
 
-/// Camera rays traced in 4×2-pixel packets give the image that single rays give, bit for bit,
-/// also where the pixels of a packet take different numbers of samples (adaptive rounds) and
-/// where the image size leaves part-filled blocks. (A ray that meets an edge shared by two
-/// triangles at one distance may hit either in the two traversals; none of these rays does.)
+/// Each pixel's f64 sums and count, as bits: equal only if every sample was added alike.
+fn film_totals(film: &Film) -> Vec<([u64; 3], [u64; 3], u32)> {
+    (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (s, q, n) = film.totals(x, y);
+            (s.map(f64::to_bits), q.map(f64::to_bits), n)
+        })
+        .collect()
+}
+
+/// Camera rays traced in 4×2-pixel packets give the film that single rays give, bit for bit
+/// in its f64 sums, also where the pixels of a packet take different numbers of samples
+/// (adaptive rounds) and where the image size leaves part-filled blocks and tiles; and so do
+/// packets with pixel blocks outside the image of the scene's box culled, which add a miss's
+/// estimate for each sample untraced (with a background, a nonzero one). On a wide image of
+/// Suzanne most blocks are culled. (A ray that meets an edge shared by two triangles at one
+/// distance may hit either in the two traversals; none of these rays does.)
 #[test]
-fn camera_packets_do_not_change_the_image() {
-    let size = (61, 45);
-    for (name, integrator, background, stopping) in [
-        ("ao", ao(), Vec3::ZERO, Stopping::default()),
-        ("path", path(), Vec3::splat(0.5), Stopping::default()),
-        (
-            "adaptive path",
-            path(),
-            Vec3::splat(0.5),
-            adaptive(0.05, ErrorMetric::Relative),
-        ),
-    ] {
-        let spp = if stopping.target_error.is_some() {
-            256
-        } else {
-            4
-        };
-        let [with, without] = [true, false].map(|packets| {
-            render_scene_with(
-                "scenes/suzanne.gltf",
-                integrator,
-                background,
-                size,
-                spp,
-                stopping,
-                2,
-                packets,
-                render::DEFAULT_MIN_PASS_SECONDS,
-            )
-        });
-        assert_eq!(with.stats.rays, without.stats.rays, "{name}: rays");
-        assert!(with.stats.rays.camera > 0, "{name}: no camera rays");
-        assert_eq!(
-            with.film.count_image(),
-            without.film.count_image(),
-            "{name}: counts"
-        );
-        let (a, b) = (with.film.pixels(), without.film.pixels());
-        let same = a
-            .iter()
-            .zip(&b)
-            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
-        assert!(same, "{name}: the images differ");
-        if stopping.target_error.is_some() {
-            let counts: Vec<f32> = with.film.count_image().iter().map(|c| c.x).collect();
-            let (lo, hi) = (
-                counts.iter().copied().fold(f32::MAX, f32::min),
-                counts.iter().copied().fold(0.0, f32::max),
+fn camera_packets_and_culled_blocks_do_not_change_the_image() {
+    for (size, least_culled) in [((61, 45), 0.0), ((163, 33), 0.6)] {
+        for (name, integrator, background, stopping) in [
+            ("ao", ao(), Vec3::ZERO, Stopping::default()),
+            ("path", path(), Vec3::splat(0.5), Stopping::default()),
+            (
+                "adaptive path",
+                path(),
+                Vec3::splat(0.5),
+                adaptive(0.05, ErrorMetric::Relative),
+            ),
+        ] {
+            let name = format!("{name} {size:?}");
+            let spp = if stopping.target_error.is_some() {
+                256
+            } else {
+                4
+            };
+            let [culled, unculled, single] = [
+                CameraRays::Packets,
+                CameraRays::PacketsUnculled,
+                CameraRays::Single,
+            ]
+            .map(|camera_rays| {
+                render_scene_with(
+                    "scenes/suzanne.gltf",
+                    integrator,
+                    background,
+                    size,
+                    spp,
+                    stopping,
+                    2,
+                    camera_rays,
+                    render::DEFAULT_MIN_PASS_SECONDS,
+                )
+            });
+            let rays = culled.stats.rays;
+            assert!(rays.camera > 0, "{name}: no camera rays");
+            for (way, other) in [("unculled packets", &unculled), ("single rays", &single)] {
+                let o = other.stats.rays;
+                assert_eq!(
+                    (rays.camera, rays.extension, rays.shadow),
+                    (o.camera, o.extension, o.shadow),
+                    "{name}: rays against {way}"
+                );
+                let (a, b) = (film_totals(&culled.film), film_totals(&other.film));
+                let differing = a.iter().zip(&b).filter(|(p, q)| p != q).count();
+                assert_eq!(differing, 0, "{name}: {differing} pixels differ from {way}");
+            }
+            // Single rays are all traced; unculled packets skip only those whose rays all
+            // miss the box; the culled blocks are at least those.
+            assert_eq!(single.stats.rays.culled, 0, "{name}");
+            assert!(rays.culled >= unculled.stats.rays.culled, "{name}");
+            // Adaptive sampling gives the background pixels fewer samples: a smaller share.
+            let least_culled = least_culled * if spp == 256 { 0.4 } else { 1.0 };
+            assert!(
+                rays.culled as f64 >= least_culled * rays.camera as f64,
+                "{name}: {} of {} camera rays culled",
+                rays.culled,
+                rays.camera
             );
-            assert!(lo < hi, "{name}: every pixel took {lo} samples");
+            if stopping.target_error.is_some() {
+                let counts: Vec<f32> = culled.film.count_image().iter().map(|c| c.x).collect();
+                let (lo, hi) = (
+                    counts.iter().copied().fold(f32::MAX, f32::min),
+                    counts.iter().copied().fold(0.0, f32::max),
+                );
+                assert!(lo < hi, "{name}: every pixel took {lo} samples");
+            }
         }
     }
 }
@@ -603,7 +656,7 @@ fn a_short_render_makes_a_probe_and_one_pass() {
             spp,
             Stopping::default(),
             1,
-            true,
+            CameraRays::Packets,
             min_pass,
         );
         assert_eq!(r.film.count_range(), (spp, spp));
@@ -623,7 +676,7 @@ fn a_short_render_makes_a_probe_and_one_pass() {
 /// their samples from zero and then added them would differ in the last bits.
 #[test]
 fn where_passes_end_does_not_change_the_film() {
-    let run = |min_pass: f64, threads: usize, packets: bool| {
+    let run = |min_pass: f64, threads: usize, packets: CameraRays| {
         let r = render_scene_with(
             "scenes/cornell-box.gltf",
             path(),
@@ -638,23 +691,15 @@ fn where_passes_end_does_not_change_the_film() {
         assert_eq!(r.film.count_range(), (100, 100));
         r.film
     };
-    let totals = |film: &Film| -> Vec<([u64; 3], [u64; 3], u32)> {
-        (0..film.height)
-            .flat_map(|y| (0..film.width).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let (s, q, n) = film.totals(x, y);
-                (s.map(f64::to_bits), q.map(f64::to_bits), n)
-            })
-            .collect()
-    };
-    for packets in [true, false] {
+    let totals = film_totals;
+    for packets in [CameraRays::Packets, CameraRays::Single] {
         let doubling = totals(&run(0.0, 1, packets));
         for (min_pass, threads) in [(f64::INFINITY, 1), (f64::INFINITY, 3), (0.0, 3)] {
             let other = totals(&run(min_pass, threads, packets));
             let differing = doubling.iter().zip(&other).filter(|(a, b)| a != b).count();
             assert_eq!(
                 differing, 0,
-                "packets {packets}, min_pass_seconds {min_pass}, {threads} threads: \
+                "{packets:?}, min_pass_seconds {min_pass}, {threads} threads: \
                  {differing} pixels' sums differ from doubling passes on one thread"
             );
         }

@@ -1,17 +1,19 @@
 //! `SceneBox::misses`, the test that lets camera packets outside the scene skip traversal:
 //! it must never call a ray a miss that the BVH would hit, and it must call misses the rays
-//! that plainly miss.
+//! that plainly miss. And `RayGenerator::film_bounds`, the rectangle of film positions
+//! outside which the renderer culls whole pixel blocks: no film position whose ray hits the
+//! box may lie outside it.
 //!
 //! The scene is a box's own surface (twelve triangles on its six faces), so every hit lies on
 //! the face of the box being tested: the hardest case for its rounding. Rays are aimed at
 //! points on the faces, edges and corners, from near and far, at boxes near and far from the
 //! origin, and checked against both backends.
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Quat, Vec2, Vec3};
 use proptest::prelude::*;
 use proptest::test_runner::Config;
 use strata::accel::{Accel, AccelOptions, Backend, Ray, SceneBox};
-use strata::scene::Scene;
+use strata::scene::{Camera, Projection, Scene};
 
 /// The surface of the box [lo, hi] as twelve triangles.
 fn box_scene(lo: Vec3, hi: Vec3) -> Scene {
@@ -200,4 +202,205 @@ fn the_box_is_the_bvh_s_own_not_the_scene_s_field() {
             accel.describe()
         );
     }
+}
+
+/// The camera-to-world transform of a camera at `eye` looking at `target` (its −Z toward
+/// it), +Y up as far as it can be.
+fn looking_at(eye: Vec3, target: Vec3) -> Mat4 {
+    let z = (eye - target).normalize();
+    let x = Vec3::Y.cross(z).try_normalize().unwrap_or(Vec3::X);
+    let y = z.cross(x);
+    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0))
+}
+
+/// Film position (in pixels of a `width × height` image) of world point `q` seen by `camera`,
+/// from the glTF projection itself (camera space, then normalised device coordinates): not
+/// from `RayGenerator`, whose inverse `film_bounds` computes. None behind the camera.
+fn project(camera: &Camera, q: Vec3, (width, height): (u32, u32)) -> Option<(f32, f32)> {
+    let (w, h) = (width as f64, height as f64);
+    let p = camera
+        .to_world
+        .as_dmat4()
+        .inverse()
+        .transform_point3(q.as_dvec3());
+    // Both projections look down −z: an orthographic camera's rays start on its z = 0 plane.
+    if p.z >= 0.0 {
+        return None;
+    }
+    let (x, y) = match camera.projection {
+        Projection::Perspective { yfov } => {
+            let t = (0.5 * yfov as f64).tan();
+            (p.x / -p.z / (t * w / h), p.y / -p.z / t)
+        }
+        Projection::Orthographic { ymag } => {
+            let m = ymag as f64;
+            (p.x / (m * w / h), p.y / m)
+        }
+    };
+    Some((((x + 1.0) * 0.5 * w) as f32, ((1.0 - y) * 0.5 * h) as f32))
+}
+
+proptest! {
+    #![proptest_config(Config { cases: 2000, ..Config::default() })]
+
+    /// Cameras of both projections, turned, scaled and placed near, far from or inside boxes
+    /// near and far from the origin, at image sizes from 8 to 2000 pixels. Rays aimed at
+    /// points on the box's faces, edges and corners (through their film positions, nudged a
+    /// thousandth of a pixel), and rays through random film positions on and around the
+    /// image: every one that a backend hits must start from inside the rectangle.
+    #[test]
+    fn no_film_position_whose_ray_hits_the_box_is_culled(
+        centre_exp in -3i32..6,
+        size in 0.01f32..100.0,
+        aspect in (0.001f32..1.0, 0.001f32..1.0),
+        perspective in any::<bool>(),
+        fov in 0.1f32..2.8,
+        turn in (0f32..6.3, -1.5f32..1.5, 0f32..6.3),
+        scale in 0.5f32..4.0,
+        from in unit_vector(),
+        distance in prop::sample::select(vec![0.3f32, 1.0, 30.0, 1e4]),
+        image in (8u32..2000, 8u32..2000),
+        targets in prop::collection::vec((0u32..64, 0f32..=1.0, 0f32..=1.0), 16),
+        film in prop::collection::vec((-1f32..2.0, -1f32..2.0), 16),
+    ) {
+        let centre = Vec3::new(1.0, -0.7, 0.4) * 10f32.powi(centre_exp);
+        let half = Vec3::new(size, size * aspect.0, size * aspect.1) * 0.5;
+        let (lo, hi) = (centre - half, centre + half);
+        let camera = Camera {
+            name: None,
+            projection: if perspective {
+                Projection::Perspective { yfov: fov }
+            } else {
+                Projection::Orthographic { ymag: size * fov }
+            },
+            // Looking at the box's centre from `from`, turned about its own axes.
+            to_world: looking_at(centre + from * distance * size, centre)
+                * Mat4::from_scale_rotation_translation(
+                    Vec3::splat(scale),
+                    Quat::from_euler(glam::EulerRot::XYZ, 0.3 * turn.0, 0.3 * turn.1, 0.3 * turn.2),
+                    Vec3::ZERO,
+                ),
+            aspect_ratio: None,
+        };
+        prop_assume!(camera.to_world.is_finite());
+        let gen = camera.ray_generator(image.0, image.1);
+        let rect = gen.film_bounds(lo, hi, image.0, image.1);
+        let inside = |(fx, fy): (f32, f32)| {
+            rect.is_none_or(|[x0, y0, x1, y1]| (x0..=x1).contains(&fx) && (y0..=y1).contains(&fy))
+        };
+        let mut positions = Vec::new();
+        for &(which, s, t) in &targets {
+            let q = surface_point(lo, hi, which, s, t);
+            let Some((fx, fy)) = project(&camera, q, image) else {
+                continue;
+            };
+            // The projection is right: the ray through (fx, fy) passes through q, but for
+            // rounding.
+            let ray = gen.ray(fx, fy);
+            let (o, d, q) = (ray.org.as_dvec3(), ray.dir.as_dvec3(), q.as_dvec3());
+            let v = q - o;
+            let off = (v - d * v.dot(d)).length();
+            let scale = v.length() + q.abs().max_element() + o.abs().max_element();
+            prop_assert!(off <= 1e-4 * scale, "the ray through {:?} passes {off} from {q}", (fx, fy));
+            for (dx, dy) in [(0.0, 0.0), (1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)] {
+                positions.push((fx + dx, fy + dy));
+            }
+        }
+        let (w, h) = (image.0 as f32, image.1 as f32);
+        positions.extend(film.iter().map(|&(u, v)| (u * w, v * h)));
+        let scene = box_scene(lo, hi);
+        for accel in accels(&scene) {
+            for &f in &positions {
+                let ray = gen.ray(f.0, f.1);
+                prop_assume!(ray.dir.is_finite() && ray.org.is_finite());
+                if let Some(hit) = accel.intersect(&ray) {
+                    prop_assert!(
+                        inside(f),
+                        "film position {f:?} of a {}x{} image hits triangle {} at t = {}, outside {rect:?}",
+                        image.0, image.1, hit.prim, hit.t
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The rectangle is the box's image and a pixel more, not the whole film: a box in the middle
+/// of the view culls what lies around it.
+#[test]
+fn the_film_rectangle_is_the_box_s_image_and_a_pixel() {
+    let (lo, hi) = (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0));
+    let image = (400, 300);
+    for projection in [
+        Projection::Perspective { yfov: 0.8 },
+        Projection::Orthographic { ymag: 5.0 },
+    ] {
+        let camera = Camera {
+            name: None,
+            projection,
+            to_world: Mat4::from_translation(Vec3::new(0.3, -0.2, 10.0)),
+            aspect_ratio: None,
+        };
+        let [x0, y0, x1, y1] = camera
+            .ray_generator(image.0, image.1)
+            .film_bounds(lo, hi, image.0, image.1)
+            .expect("a box in front of the camera has a rectangle");
+        let corners: Vec<(f32, f32)> = (0..8)
+            .map(|i| {
+                let q = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                project(&camera, q, image).unwrap()
+            })
+            .collect();
+        let min_x = corners.iter().map(|c| c.0).fold(f32::MAX, f32::min);
+        let max_x = corners.iter().map(|c| c.0).fold(f32::MIN, f32::max);
+        let min_y = corners.iter().map(|c| c.1).fold(f32::MAX, f32::min);
+        let max_y = corners.iter().map(|c| c.1).fold(f32::MIN, f32::max);
+        for (got, want) in [
+            (x0, min_x - 1.0),
+            (y0, min_y - 1.0),
+            (x1, max_x + 1.0),
+            (y1, max_y + 1.0),
+        ] {
+            assert!(
+                (got - want).abs() < 0.01,
+                "{projection:?}: rectangle {:?}, corners' images span {:?}",
+                [x0, y0, x1, y1],
+                [min_x, min_y, max_x, max_y]
+            );
+        }
+        assert!((x1 - x0) * (y1 - y0) < 0.5 * (image.0 * image.1) as f32);
+    }
+}
+
+/// No rectangle where part of the box lies behind a perspective camera (its image is not the
+/// hull of its corners'), or the camera cannot be inverted.
+#[test]
+fn no_rectangle_for_a_box_around_the_camera() {
+    let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    let camera = |to_world| Camera {
+        name: None,
+        projection: Projection::Perspective { yfov: 0.8 },
+        to_world,
+        aspect_ratio: None,
+    };
+    for to_world in [
+        Mat4::IDENTITY,
+        Mat4::from_translation(Vec3::new(0.0, 0.0, 0.5)),
+        Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+    ] {
+        let rect = camera(to_world)
+            .ray_generator(64, 64)
+            .film_bounds(lo, hi, 64, 64);
+        assert!(rect.is_none(), "{to_world:?}: {rect:?}");
+    }
+    // Wholly behind: no rectangle either (the renderer's per-packet box test takes over).
+    let behind = camera(Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0)));
+    assert!(behind
+        .ray_generator(64, 64)
+        .film_bounds(lo, hi, 64, 64)
+        .is_none());
 }

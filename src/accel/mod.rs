@@ -95,6 +95,11 @@ impl SceneBox {
         near > far
     }
 
+    /// The box's corners, as [`Accel::bounds`] gave them (not widened).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.lo.into(), self.hi.into())
+    }
+
     /// True when every ray of `rays` [`misses`](SceneBox::misses) the box: a packet that
     /// needs no traversal.
     #[inline]

@@ -37,6 +37,11 @@ pub struct Context<'a> {
     /// single-ray traversal may report different triangles (1 camera ray in 4.9 M on the
     /// helmet, BENCHMARKS.md); false is for measuring what packets gain.
     pub camera_packets: bool,
+    /// Leave untraced the packets of pixels whose rays cannot meet the scene's box
+    /// ([`crate::scene::RayGenerator::film_bounds`]), giving their samples the estimate of
+    /// a camera ray that misses (the default; the image is the same either way, tested).
+    /// False is for measuring the cost of strata's layers per traced ray.
+    pub cull_blocks: bool,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -79,6 +84,7 @@ impl Prepared {
             lights: &self.lights,
             ray_offset: true,
             camera_packets: true,
+            cull_blocks: true,
         }
     }
 }
@@ -91,17 +97,28 @@ pub struct RayCounts {
     pub extension: u64,
     /// Any-hit rays: shadow rays toward lights, and ambient-occlusion rays.
     pub shadow: u64,
+    /// Camera rays, counted in `camera`, that the renderer found to miss the scene's box
+    /// without traversal: rays of packets outside the box, and of pixel blocks outside its
+    /// image. They were not traced.
+    pub culled: u64,
 }
 
 impl RayCounts {
+    /// Rays of every kind, the culled camera rays included.
     pub fn total(&self) -> u64 {
         self.camera + self.extension + self.shadow
+    }
+
+    /// Rays that went to the BVH: [`RayCounts::total`] without the culled camera rays.
+    pub fn traced(&self) -> u64 {
+        self.total() - self.culled
     }
 
     pub fn add(&mut self, other: &RayCounts) {
         self.camera += other.camera;
         self.extension += other.extension;
         self.shadow += other.shadow;
+        self.culled += other.culled;
     }
 }
 
@@ -234,6 +251,17 @@ impl Integrator {
                 }
             }
         }
+    }
+
+    /// The estimate of a camera ray that meets nothing, computed as the integrator computes
+    /// it for such a ray (`sampler` is drawn from as it would be). It is the same for every
+    /// ray, since misses see a constant (AO's 0, or the constant background), which lets the
+    /// renderer give it to samples it leaves untraced. Only called when
+    /// [`Integrator::traces_rays`].
+    pub fn camera_miss(&self, ctx: &Context, sampler: &mut PixelSampler) -> Vec3A {
+        let ray = Ray::new(glam::Vec3::ZERO, glam::Vec3::NEG_Z);
+        self.li_from_camera_hit(ctx, &ray, None, sampler, &mut RayCounts::default())
+            .into()
     }
 
     /// [`Integrator::li`] given the camera ray's closest hit, found by the caller (for

@@ -380,6 +380,17 @@ fn render_tile(
     // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
     let scene_box = SceneBox::new(ctx.accel);
+    // Blocks of pixels whose rays cannot meet the scene's box (outside the rectangle of
+    // film positions that can see it) take the estimate of a miss for each of their samples,
+    // untraced and unsampled: the sums a traced miss would have added. A zero estimate (AO)
+    // adds nothing (x + 0 = x for the sums, which are never −0).
+    let (lo, hi) = scene_box.bounds();
+    let view = if ctx.cull_blocks {
+        camera.film_bounds(lo, hi, settings.width, settings.height)
+    } else {
+        None
+    };
+    let miss = integrator.camera_miss(ctx, &mut samplers[0]);
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
         for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
             let mut lanes = [(0u32, 0u32, 0u32, 0u32); PACKET];
@@ -392,8 +403,16 @@ fn render_tile(
                 }
             }
             let lanes = &lanes[..n_lanes];
-            // Round::samples gives b ≥ a.
-            let most = lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0);
+            // Film positions of the block's samples lie in [bx, bx1] × [by, by1].
+            let (bx1, by1) = ((bx + PACKET_W).min(tile.x1), (by + PACKET_H).min(tile.y1));
+            let unseen = view.is_some_and(|[x0, y0, x1, y1]| {
+                (bx1 as f32) < x0 || bx as f32 > x1 || (by1 as f32) < y0 || by as f32 > y1
+            });
+            // Samples to trace per pixel, at most (Round::samples gives b ≥ a).
+            let most = match unseen {
+                true => 0,
+                false => lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0),
+            };
             let mut acc: [PixelTotals; PACKET] = std::array::from_fn(|i| {
                 lanes
                     .get(i)
@@ -401,6 +420,17 @@ fn render_tile(
                         round.film.totals(x, y)
                     })
             });
+            if unseen {
+                for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
+                    out.rays.camera += (b - a) as u64;
+                    out.rays.culled += (b - a) as u64;
+                    if miss != Vec3A::ZERO {
+                        for index in a..b {
+                            accumulate(acc, miss, (x, y, index), &mut out.bad, &mut out.first_bad);
+                        }
+                    }
+                }
+            }
             for j in 0..most {
                 let mut which = [0usize; PACKET];
                 let mut n = 0;
@@ -422,7 +452,9 @@ fn render_tile(
                 let rays = camera.rays(&fx, &fy);
                 let mut hits = [None; PACKET];
                 // A packet whose rays all miss the scene's box needs no traversal.
-                if !scene_box.misses_all(&rays[..n]) {
+                if scene_box.misses_all(&rays[..n]) {
+                    out.rays.culled += n as u64;
+                } else {
                     ctx.accel.intersect_packet(&rays[..n], &mut hits);
                 }
                 // In 16-byte lanes: a value stored as three floats and loaded as a pair and

@@ -157,6 +157,104 @@ impl RayGenerator {
             Ray::new(org, Vec3::new(x[i] * inv[i], y[i] * inv[i], z[i] * inv[i]))
         })
     }
+
+    /// A rectangle of film positions `[x0, x1] × [y0, y1]`, in pixels, outside which no ray
+    /// of [`RayGenerator::ray`] for a `width × height` image can meet the box `lo`..`hi`; or
+    /// None where no such rectangle is found (part of the box at or behind a perspective
+    /// camera's centre, a degenerate camera, non-finite input). The renderer leaves the
+    /// pixels outside it untraced.
+    ///
+    /// A film position f sees a point q when q lies on f's ray, so f is q's image under the
+    /// camera's projection. Every point of the box has its image in the bounding rectangle
+    /// of its eight corners' images: for an orthographic camera the projection is affine;
+    /// for a perspective one it maps the convex box (all in front of the centre) onto the
+    /// convex hull of the corners' images. The corners are solved for in f64, on a box
+    /// widened by 64 ulps of the largest coordinate in play, and the rectangle is grown by
+    /// one pixel plus the film distance that the f32 rounding of a ray's origin and
+    /// direction can move it (16 ulps of their largest term, over a pixel's step), so that
+    /// the rays the renderer makes from f32 film positions stay inside it too
+    /// (tests/frustum_cull.rs aims such rays at boxes' corners).
+    pub fn film_bounds(&self, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Option<[f32; 4]> {
+        use glam::{DMat3, DVec3};
+        let (w, h) = (width as f64, height as f64);
+        // Solve q − base = m · (a, b, c) for each corner q; the film position is (b/a, c/a)
+        // (perspective, a > 0 the distance along the unnormalised direction) or (a, b)
+        // (orthographic, c the distance along the ray).
+        let (base, m, perspective, largest) = match *self {
+            RayGenerator::Perspective {
+                org,
+                corner,
+                du,
+                dv,
+            } => {
+                let (corner, du, dv) = (corner.as_dvec3(), du.as_dvec3(), dv.as_dvec3());
+                let largest = corner.abs().max_element()
+                    + w * du.abs().max_element()
+                    + h * dv.abs().max_element();
+                (org, DMat3::from_cols(corner, du, dv), true, largest)
+            }
+            RayGenerator::Orthographic {
+                corner,
+                du,
+                dv,
+                dir,
+            } => {
+                let (c, du, dv) = (corner.as_dvec3(), du.as_dvec3(), dv.as_dvec3());
+                let largest =
+                    c.abs().max_element() + w * du.abs().max_element() + h * dv.abs().max_element();
+                (
+                    corner,
+                    DMat3::from_cols(du, dv, dir.as_dvec3()),
+                    false,
+                    largest,
+                )
+            }
+        };
+        let step = match *self {
+            RayGenerator::Perspective { du, dv, .. }
+            | RayGenerator::Orthographic { du, dv, .. } => du.length().min(dv.length()) as f64,
+        };
+        let inv = m.inverse();
+        if !(inv.is_finite() && step > 0.0 && lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        let eps = f32::EPSILON as f64;
+        let scale = lo.abs().max(hi.abs()).max(base.abs()).max_element() as f64;
+        let widen = DVec3::splat(64.0 * eps * scale);
+        let (lo, hi) = (lo.as_dvec3() - widen, hi.as_dvec3() + widen);
+        let base = base.as_dvec3();
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for i in 0..8 {
+            let q = DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            let s = inv * (q - base);
+            let (fx, fy) = if perspective {
+                // The corner must lie clearly in front: a ≤ 0 puts it at or behind the centre.
+                if s.x.is_nan() || s.x <= 1e-9 * s.abs().max_element() {
+                    return None;
+                }
+                (s.y / s.x, s.z / s.x)
+            } else {
+                (s.x, s.y)
+            };
+            (x0, y0, x1, y1) = (x0.min(fx), y0.min(fy), x1.max(fx), y1.max(fy));
+        }
+        // One pixel, the rounding of the rays (see above), and that of the rectangle's own
+        // conversion to f32.
+        let extent = [x0, y0, x1, y1]
+            .map(f64::abs)
+            .into_iter()
+            .fold(0.0, f64::max);
+        let margin = 1.0 + 16.0 * eps * largest / step + 4.0 * eps * extent;
+        let rect = [x0 - margin, y0 - margin, x1 + margin, y1 + margin];
+        // Beyond f32's range the rectangle says nothing useful.
+        rect.iter()
+            .all(|v| v.abs() < 1e30)
+            .then(|| rect.map(|v| v as f32))
+    }
 }
 
 #[cfg(test)]

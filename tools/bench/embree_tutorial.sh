@@ -47,7 +47,7 @@ strata() {
     local log s tot
     log="$("$bin" "$dir/sphere_plane.gltf" -o "$out/s.exr" --no-png --resolution ${size}x${size} --spp "$spp" --stats "$@")"
     s=$(sed -n 's/^time: .* render \([0-9.]*\) s.*/\1/p' <<<"$log")
-    tot=$(sed -n 's/^rays: .* \([0-9]*\) total.*/\1/p' <<<"$log")
+    tot=$(sed -n 's/^rays: .* \([0-9]*\) traced.*/\1/p' <<<"$log")
     python3 -c "print($size*$size*$spp/$s, $tot/$s/1e6)"
 }
 

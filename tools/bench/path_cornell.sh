@@ -18,7 +18,7 @@ echo "|---|---|---|---|---|---|---|---|"
 for spp in 64 256 1024; do
     log="$("$bin" "$scene" -o "$out/t.exr" --no-png --integrator path --spp "$spp" --resolution 256x256 --stats)"
     s=$(sed -n 's/^time: .* render \([0-9.]*\) s.*/\1/p' <<<"$log")
-    read -r cam ext sha tot < <(sed -n 's/^rays: \([0-9]*\) camera, \([0-9]*\) extension, \([0-9]*\) shadow, \([0-9]*\) total.*/\1 \2 \3 \4/p' <<<"$log")
+    read -r cam ext sha tot < <(sed -n 's/^rays: \([0-9]*\) camera, \([0-9]*\) extension, \([0-9]*\) shadow, [0-9]* total, \([0-9]*\) traced.*/\1 \2 \3 \4/p' <<<"$log")
     python3 -c "
 s=$s; n=256*256*$spp
 print(f'| $spp | 256x256 | {s:.2f} | {n/s/1e6:.2f} M | {$tot/s/1e6:.2f} | {$cam/s/1e6:.2f} M/s | {$ext/s/1e6:.2f} M/s | {$sha/s/1e6:.2f} M/s |')"

@@ -32,7 +32,7 @@ strata_run() {
     local log s rays
     log="$("$bin" "$scene" -o "$out/s.exr" --no-png --resolution "${w}x${h}" --spp "$spp" --stats "$@")"
     s=$(sed -n 's/^time: .* render \([0-9.]*\) s.*/\1/p' <<<"$log")
-    rays=$(sed -n 's/^rays: .* \([0-9]*\) total.*/\1/p' <<<"$log")
+    rays=$(sed -n 's/^rays: .* \([0-9]*\) traced.*/\1/p' <<<"$log")
     echo "$s $((w * h * spp)) $rays"
 }
 
