@@ -19,9 +19,9 @@
 //! - **accel**: the same packets and rays through [`Accel::intersect_packet`],
 //!   [`Accel::occluded`] and [`Accel::occluded_packet`], the calls the render makes;
 //! - **render**: the whole AO render of the same image (sampling, camera, shading, film),
-//!   which traces the same rays but for those it culls: pixel blocks outside the image of
-//!   the scene's box take a miss's estimate untraced, and packets whose rays all miss the
-//!   box are not handed to the BVH;
+//!   which traces the same rays but for those it culls: pixel blocks that cannot see the
+//!   scene (outside the images of its cluster boxes) take a miss's estimate untraced, and
+//!   packets whose rays all miss the scene's box are not handed to the BVH;
 //! - **render, no block culling**: the same with every block's camera rays made and tested
 //!   against the box (`Context::cull_blocks` off): the per-ray cost of strata's layers,
 //!   which the first render's ratio hides where much of the image sees nothing.
@@ -353,7 +353,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     );
     let culled_rays = render_once().stats.rays.culled;
     println!(
-        "  camera rays the render culls (blocks outside the box's image, and packets outside the box): {culled_rays} ({:.1}%)",
+        "  camera rays the render culls (blocks that cannot see the scene, packets outside its box): {culled_rays} ({:.1}%)",
         100.0 * culled_rays as f64 / camera_rays.len() as f64
     );
     let [single, packet, through, whole, all_blocks] = &t;

@@ -724,7 +724,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             eprintln!("  pixel ({}, {}) sample {}: {}", b.x, b.y, b.index, b.value);
         }
     }
-    // Rays that went to the BVH: camera rays culled by the scene's box are not counted.
+    // Rays that went to the BVH: camera rays culled as unable to meet the scene are not.
     let rays = stats.rays.traced();
     let rays_per_s = rays as f64 / stats.seconds.max(1e-9);
     println!(
@@ -818,7 +818,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         );
         println!(
             "rays: {} camera, {} extension, {} shadow, {} total, {} traced ({} camera rays \
-             culled: outside the scene's box), {:.3} Mrays/s traced",
+             culled: they could not meet the scene), {:.3} Mrays/s traced",
             stats.rays.camera,
             stats.rays.extension,
             stats.rays.shadow,

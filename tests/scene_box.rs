@@ -404,3 +404,96 @@ fn no_rectangle_for_a_box_around_the_camera() {
         .film_bounds(lo, hi, 64, 64)
         .is_none());
 }
+
+/// Renders with block culling on and off give the same film, bit for bit, on scenes of large
+/// triangles (each spanning many of the cluster grid's cells, so a cluster box that bounded
+/// less than its triangles' vertices would cull visible pixels): two boxes' surfaces far
+/// apart, and a long sliver between them, seen from several cameras, AO at 4 spp.
+#[test]
+fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
+    use indicatif::ProgressBar;
+    use std::sync::atomic::AtomicBool;
+    use strata::integrators::{AoSettings, Integrator, Prepared};
+    use strata::render::{self, RenderSettings};
+    use strata::sampling::SamplerKind;
+
+    let mut scene = box_scene(Vec3::new(-6.0, -1.0, -1.0), Vec3::new(-4.0, 1.0, 1.0));
+    let other = box_scene(Vec3::new(4.0, 0.5, -2.0), Vec3::new(5.0, 2.5, 0.0));
+    let base = scene.positions.len() as u32;
+    scene.positions.extend(&other.positions);
+    scene
+        .triangles
+        .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
+    // The sliver: from one box to the other, a tenth of a unit wide.
+    let base = scene.positions.len() as u32;
+    scene.positions.extend([
+        Vec3::new(-4.0, 0.0, 0.0),
+        Vec3::new(4.0, 1.0, -1.0),
+        Vec3::new(4.0, 1.1, -1.0),
+    ]);
+    scene.triangles.push([base, base + 1, base + 2]);
+    let n = scene.positions.len();
+    scene.normals = vec![Vec3::ZERO; n];
+    scene.uvs = vec![Vec2::ZERO; n];
+    scene.triangle_materials = vec![0; scene.triangles.len()];
+    scene.update_summary();
+
+    let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
+    let prepared = Prepared::default();
+    let pool = render::thread_pool(2).unwrap();
+    let mut culled_any = false;
+    for (eye, projection) in [
+        (
+            Vec3::new(0.0, 0.0, 30.0),
+            Projection::Perspective { yfov: 0.6 },
+        ),
+        (
+            Vec3::new(3.0, 9.0, 14.0),
+            Projection::Perspective { yfov: 1.2 },
+        ),
+        (
+            Vec3::new(-2.0, 1.0, 20.0),
+            Projection::Orthographic { ymag: 4.0 },
+        ),
+    ] {
+        let camera = Camera {
+            name: None,
+            projection,
+            to_world: looking_at(eye, Vec3::new(0.0, 0.5, -0.5)),
+            aspect_ratio: None,
+        };
+        let [on, off] = [true, false].map(|cull_blocks| {
+            let ctx = strata::integrators::Context {
+                cull_blocks,
+                ..prepared.context(&scene, &accel)
+            };
+            let settings = RenderSettings {
+                camera: camera.clone(),
+                width: 150,
+                height: 90,
+                spp: 4,
+                seed: 1,
+                sampler: SamplerKind::Sobol,
+                integrator: Integrator::Ao(AoSettings::default()),
+                tile_size: 16,
+                min_pass_seconds: 0.0,
+                crop: None,
+                stopping: Default::default(),
+            };
+            let progress = ProgressBar::hidden();
+            render::render(&ctx, &settings, &pool, &progress, &AtomicBool::new(false))
+        });
+        let sums = |r: &render::RenderResult| -> Vec<[u64; 3]> {
+            (0..r.film.height)
+                .flat_map(|y| (0..r.film.width).map(move |x| (x, y)))
+                .map(|(x, y)| r.film.totals(x, y).0.map(f64::to_bits))
+                .collect()
+        };
+        let (a, b) = (sums(&on), sums(&off));
+        let differing = a.iter().zip(&b).filter(|(p, q)| p != q).count();
+        assert_eq!(differing, 0, "{eye}: {differing} pixels differ");
+        assert!(a.iter().any(|p| p[0] != 0), "{eye}: nothing in view");
+        culled_any |= on.stats.rays.culled > off.stats.rays.culled;
+    }
+    assert!(culled_any, "no camera saw blocks to cull");
+}

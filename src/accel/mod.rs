@@ -95,11 +95,6 @@ impl SceneBox {
         near > far
     }
 
-    /// The box's corners, as [`Accel::bounds`] gave them (not widened).
-    pub fn bounds(&self) -> (Vec3, Vec3) {
-        (self.lo.into(), self.hi.into())
-    }
-
     /// True when every ray of `rays` [`misses`](SceneBox::misses) the box: a packet that
     /// needs no traversal.
     #[inline]
@@ -232,8 +227,14 @@ pub enum AccelError {
     Embree(#[from] crate::embree::EmbreeError),
 }
 
-/// The acceleration structure of a scene.
-pub enum Accel {
+/// The acceleration structure of a scene: the backend's BVH, and the boxes of
+/// [`Accel::clusters`].
+pub struct Accel {
+    bvh: Bvh,
+    clusters: Vec<(Vec3, Vec3)>,
+}
+
+enum Bvh {
     Embree(EmbreeAccel),
     Obvhs(ObvhsAccel),
 }
@@ -244,18 +245,31 @@ impl Accel {
         if scene.triangles.is_empty() {
             return Err(AccelError::Empty);
         }
-        match options.backend {
-            Backend::Embree => Ok(Accel::Embree(EmbreeAccel::build(scene, options)?)),
-            Backend::Obvhs => Ok(Accel::Obvhs(ObvhsAccel::build(scene, options))),
-        }
+        let bvh = match options.backend {
+            Backend::Embree => Bvh::Embree(EmbreeAccel::build(scene, options)?),
+            Backend::Obvhs => Bvh::Obvhs(ObvhsAccel::build(scene, options)),
+        };
+        Ok(Accel {
+            bvh,
+            clusters: clusters(scene),
+        })
+    }
+
+    /// Boxes around groups of nearby triangles, every triangle of the structure inside one
+    /// of them: the triangles binned by centroid into a grid of [`CLUSTER_GRID`]³ cells over
+    /// their bounds, each non-empty cell's box the bounds of its triangles' vertices. The
+    /// renderer culls camera rays against them at a finer grain than the scene's one box
+    /// (an object's silhouette, the gaps between objects).
+    pub fn clusters(&self) -> &[(Vec3, Vec3)] {
+        &self.clusters
     }
 
     /// The closest hit along the ray within `[t_min, t_max]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        match self {
-            Accel::Embree(a) => a.intersect(ray),
-            Accel::Obvhs(a) => a.intersect(ray),
+        match &self.bvh {
+            Bvh::Embree(a) => a.intersect(ray),
+            Bvh::Obvhs(a) => a.intersect(ray),
         }
     }
 
@@ -266,9 +280,9 @@ impl Accel {
     /// triangles), where either triangle may be reported.
     #[inline]
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
-        match self {
-            Accel::Embree(a) => a.intersect_packet(rays, hits),
-            Accel::Obvhs(a) => {
+        match &self.bvh {
+            Bvh::Embree(a) => a.intersect_packet(rays, hits),
+            Bvh::Obvhs(a) => {
                 for (i, hit) in hits.iter_mut().enumerate() {
                     *hit = rays.get(i).and_then(|r| a.intersect(r));
                 }
@@ -281,9 +295,9 @@ impl Accel {
     /// obvhs.
     #[inline]
     pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; OCCLUSION_PACKET]) {
-        match self {
-            Accel::Embree(a) => a.occluded_packet(rays, occluded),
-            Accel::Obvhs(a) => {
+        match &self.bvh {
+            Bvh::Embree(a) => a.occluded_packet(rays, occluded),
+            Bvh::Obvhs(a) => {
                 for (o, r) in occluded.iter_mut().zip(rays) {
                     *o = a.occluded(r);
                 }
@@ -294,16 +308,16 @@ impl Accel {
     /// True when any surface lies along the ray within `[t_min, t_max]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        match self {
-            Accel::Embree(a) => a.occluded(ray),
-            Accel::Obvhs(a) => a.occluded(ray),
+        match &self.bvh {
+            Bvh::Embree(a) => a.occluded(ray),
+            Bvh::Obvhs(a) => a.occluded(ray),
         }
     }
 
     /// The Embree backend, if this is one.
     pub fn as_embree(&self) -> Option<&EmbreeAccel> {
-        match self {
-            Accel::Embree(a) => Some(a),
+        match &self.bvh {
+            Bvh::Embree(a) => Some(a),
             _ => None,
         }
     }
@@ -311,32 +325,112 @@ impl Accel {
     /// A box around every triangle the structure holds (the BVH's own, so it is right even
     /// when a scene's `bounds` were not brought up to date).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        match self {
-            Accel::Embree(a) => a.bounds(),
-            Accel::Obvhs(a) => a.bounds(),
+        match &self.bvh {
+            Bvh::Embree(a) => a.bounds(),
+            Bvh::Obvhs(a) => a.bounds(),
         }
     }
 
     /// The memory the structure holds.
     pub fn memory(&self) -> AccelMemory {
-        match self {
-            Accel::Embree(a) => a.memory(),
-            Accel::Obvhs(a) => a.memory(),
+        match &self.bvh {
+            Bvh::Embree(a) => a.memory(),
+            Bvh::Obvhs(a) => a.memory(),
         }
     }
 
     /// A one-line description of the backend (library and version).
     pub fn describe(&self) -> String {
-        match self {
-            Accel::Embree(a) => a.describe(),
-            Accel::Obvhs(a) => a.describe(),
+        match &self.bvh {
+            Bvh::Embree(a) => a.describe(),
+            Bvh::Obvhs(a) => a.describe(),
         }
     }
+}
+
+/// Cells per axis of the grid that [`Accel::clusters`] bins triangles into.
+pub const CLUSTER_GRID: usize = 8;
+
+/// [`Accel::clusters`] of `scene`'s triangles.
+fn clusters(scene: &Scene) -> Vec<(Vec3, Vec3)> {
+    let corners = |t: &[u32; 3]| t.map(|v| Vec3A::from(scene.positions[v as usize]));
+    let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    for t in &scene.triangles {
+        for p in corners(t) {
+            (lo, hi) = (lo.min(p), hi.max(p));
+        }
+    }
+    let g = CLUSTER_GRID;
+    // Cells per unit length along each axis (0 along an axis of no extent).
+    let extent = hi - lo;
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(g as f32) / extent,
+        Vec3A::ZERO,
+    );
+    let mut boxes = vec![(Vec3A::INFINITY, Vec3A::NEG_INFINITY); g * g * g];
+    for t in &scene.triangles {
+        let [a, b, c] = corners(t);
+        let centroid = (a + b + c) * (1.0 / 3.0);
+        // Any cell will do for the bound to hold; clamping keeps rounding (and NaN, which
+        // the loader refuses anyway) inside the grid.
+        let cell = ((centroid - lo) * scale)
+            .to_array()
+            .map(|v| (v as usize).min(g - 1));
+        let b_ = &mut boxes[(cell[2] * g + cell[1]) * g + cell[0]];
+        *b_ = (b_.0.min(a).min(b).min(c), b_.1.max(a).max(b).max(c));
+    }
+    boxes
+        .into_iter()
+        .filter(|(lo, hi)| lo.cmple(*hi).all())
+        .map(|(lo, hi)| (lo.into(), hi.into()))
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every triangle lies whole inside one cluster box, so a ray that misses every box
+    /// misses it: random triangles from slivers to ones spanning the scene, a flat scene (no
+    /// extent along one axis), far from the origin, and a single triangle. And the grid does
+    /// split a spread-out scene.
+    #[test]
+    fn every_triangle_lies_inside_a_cluster_box() {
+        let mut next = crate::sampling::hash::uniform_sequence(11);
+        let mut v = |scale: f32| Vec3::new(next(), next(), next()) * scale;
+        for (n, flat, offset) in [
+            (2000, false, Vec3::ZERO),
+            (2000, true, Vec3::ZERO),
+            (500, false, Vec3::splat(3e4)),
+            (1, false, Vec3::ZERO),
+        ] {
+            let mut scene = Scene::default();
+            for i in 0..n {
+                let a = v(100.0);
+                let size = [0.001, 1.0, 60.0][i % 3];
+                let mut tri = [a, a + v(size), a + v(size)];
+                if flat {
+                    tri = tri.map(|p| Vec3::new(p.x, p.y, 5.0));
+                }
+                let base = scene.positions.len() as u32;
+                scene.positions.extend(tri.map(|p| p + offset));
+                scene.triangles.push([base, base + 1, base + 2]);
+            }
+            let boxes = clusters(&scene);
+            assert!(!boxes.is_empty() && boxes.len() <= CLUSTER_GRID.pow(3));
+            if n > 1 {
+                assert!(boxes.len() > 16, "{n} triangles in {} boxes", boxes.len());
+            }
+            for t in &scene.triangles {
+                let p = t.map(|i| scene.positions[i as usize]);
+                let inside = boxes
+                    .iter()
+                    .any(|(lo, hi)| p.iter().all(|q| q.cmpge(*lo).all() && q.cmple(*hi).all()));
+                assert!(inside, "triangle {p:?} lies in no cluster box");
+            }
+        }
+    }
 
     /// Unit length and the right direction for normals of every magnitude a scene can give
     /// (cross products of edges from 1e-12 to 1e12 units, both sides of the fast path's

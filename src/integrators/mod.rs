@@ -37,9 +37,9 @@ pub struct Context<'a> {
     /// single-ray traversal may report different triangles (1 camera ray in 4.9 M on the
     /// helmet, BENCHMARKS.md); false is for measuring what packets gain.
     pub camera_packets: bool,
-    /// Leave untraced the packets of pixels whose rays cannot meet the scene's box
-    /// ([`crate::scene::RayGenerator::film_bounds`]), giving their samples the estimate of
-    /// a camera ray that misses (the default; the image is the same either way, tested).
+    /// Leave untraced the pixel blocks that cannot see the scene
+    /// ([`crate::render::culling::BlockMask`]), giving their samples the estimate of a
+    /// camera ray that misses (the default; the image is the same either way, tested).
     /// False is for measuring the cost of strata's layers per traced ray.
     pub cull_blocks: bool,
 }
@@ -97,9 +97,9 @@ pub struct RayCounts {
     pub extension: u64,
     /// Any-hit rays: shadow rays toward lights, and ambient-occlusion rays.
     pub shadow: u64,
-    /// Camera rays, counted in `camera`, that the renderer found to miss the scene's box
-    /// without traversal: rays of packets outside the box, and of pixel blocks outside its
-    /// image. They were not traced.
+    /// Camera rays, counted in `camera`, that the renderer found to miss the scene without
+    /// traversal: those of pixel blocks that cannot see it ([`crate::render::culling`]), and
+    /// of packets whose rays all miss the scene's box. They were not traced.
     pub culled: u64,
 }
 

@@ -22,6 +22,7 @@
 //! speed, so a time-limited image is not reproducible (each pixel's samples still are).
 
 pub mod adaptive;
+pub mod culling;
 pub mod film;
 pub mod output;
 
@@ -36,6 +37,7 @@ use crate::accel::{SceneBox, PACKET};
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::Camera;
+use culling::BlockMask;
 pub use film::{BadSample, Film, FilmRows, PixelTotals};
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -328,6 +330,7 @@ fn render_tile(
     settings: &RenderSettings,
     tile: Tile,
     round: &Round,
+    mask: Option<&BlockMask>,
     sums: &mut [PixelTotals],
 ) -> TileResult {
     let camera = settings
@@ -380,16 +383,9 @@ fn render_tile(
     // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
     let scene_box = SceneBox::new(ctx.accel);
-    // Blocks of pixels whose rays cannot meet the scene's box (outside the rectangle of
-    // film positions that can see it) take the estimate of a miss for each of their samples,
-    // untraced and unsampled: the sums a traced miss would have added. A zero estimate (AO)
-    // adds nothing (x + 0 = x for the sums, which are never −0).
-    let (lo, hi) = scene_box.bounds();
-    let view = if ctx.cull_blocks {
-        camera.film_bounds(lo, hi, settings.width, settings.height)
-    } else {
-        None
-    };
+    // Blocks of pixels that cannot see the scene (`mask`) take the estimate of a miss for
+    // each of their samples, untraced and unsampled: the sums a traced miss would have
+    // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, which are never −0).
     let miss = integrator.camera_miss(ctx, &mut samplers[0]);
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
         for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
@@ -403,11 +399,8 @@ fn render_tile(
                 }
             }
             let lanes = &lanes[..n_lanes];
-            // Film positions of the block's samples lie in [bx, bx1] × [by, by1].
             let (bx1, by1) = ((bx + PACKET_W).min(tile.x1), (by + PACKET_H).min(tile.y1));
-            let unseen = view.is_some_and(|[x0, y0, x1, y1]| {
-                (bx1 as f32) < x0 || bx as f32 > x1 || (by1 as f32) < y0 || by as f32 > y1
-            });
+            let unseen = mask.is_some_and(|m| !m.sees(bx, by, bx1, by1));
             // Samples to trace per pixel, at most (Round::samples gives b ≥ a).
             let most = match unseen {
                 true => 0,
@@ -491,9 +484,11 @@ fn render_tile(
     out
 }
 
-/// The pixel block whose camera rays form one packet: 4 × 2 pixels.
-const PACKET_W: u32 = 4;
-const PACKET_H: u32 = PACKET as u32 / PACKET_W;
+/// The pixel block whose camera rays form one packet: 4 × 2 pixels, the blocks of
+/// [`BlockMask`].
+const PACKET_W: u32 = culling::BLOCK_W;
+const PACKET_H: u32 = culling::BLOCK_H;
+const _: () = assert!((PACKET_W * PACKET_H) as usize == PACKET);
 
 /// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums, or counts it as
 /// bad (NaN or infinite) and keeps the first few.
@@ -568,6 +563,20 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
+    // The blocks that can see the scene, once for the render (camera packets only).
+    let mask = if ctx.cull_blocks && ctx.camera_packets {
+        let camera = settings
+            .camera
+            .ray_generator(settings.width, settings.height);
+        BlockMask::new(
+            &camera,
+            ctx.accel.clusters(),
+            settings.width,
+            settings.height,
+        )
+    } else {
+        None
+    };
     let mut tile_sums = TileSums::new(&tiles);
     let stopping = settings.stopping;
     let spp = settings.spp;
@@ -727,7 +736,7 @@ pub fn render_with_checkpoints(
                         if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
                             return None;
                         }
-                        let r = render_tile(ctx, settings, tile, &round, sums);
+                        let r = render_tile(ctx, settings, tile, &round, mask.as_ref(), sums);
                         tick(tile_samples(&tile));
                         Some(r)
                     })

@@ -161,8 +161,9 @@ impl RayGenerator {
     /// A rectangle of film positions `[x0, x1] × [y0, y1]`, in pixels, outside which no ray
     /// of [`RayGenerator::ray`] for a `width × height` image can meet the box `lo`..`hi`; or
     /// None where no such rectangle is found (part of the box at or behind a perspective
-    /// camera's centre, a degenerate camera, non-finite input). The renderer leaves the
-    /// pixels outside it untraced.
+    /// camera's centre, a degenerate camera, non-finite input). The renderer leaves pixel
+    /// blocks outside the rectangles of all the scene's cluster boxes untraced
+    /// ([`crate::render::culling`]).
     ///
     /// A film position f sees a point q when q lies on f's ray, so f is q's image under the
     /// camera's projection. Every point of the box has its image in the bounding rectangle
