@@ -158,30 +158,34 @@ impl RayGenerator {
         })
     }
 
-    /// A rectangle of film positions `[x0, x1] × [y0, y1]`, in pixels, outside which no ray
-    /// of [`RayGenerator::ray`] for a `width × height` image can meet the box `lo`..`hi`; or
-    /// None where no such rectangle is found (part of the box at or behind a perspective
-    /// camera's centre, a degenerate camera, non-finite input). The renderer leaves pixel
-    /// blocks outside the rectangles of all the scene's cluster boxes untraced
-    /// ([`crate::render::culling`]).
+    /// A rectangle of film positions `[x0, x1] × [y0, y1]`, in pixels, such that no ray of
+    /// [`RayGenerator::ray`] from a film position of the `width × height` image outside it
+    /// can meet the box `lo`..`hi` (empty, x0 > x1, when none in the image can); or None
+    /// where no such rectangle is found (a perspective camera inside the box, a degenerate
+    /// camera, non-finite input). The renderer leaves pixel blocks outside the rectangles of
+    /// all the scene's cluster boxes untraced ([`crate::render::culling`]).
     ///
     /// A film position f sees a point q when q lies on f's ray, so f is q's image under the
-    /// camera's projection. Every point of the box has its image in the bounding rectangle
-    /// of its eight corners' images: for an orthographic camera the projection is affine;
-    /// for a perspective one it maps the convex box (all in front of the centre) onto the
-    /// convex hull of the corners' images. The corners are solved for in f64, on a box
-    /// widened by 64 ulps of the largest coordinate in play, and the rectangle is grown by
-    /// one pixel plus the film distance that the f32 rounding of a ray's origin and
-    /// direction can move it (16 ulps of their largest term, over a pixel's step), so that
-    /// the rays the renderer makes from f32 film positions stay inside it too
-    /// (tests/frustum_cull.rs aims such rays at boxes' corners).
+    /// camera's projection. For an orthographic camera the projection is affine, and every
+    /// point of the box has its image in the bounding rectangle of its eight corners'. For a
+    /// perspective one, write q = org + a·corner + b·du + c·dv: the ray through f reaches q
+    /// at a = t (along the unnormalised direction d(f)), with f = (b/a, c/a). A box point at
+    /// distance r or more from the centre is reached at t ≥ r/|d(f)| ≥ r/K, K bounding |d|
+    /// over the image; so with ε = r/(2K), r the box's distance from the centre, only the
+    /// part of the box with a ≥ ε can be seen from the image, and the projection maps that
+    /// convex part onto the hull of its vertices' images: the corners with a ≥ ε and the
+    /// points where the box's edges cross a = ε (none: the box is behind the camera).
+    /// Everything is solved in f64, on a box widened by 64 ulps of the largest coordinate in
+    /// play, and the rectangle is grown by one pixel plus the film distance that the f32
+    /// rounding of a ray's origin and direction can move it (16 ulps of their largest term,
+    /// over a pixel's step), so that the rays the renderer makes from f32 film positions stay
+    /// inside it too (tests/scene_box.rs aims such rays at boxes' corners, edges and faces).
     pub fn film_bounds(&self, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Option<[f32; 4]> {
         use glam::{DMat3, DVec3};
         let (w, h) = (width as f64, height as f64);
         // Solve q − base = m · (a, b, c) for each corner q; the film position is (b/a, c/a)
-        // (perspective, a > 0 the distance along the unnormalised direction) or (a, b)
-        // (orthographic, c the distance along the ray).
-        let (base, m, perspective, largest) = match *self {
+        // (perspective) or (a, b) (orthographic, c the distance along the ray).
+        let (base, m, perspective, largest, reach) = match *self {
             RayGenerator::Perspective {
                 org,
                 corner,
@@ -192,7 +196,9 @@ impl RayGenerator {
                 let largest = corner.abs().max_element()
                     + w * du.abs().max_element()
                     + h * dv.abs().max_element();
-                (org, DMat3::from_cols(corner, du, dv), true, largest)
+                // K: |d(f)| ≤ |corner| + fx·|du| + fy·|dv| over the image.
+                let reach = corner.length() + w * du.length() + h * dv.length();
+                (org, DMat3::from_cols(corner, du, dv), true, largest, reach)
             }
             RayGenerator::Orthographic {
                 corner,
@@ -203,12 +209,8 @@ impl RayGenerator {
                 let (c, du, dv) = (corner.as_dvec3(), du.as_dvec3(), dv.as_dvec3());
                 let largest =
                     c.abs().max_element() + w * du.abs().max_element() + h * dv.abs().max_element();
-                (
-                    corner,
-                    DMat3::from_cols(du, dv, dir.as_dvec3()),
-                    false,
-                    largest,
-                )
+                let m = DMat3::from_cols(du, dv, dir.as_dvec3());
+                (corner, m, false, largest, 0.0)
             }
         };
         let step = match *self {
@@ -224,24 +226,46 @@ impl RayGenerator {
         let widen = DVec3::splat(64.0 * eps * scale);
         let (lo, hi) = (lo.as_dvec3() - widen, hi.as_dvec3() + widen);
         let base = base.as_dvec3();
-        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-        for i in 0..8 {
+        let solved: [DVec3; 8] = std::array::from_fn(|i| {
             let q = DVec3::new(
                 if i & 1 == 0 { lo.x } else { hi.x },
                 if i & 2 == 0 { lo.y } else { hi.y },
                 if i & 4 == 0 { lo.z } else { hi.z },
             );
-            let s = inv * (q - base);
-            let (fx, fy) = if perspective {
-                // The corner must lie clearly in front: a ≤ 0 puts it at or behind the centre.
-                if s.x.is_nan() || s.x <= 1e-9 * s.abs().max_element() {
-                    return None;
-                }
-                (s.y / s.x, s.z / s.x)
-            } else {
-                (s.x, s.y)
-            };
+            inv * (q - base)
+        });
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        let mut add = |fx: f64, fy: f64| {
             (x0, y0, x1, y1) = (x0.min(fx), y0.min(fy), x1.max(fx), y1.max(fy));
+        };
+        if perspective {
+            let distance = (base.clamp(lo, hi) - base).length();
+            let near = 0.5 * distance / reach;
+            if !(near > 0.0 && near.is_finite()) {
+                return None;
+            }
+            for (i, s) in solved.iter().enumerate() {
+                if s.x >= near {
+                    add(s.y / s.x, s.z / s.x);
+                }
+                // The box's edges from this corner (to the corner one bit higher) that cross
+                // a = ε, at their crossing.
+                for bit in [1, 2, 4] {
+                    let t = solved[i | bit];
+                    if i & bit == 0 && (s.x < near) != (t.x < near) {
+                        let p = *s + (t - *s) * ((near - s.x) / (t.x - s.x));
+                        add(p.y / near, p.z / near);
+                    }
+                }
+            }
+            if x0 > x1 {
+                // Nothing of the box lies at a ≥ ε: behind the camera, unseen.
+                return Some([f32::MAX, f32::MAX, f32::MIN, f32::MIN]);
+            }
+        } else {
+            for s in &solved {
+                add(s.x, s.y);
+            }
         }
         // One pixel, the rounding of the rays (see above), and that of the rectangle's own
         // conversion to f32.
