@@ -27,8 +27,8 @@ pub struct BlockMask {
 
 impl BlockMask {
     /// The mask of a `width × height` image seen through `camera`, for the boxes `clusters`;
-    /// None where some box has no film rectangle (part of it at or behind a perspective
-    /// camera's centre), which leaves every block to be traced.
+    /// None where some box has no film rectangle (a perspective camera inside it), which
+    /// leaves every block to be traced.
     pub fn new(
         camera: &RayGenerator,
         clusters: &[(Vec3, Vec3)],
