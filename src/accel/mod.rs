@@ -354,9 +354,17 @@ pub const CLUSTER_GRID: usize = 8;
 /// [`Accel::clusters`] of `scene`'s triangles.
 fn clusters(scene: &Scene) -> Vec<(Vec3, Vec3)> {
     let corners = |t: &[u32; 3]| t.map(|v| Vec3A::from(scene.positions[v as usize]));
+    // Triangles with a non-finite vertex are left out: one NaN in a box's running minimum
+    // would make it forget the triangles before it. The loader refuses such vertices, so
+    // only a scene built by hand can have them, and nothing about hitting them is promised.
+    let finite = scene
+        .triangles
+        .iter()
+        .map(corners)
+        .filter(|p| p.iter().all(|v| v.is_finite()));
     let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    for t in &scene.triangles {
-        for p in corners(t) {
+    for t in finite.clone() {
+        for p in t {
             (lo, hi) = (lo.min(p), hi.max(p));
         }
     }
@@ -369,16 +377,15 @@ fn clusters(scene: &Scene) -> Vec<(Vec3, Vec3)> {
         Vec3A::ZERO,
     );
     let mut boxes = vec![(Vec3A::INFINITY, Vec3A::NEG_INFINITY); g * g * g];
-    for t in &scene.triangles {
-        let [a, b, c] = corners(t);
+    for [a, b, c] in finite {
         let centroid = (a + b + c) * (1.0 / 3.0);
         // Any cell will do for the bound to hold; clamping keeps rounding (and NaN, which
         // the loader refuses anyway) inside the grid.
         let cell = ((centroid - lo) * scale)
             .to_array()
             .map(|v| (v as usize).min(g - 1));
-        let b_ = &mut boxes[(cell[2] * g + cell[1]) * g + cell[0]];
-        *b_ = (b_.0.min(a).min(b).min(c), b_.1.max(a).max(b).max(c));
+        let bounds = &mut boxes[(cell[2] * g + cell[1]) * g + cell[0]];
+        *bounds = (bounds.0.min(a).min(b).min(c), bounds.1.max(a).max(b).max(c));
     }
     boxes
         .into_iter()
@@ -393,8 +400,9 @@ mod tests {
 
     /// Every triangle lies whole inside one cluster box, so a ray that misses every box
     /// misses it: random triangles from slivers to ones spanning the scene, a flat scene (no
-    /// extent along one axis), far from the origin, and a single triangle. And the grid does
-    /// split a spread-out scene.
+    /// extent along one axis), far from the origin, a single triangle, and triangles with
+    /// non-finite vertices among the rest (left out). And the grid does split a spread-out
+    /// scene.
     #[test]
     fn every_triangle_lies_inside_a_cluster_box() {
         let mut next = crate::sampling::hash::uniform_sequence(11);
@@ -404,6 +412,7 @@ mod tests {
             (2000, true, Vec3::ZERO),
             (500, false, Vec3::splat(3e4)),
             (1, false, Vec3::ZERO),
+            (300, false, Vec3::ZERO),
         ] {
             let mut scene = Scene::default();
             for i in 0..n {
@@ -417,13 +426,30 @@ mod tests {
                 scene.positions.extend(tri.map(|p| p + offset));
                 scene.triangles.push([base, base + 1, base + 2]);
             }
+            if n == 300 {
+                // A triangle with a NaN vertex and one with an infinite one among the rest:
+                // left out, and the others still covered.
+                for bad in [f32::NAN, f32::INFINITY] {
+                    let base = scene.positions.len() as u32;
+                    scene
+                        .positions
+                        .extend([Vec3::ONE, Vec3::new(bad, 2.0, 1.0), Vec3::Y]);
+                    scene.triangles.insert(100, [base, base + 1, base + 2]);
+                }
+            }
             let boxes = clusters(&scene);
+            assert!(boxes
+                .iter()
+                .all(|(lo, hi)| lo.is_finite() && hi.is_finite()));
             assert!(!boxes.is_empty() && boxes.len() <= CLUSTER_GRID.pow(3));
             if n > 1 {
                 assert!(boxes.len() > 16, "{n} triangles in {} boxes", boxes.len());
             }
             for t in &scene.triangles {
                 let p = t.map(|i| scene.positions[i as usize]);
+                if !p.iter().all(|q| q.is_finite()) {
+                    continue;
+                }
                 let inside = boxes
                     .iter()
                     .any(|(lo, hi)| p.iter().all(|q| q.cmpge(*lo).all() && q.cmple(*hi).all()));
