@@ -87,11 +87,6 @@ impl BlockMask {
         debug_assert!(c1 < self.cols && r1 < self.rows);
         (r0..=r1).any(|r| self.seen[r * self.cols + c0..=r * self.cols + c1].contains(&true))
     }
-
-    /// The share of blocks that can see a cluster box.
-    pub fn seen_fraction(&self) -> f64 {
-        self.seen.iter().filter(|&&s| s).count() as f64 / self.seen.len().max(1) as f64
-    }
 }
 
 #[cfg(test)]
