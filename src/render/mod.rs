@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use crate::accel::{SceneBox, PACKET};
 use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
-use crate::scene::Camera;
+use crate::scene::{Camera, RayGenerator};
 use culling::BlockMask;
 pub use film::{BadSample, Film, FilmRows, PixelTotals};
 
@@ -328,14 +328,17 @@ struct TileResult {
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
+    setup: &TileSetup,
     tile: Tile,
     round: &Round,
-    mask: Option<&BlockMask>,
     sums: &mut [PixelTotals],
 ) -> TileResult {
-    let camera = settings
-        .camera
-        .ray_generator(settings.width, settings.height);
+    let TileSetup {
+        camera,
+        scene_box,
+        ref mask,
+        miss,
+    } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
     let mut out = TileResult {
@@ -382,11 +385,6 @@ fn render_tile(
     // different triangles: 1 camera ray in 4.9 M on the helmet). A block's totals stay in
     // `acc` until its last sample and are then written to `sums` whole.
     let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
-    let scene_box = SceneBox::new(ctx.accel);
-    // Blocks of pixels that cannot see the scene (`mask`) take the estimate of a miss for
-    // each of their samples, untraced and unsampled: the sums a traced miss would have
-    // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, which are never −0).
-    let miss = integrator.camera_miss(ctx, &mut samplers[0]);
     for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
         for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
             let mut lanes = [(0u32, 0u32, 0u32, 0u32); PACKET];
@@ -400,7 +398,7 @@ fn render_tile(
             }
             let lanes = &lanes[..n_lanes];
             let (bx1, by1) = ((bx + PACKET_W).min(tile.x1), (by + PACKET_H).min(tile.y1));
-            let unseen = mask.is_some_and(|m| !m.sees(bx, by, bx1, by1));
+            let unseen = mask.as_ref().is_some_and(|m| !m.sees(bx, by, bx1, by1));
             // Samples to trace per pixel, at most (Round::samples gives b ≥ a).
             let most = match unseen {
                 true => 0,
@@ -413,6 +411,9 @@ fn render_tile(
                         round.film.totals(x, y)
                     })
             });
+            // A block that cannot see the scene (`mask`) takes the estimate of a miss for
+            // each of its samples, untraced and unsampled: the sums a traced miss would have
+            // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, never −0).
             if unseen {
                 for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
                     out.rays.camera += (b - a) as u64;
@@ -482,6 +483,51 @@ fn render_tile(
         }
     }
     out
+}
+
+/// What every tile of a render shares, made once per render.
+struct TileSetup {
+    /// The camera's rays for the whole image.
+    camera: RayGenerator,
+    /// The scene's box, against which packets of camera rays are tested.
+    scene_box: SceneBox,
+    /// The pixel blocks that can see the scene; None: every block is traced.
+    mask: Option<BlockMask>,
+    /// The estimate of a camera ray that misses (`Integrator::camera_miss`).
+    miss: Vec3A,
+}
+
+impl TileSetup {
+    fn new(ctx: &Context, settings: &RenderSettings) -> TileSetup {
+        let camera = settings
+            .camera
+            .ray_generator(settings.width, settings.height);
+        let integrator = &settings.integrator;
+        // Culling serves the packet loop only (camera packets on, rays traced at all).
+        let packets = ctx.camera_packets && integrator.traces_rays(ctx);
+        let mask = (packets && ctx.cull_blocks)
+            .then(|| {
+                BlockMask::new(
+                    &camera,
+                    ctx.accel.clusters(),
+                    settings.width,
+                    settings.height,
+                )
+            })
+            .flatten();
+        let miss = if packets {
+            let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+            integrator.camera_miss(ctx, &mut sampler)
+        } else {
+            Vec3A::ZERO
+        };
+        TileSetup {
+            camera,
+            scene_box: SceneBox::new(ctx.accel),
+            mask,
+            miss,
+        }
+    }
 }
 
 /// The pixel block whose camera rays form one packet: 4 × 2 pixels, the blocks of
@@ -563,20 +609,7 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
-    // The blocks that can see the scene, once for the render (camera packets only).
-    let mask = if ctx.cull_blocks && ctx.camera_packets {
-        let camera = settings
-            .camera
-            .ray_generator(settings.width, settings.height);
-        BlockMask::new(
-            &camera,
-            ctx.accel.clusters(),
-            settings.width,
-            settings.height,
-        )
-    } else {
-        None
-    };
+    let setup = TileSetup::new(ctx, settings);
     let mut tile_sums = TileSums::new(&tiles);
     let stopping = settings.stopping;
     let spp = settings.spp;
@@ -736,7 +769,7 @@ pub fn render_with_checkpoints(
                         if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
                             return None;
                         }
-                        let r = render_tile(ctx, settings, tile, &round, mask.as_ref(), sums);
+                        let r = render_tile(ctx, settings, &setup, tile, &round, sums);
                         tick(tile_samples(&tile));
                         Some(r)
                     })
