@@ -58,6 +58,10 @@ struct Cli {
     #[arg(long, default_value = "area", value_name = "area|solid-angle")]
     triangle_sampling: TriangleSampling,
 
+    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixel blocks where an emissive triangle may be seen (antialiases lights' outlines); 0: none.
+    #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
+    emitter_samples: u32,
+
     /// Constant environment radiance, linear RGB [default: black].
     #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
     background: Option<[f32; 3]>,
@@ -511,6 +515,8 @@ fn run(cli: Cli) -> Result<Outcome> {
         rr_depth: cli.rr_depth,
         strategy: cli.strategy,
         hemisphere: cli.hemisphere,
+        emitter_samples: cli.emitter_samples,
+        camera_emission: true,
     };
     let integrator = match cli.integrator {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {
@@ -622,6 +628,10 @@ fn run(cli: Cli) -> Result<Outcome> {
         Integrator::Direct(p) | Integrator::Path(p) => {
             attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
             attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
+            attrs.push((
+                "strata:emitter_samples".into(),
+                Attr::Int(p.emitter_samples as i32),
+            ));
             attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
             attrs.push((
                 "strata:hemisphere".into(),

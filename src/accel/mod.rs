@@ -251,7 +251,7 @@ impl Accel {
         };
         Ok(Accel {
             bvh,
-            clusters: clusters(scene),
+            clusters: cluster_boxes(scene, 0..scene.triangles.len() as u32),
         })
     }
 
@@ -351,15 +351,16 @@ impl Accel {
 /// Cells per axis of the grid that [`Accel::clusters`] bins triangles into.
 pub const CLUSTER_GRID: usize = 8;
 
-/// [`Accel::clusters`] of `scene`'s triangles.
-fn clusters(scene: &Scene) -> Vec<(Vec3, Vec3)> {
-    let corners = |t: &[u32; 3]| t.map(|v| Vec3A::from(scene.positions[v as usize]));
+/// [`Accel::clusters`] of triangles `prims` of `scene` (all of them for the accelerator; the
+/// renderer also bins the emissive ones alone).
+pub fn cluster_boxes(scene: &Scene, prims: impl Iterator<Item = u32> + Clone) -> Vec<(Vec3, Vec3)> {
+    let corners = |prim: u32| {
+        scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
+    };
     // Triangles with a non-finite vertex are left out: one NaN in a box's running minimum
     // would make it forget the triangles before it. The loader refuses such vertices, so
     // only a scene built by hand can have them, and nothing about hitting them is promised.
-    let finite = scene
-        .triangles
-        .iter()
+    let finite = prims
         .map(corners)
         .filter(|p| p.iter().all(|v| v.is_finite()));
     let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
@@ -437,7 +438,7 @@ mod tests {
                     scene.triangles.insert(100, [base, base + 1, base + 2]);
                 }
             }
-            let boxes = clusters(&scene);
+            let boxes = cluster_boxes(&scene, 0..scene.triangles.len() as u32);
             assert!(boxes
                 .iter()
                 .all(|(lo, hi)| lo.is_finite() && hi.is_finite()));

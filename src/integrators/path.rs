@@ -69,6 +69,13 @@ pub struct PathSettings {
     /// How the BSDF samples directions: `Cosine` or `Uniform` (`UniformUnweighted`, an AO
     /// negative control, is treated as `Uniform`).
     pub hemisphere: Hemisphere,
+    /// Camera rays per sample that estimate the emission the camera sees directly, in the
+    /// pixel blocks where an emitter may be seen (the renderer traces them, see
+    /// [`crate::render`]); 0: the path's own camera ray alone, as elsewhere.
+    pub emitter_samples: u32,
+    /// Whether [`li`] adds the emission its camera ray meets (true, except where the renderer
+    /// estimates that term apart with `emitter_samples` rays).
+    pub camera_emission: bool,
 }
 
 impl Default for PathSettings {
@@ -78,6 +85,8 @@ impl Default for PathSettings {
             rr_depth: 5,
             strategy: Strategy::Mis,
             hemisphere: Hemisphere::Cosine,
+            emitter_samples: 8,
+            camera_emission: true,
         }
     }
 }
@@ -131,9 +140,10 @@ pub fn li(
         let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
         let uv = materials.uv(scene, &si);
 
-        // Emission of the surface the path reached, MIS-weighted unless the camera sees it.
+        // Emission of the surface the path reached, MIS-weighted unless the camera sees it
+        // (and left to the caller if it estimates the camera's view of emitters apart).
         let le = materials.emitted(scene, &si, uv);
-        if le.max_element() > 0.0 {
+        if le.max_element() > 0.0 && (prev.is_some() || settings.camera_emission) {
             let w = match prev {
                 None => 1.0,
                 Some((pdf_bsdf, p_prev)) => match settings.strategy {
@@ -212,4 +222,16 @@ pub fn li(
         next_hit = ctx.accel.intersect(&ray);
     }
     l
+}
+
+/// The emission that camera ray `ray`, whose closest hit is `hit`, sees: the term [`li`]
+/// adds first (and leaves out when `camera_emission` is false).
+#[inline]
+pub fn camera_emission(ctx: &Context, ray: &Ray, hit: Option<Hit>) -> Vec3 {
+    let Some(hit) = hit.filter(|h| ctx.materials.is_emissive_triangle(ctx.scene, h.prim)) else {
+        return Vec3::ZERO;
+    };
+    let si = SurfaceInteraction::from_hit(ctx.scene, ray, &hit);
+    let uv = ctx.materials.uv(ctx.scene, &si);
+    ctx.materials.emitted(ctx.scene, &si, uv)
 }

@@ -23,6 +23,7 @@
 
 pub mod adaptive;
 pub mod culling;
+mod emitters;
 pub mod film;
 pub mod output;
 
@@ -38,6 +39,7 @@ use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::{Camera, RayGenerator};
 use culling::BlockMask;
+use emitters::EmitterView;
 pub use film::{BadSample, Film, FilmRows, PixelTotals};
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -338,6 +340,7 @@ fn render_tile(
         scene_box,
         ref mask,
         miss,
+        ref emitters,
     } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
@@ -362,14 +365,23 @@ fn render_tile(
                     // The first two dimensions place the sample on the film.
                     let film_uv = sampler.next_2d();
                     let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
-                    let l = integrator.li(ctx, &ray, &mut sampler, &mut out.rays);
-                    accumulate(
-                        pixel,
-                        l.into(),
-                        (x, y, index),
-                        &mut out.bad,
-                        &mut out.first_bad,
-                    );
+                    let l = match emitters.as_ref().filter(|e| e.splits(x, y)) {
+                        Some(view) => {
+                            let hit = ctx.accel.intersect(&ray);
+                            let rays = &mut out.rays;
+                            let l = view.integrator.li_from_camera_hit(
+                                ctx,
+                                &ray,
+                                hit,
+                                &mut sampler,
+                                rays,
+                            );
+                            Vec3A::from(l)
+                                + view.estimate(ctx, &camera, &sampler, (x, y), false, rays)
+                        }
+                        None => integrator.li(ctx, &ray, &mut sampler, &mut out.rays).into(),
+                    };
+                    accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
                 }
                 pixel.2 += samples.1 - samples.0;
             }
@@ -455,15 +467,55 @@ fn render_tile(
                 // a float defeats store-to-load forwarding, a stall of each sample that perf
                 // put at 5% of a mostly-missing AO render.
                 let mut l = [Vec3A::ZERO; PACKET];
-                integrator.li_packet_from_camera_hits(
-                    ctx,
-                    &rays[..n],
-                    &hits[..n],
-                    &mut samplers,
-                    &which[..n],
-                    &mut out.rays,
-                    &mut l[..n],
-                );
+                match emitters.as_ref().filter(|e| e.splits_any(bx, by, bx1, by1)) {
+                    None => integrator.li_packet_from_camera_hits(
+                        ctx,
+                        &rays[..n],
+                        &hits[..n],
+                        &mut samplers,
+                        &which[..n],
+                        &mut out.rays,
+                        &mut l[..n],
+                    ),
+                    // Where an emitter may be seen, each sample's estimate is split
+                    // ([`emitters`]), pixel by pixel as in the loop above.
+                    Some(view) => {
+                        for k in 0..n {
+                            let lane = which[k];
+                            let (x, y, _, _) = lanes[lane];
+                            let sampler = &mut samplers[lane];
+                            let rays_k = (&rays[k], hits[k]);
+                            l[k] = if view.splits(x, y) {
+                                let v = view.integrator.li_from_camera_hit(
+                                    ctx,
+                                    rays_k.0,
+                                    rays_k.1,
+                                    sampler,
+                                    &mut out.rays,
+                                );
+                                let e = view.estimate(
+                                    ctx,
+                                    &camera,
+                                    sampler,
+                                    (x, y),
+                                    true,
+                                    &mut out.rays,
+                                );
+                                Vec3A::from(v) + e
+                            } else {
+                                integrator
+                                    .li_from_camera_hit(
+                                        ctx,
+                                        rays_k.0,
+                                        rays_k.1,
+                                        sampler,
+                                        &mut out.rays,
+                                    )
+                                    .into()
+                            };
+                        }
+                    }
+                }
                 for (k, &l) in l[..n].iter().enumerate() {
                     let lane = which[k];
                     let (x, y, a, _) = lanes[lane];
@@ -495,6 +547,8 @@ struct TileSetup {
     mask: Option<BlockMask>,
     /// The estimate of a camera ray that misses (`Integrator::camera_miss`).
     miss: Vec3A,
+    /// Where the camera may see emitters, whose samples are split ([`emitters`]).
+    emitters: Option<EmitterView>,
 }
 
 impl TileSetup {
@@ -521,11 +575,13 @@ impl TileSetup {
         } else {
             Vec3A::ZERO
         };
+        let emitters = EmitterView::new(ctx, integrator, &camera, settings.width, settings.height);
         TileSetup {
             camera,
             scene_box: SceneBox::new(ctx.accel),
             mask,
             miss,
+            emitters,
         }
     }
 }

@@ -270,6 +270,30 @@ impl PixelSampler {
     #[inline]
     pub fn next_2d_set(&mut self, n: u32) -> PointSet2d {
         let (key, sequence) = self.next_slot();
+        self.point_set(key, sequence, n)
+    }
+
+    /// [`PixelSampler::next_2d_set`] from a slot of its own, named by `stream`, outside the
+    /// sequence of slots the `next_*` calls draw from: the next call still gets the slot it
+    /// would have had. For estimates the renderer adds beside an integrator's own (the
+    /// emitters the camera sees, [`crate::render`]), which must not shift the integrator's
+    /// dimensions. Every sample of a pixel takes its points from the same spp·n-point set.
+    #[inline]
+    pub fn side_2d_set(&self, stream: u32, n: u32) -> PointSet2d {
+        // Ordinary slots hash (pixel key, slot number), slot numbers being small; a side
+        // stream sets the top bit, so the two never share a key.
+        let key = hash_words(&[self.pixel_key, (1 << 63) | stream as u64]);
+        let sequence = if self.kind == SamplerKind::Sobol {
+            sobol::Sequence::new((key >> 32) as u32)
+        } else {
+            sobol::Sequence::default()
+        };
+        self.point_set(key, sequence, n)
+    }
+
+    /// The current sample's `n` points of the spp·n-point set of a slot.
+    #[inline]
+    fn point_set(&self, key: u64, sequence: sobol::Sequence, n: u32) -> PointSet2d {
         let n = n.max(1) as u64;
         let count = self.spp as u64 * n;
         PointSet2d {
