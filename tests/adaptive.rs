@@ -552,16 +552,6 @@ fn checkpoints_and_thread_counts_do_not_change_an_adaptive_image() {
 }
 
 /// Each pixel's f64 sums and count, as bits: equal only if every sample was added alike.
-fn film_totals(film: &Film) -> Vec<([u64; 3], [u64; 3], u32)> {
-    (0..film.height)
-        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (s, q, n) = film.totals(x, y);
-            (s.map(f64::to_bits), q.map(f64::to_bits), n)
-        })
-        .collect()
-}
-
 /// Camera rays traced in 4×2-pixel packets give the film that single rays give, bit for bit
 /// in its f64 sums, also where the pixels of a packet take different numbers of samples
 /// (adaptive rounds) and where the image size leaves part-filled blocks and tiles; and so do

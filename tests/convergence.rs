@@ -156,3 +156,55 @@ fn convergence_tool_compares_uniform_and_adaptive_at_equal_time() {
         assert!(spp(&pair[1]) > spp(&pair[0]), "{csv}");
     }
 }
+
+/// `--emitter-samples 0,8` adds a configuration per count, recorded in the CSV's
+/// `emitter_samples` column and passed to `render`: on the Cornell box's path tracing, 8
+/// emitter rays per sample give a lower RMSE at 8 spp than none (the light's outline).
+#[test]
+fn convergence_tool_compares_emitter_sample_counts() {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_convergence"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["--reference", "scenes/references/cornell-box.path.exr"])
+        .args(["--render", env!("CARGO_BIN_EXE_render")])
+        .args([
+            "--samplers",
+            "sobol",
+            "--emitter-samples",
+            "0,8",
+            "--max-spp",
+            "8",
+        ])
+        .arg("--out")
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
+    let (c_em, c_spp, c_rmse) = (col("emitter_samples"), col("spp"), col("rmse"));
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // Two configurations × spp 1, 2, 4, 8.
+    assert_eq!(rows.len(), 8, "{csv}");
+    let rmse_at_8 = |n: &str| -> f64 {
+        let row = rows
+            .iter()
+            .find(|r| r[c_em] == n && r[c_spp].parse::<f64>().unwrap() == 8.0)
+            .unwrap_or_else(|| panic!("no 8-spp row with {n} emitter rays:\n{csv}"));
+        row[c_rmse].parse().unwrap()
+    };
+    let (without, with) = (rmse_at_8("0"), rmse_at_8("8"));
+    assert!(
+        with < 0.8 * without,
+        "RMSE at 8 spp: {with} with 8 emitter rays, {without} without"
+    );
+}

@@ -68,16 +68,6 @@ fn pixels(film: &Film) -> Vec<Vec3> {
     film.pixels()
 }
 
-fn film_totals(film: &Film) -> Vec<([u64; 3], [u64; 3], u32)> {
-    (0..film.height)
-        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (s, q, n) = film.totals(x, y);
-            (s.map(f64::to_bits), q.map(f64::to_bits), n)
-        })
-        .collect()
-}
-
 /// On the Cornell box at the reference's size, the squared error against the Mitsuba
 /// reference falls by more than half with 8 emitter rays per sample, at equal spp: the
 /// light's outline, which holds most of the error with one camera ray, is resolved by 8×

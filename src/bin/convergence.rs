@@ -59,6 +59,11 @@ struct Cli {
     #[arg(long, default_value = "mis", value_delimiter = ',')]
     strategies: Vec<String>,
 
+    /// Direct and path only: `render --emitter-samples` counts to compare, comma-separated
+    /// [default: the renderer's default alone].
+    #[arg(long, value_delimiter = ',', value_name = "N,...")]
+    emitter_samples: Vec<u32>,
+
     /// The last rung of the spp ladder 1, 2, 4, …
     #[arg(long, default_value_t = 1024)]
     max_spp: u32,
@@ -110,6 +115,8 @@ struct Config {
     strategy: Option<String>,
     /// Adaptive sampling's error metric; `None`: uniform.
     adaptive: Option<String>,
+    /// `--emitter-samples`; `None`: the renderer's default.
+    emitter_samples: Option<u32>,
 }
 
 impl Config {
@@ -123,6 +130,9 @@ impl Config {
         }
         if let Some(m) = &self.adaptive {
             write!(s, ", adaptive {m}").unwrap();
+        }
+        if let Some(n) = self.emitter_samples {
+            write!(s, ", {n} emitter rays").unwrap();
         }
         s
     }
@@ -142,6 +152,9 @@ impl Config {
                 "--error-metric".into(),
                 m.clone(),
             ]);
+        }
+        if let Some(n) = self.emitter_samples {
+            a.extend(["--emitter-samples".into(), n.to_string()]);
         }
         a
     }
@@ -284,14 +297,22 @@ fn configs(cli: &Cli, integrator: &str) -> Vec<Config> {
                 "ao" => vec![None],
                 _ => cli.strategies.iter().cloned().map(Some).collect(),
             };
+            let emitter_samples: Vec<Option<u32>> = match integrator {
+                "ao" => vec![None],
+                _ if cli.emitter_samples.is_empty() => vec![None],
+                _ => cli.emitter_samples.iter().copied().map(Some).collect(),
+            };
             for h in &hemispheres {
                 for st in &strategies {
-                    out.push(Config {
-                        sampler: s.clone(),
-                        hemisphere: h.clone(),
-                        strategy: st.clone(),
-                        adaptive: adaptive.clone(),
-                    });
+                    for &n in &emitter_samples {
+                        out.push(Config {
+                            sampler: s.clone(),
+                            hemisphere: h.clone(),
+                            strategy: st.clone(),
+                            adaptive: adaptive.clone(),
+                            emitter_samples: n,
+                        });
+                    }
                 }
             }
         }
@@ -441,8 +462,9 @@ fn replot(out: &Path) -> Result<()> {
         col("rmse")?,
         col("reference_variance")?,
     );
-    // Absent from CSVs written before adaptive sampling.
+    // Absent from CSVs written before adaptive sampling, and before --emitter-samples.
     let c_ad = col("adaptive").ok();
+    let c_em = col("emitter_samples").ok();
     let mut by_spp: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut by_time: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let (mut name, mut floor) = (String::new(), 0.0f64);
@@ -461,6 +483,7 @@ fn replot(out: &Path) -> Result<()> {
                 .and_then(|c| f.get(c))
                 .filter(|v| !v.is_empty())
                 .map(|v| v.to_string()),
+            emitter_samples: c_em.and_then(|c| f.get(c)).and_then(|v| v.parse().ok()),
         };
         let label = config.label();
         if by_spp.last().is_none_or(|(l, _)| *l != label) {
@@ -556,7 +579,7 @@ fn main() -> Result<()> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut csv = String::from(
-        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance,adaptive,time_limit\n",
+        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance,adaptive,time_limit,emitter_samples\n",
     );
     let mut by_spp = Vec::new();
     let mut by_time = Vec::new();
@@ -611,7 +634,7 @@ fn main() -> Result<()> {
             };
             writeln!(
                 csv,
-                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{}",
+                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{},{}",
                 reference.integrator,
                 config.sampler,
                 config.hemisphere.as_deref().unwrap_or(""),
@@ -627,6 +650,10 @@ fn main() -> Result<()> {
                 error.reference_variance,
                 config.adaptive.as_deref().unwrap_or(""),
                 time_limit.map(|t| t.to_string()).unwrap_or_default(),
+                config
+                    .emitter_samples
+                    .map(|n| n.to_string())
+                    .unwrap_or_default(),
             )
             .unwrap();
             eprintln!(

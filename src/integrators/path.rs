@@ -225,13 +225,16 @@ pub fn li(
 }
 
 /// The emission that camera ray `ray`, whose closest hit is `hit`, sees: the term [`li`]
-/// adds first (and leaves out when `camera_emission` is false).
+/// adds first (and leaves out when `camera_emission` is false), the same value without the
+/// surface interaction that [`li`] builds.
 #[inline]
 pub fn camera_emission(ctx: &Context, ray: &Ray, hit: Option<Hit>) -> Vec3 {
-    let Some(hit) = hit.filter(|h| ctx.materials.is_emissive_triangle(ctx.scene, h.prim)) else {
-        return Vec3::ZERO;
-    };
-    let si = SurfaceInteraction::from_hit(ctx.scene, ray, &hit);
-    let uv = ctx.materials.uv(ctx.scene, &si);
-    ctx.materials.emitted(ctx.scene, &si, uv)
+    match hit {
+        Some(h) if ctx.materials.is_emissive_triangle(ctx.scene, h.prim) => {
+            let front = h.ng.dot(ray.dir) < 0.0;
+            ctx.materials
+                .emitted_at(ctx.scene, h.prim, glam::Vec2::new(h.u, h.v), front)
+        }
+        _ => Vec3::ZERO,
+    }
 }

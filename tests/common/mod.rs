@@ -1,6 +1,7 @@
 //! Helpers shared by the tests: for the CLI tests (`cli.rs`, `bad_input.rs`,
 //! `losing_nothing.rs`), run the `render` binary, check its one-line errors, and build broken
-//! variants of a small scene; for the light-transport and numerics tests, a closed sphere.
+//! variants of a small scene; for the light-transport and numerics tests, a closed sphere; for
+//! the render tests, a film's sums as bits.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -267,4 +268,15 @@ pub fn inward_geodesic_sphere(subdivisions: u32) -> (Vec<glam::DVec3>, Vec<[u32;
         triangles.push(if outward { [a, c, b] } else { [a, b, c] });
     }
     (points, triangles)
+}
+
+/// A film's f64 sums and sample counts, as bits: for comparing renders bit for bit.
+pub fn film_totals(film: &strata::render::Film) -> Vec<([u64; 3], [u64; 3], u32)> {
+    (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (s, q, n) = film.totals(x, y);
+            (s.map(f64::to_bits), q.map(f64::to_bits), n)
+        })
+        .collect()
 }

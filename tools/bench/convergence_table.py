@@ -23,6 +23,9 @@ def label(row):
         parts.append(row["hemisphere"])
     if row["strategy"]:
         parts.append(row["strategy"])
+    # Written since --emitter-samples.
+    if row.get("emitter_samples"):
+        parts.append(row["emitter_samples"] + " emitter rays")
     return ", ".join(parts)
 
 
