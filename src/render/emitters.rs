@@ -19,7 +19,7 @@
 use glam::{Vec2, Vec3A};
 
 use super::culling::BlockMask;
-use crate::accel::{cluster_boxes, PACKET};
+use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
 use crate::integrators::{path, Context, Integrator, RayCounts};
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
@@ -31,7 +31,7 @@ const STREAM: u32 = 0x0e31;
 pub(super) struct EmitterView {
     mask: BlockMask,
     /// The integrator with `camera_emission` off: what the path estimates in split pixels.
-    pub integrator: Integrator,
+    integrator: Integrator,
     /// Camera rays per sample that estimate the emission seen.
     rays: u32,
 }
@@ -77,8 +77,36 @@ impl EmitterView {
 
     /// Whether the samples of pixel (x, y) are split.
     #[inline]
-    pub fn splits(&self, x: u32, y: u32) -> bool {
+    fn splits(&self, x: u32, y: u32) -> bool {
         self.mask.sees(x, y, x + 1, y + 1)
+    }
+
+    /// The estimate of a sample of pixel (x, y) along camera ray `ray`, whose closest hit
+    /// is `hit`, drawn from `sampler`: split where the pixel may see an emitter, else
+    /// `integrator`'s own. The emitter rays go in packets, or one by one with `packets`
+    /// false (the hits, so the estimate, are the same).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn li(
+        &self,
+        ctx: &Context,
+        integrator: &Integrator,
+        camera: &RayGenerator,
+        ray: &Ray,
+        hit: Option<Hit>,
+        (sampler, (x, y)): (&mut PixelSampler, (u32, u32)),
+        packets: bool,
+        counts: &mut RayCounts,
+    ) -> Vec3A {
+        if !self.splits(x, y) {
+            return integrator
+                .li_from_camera_hit(ctx, ray, hit, sampler, counts)
+                .into();
+        }
+        let rest = self
+            .integrator
+            .li_from_camera_hit(ctx, ray, hit, sampler, counts);
+        Vec3A::from(rest) + self.estimate(ctx, camera, sampler, (x, y), packets, counts)
     }
 
     /// Whether any pixel of the block [x0, x1) × [y0, y1) is split.
@@ -88,9 +116,8 @@ impl EmitterView {
     }
 
     /// The estimate of the emission the camera sees from pixel (x, y) for the sample that
-    /// `sampler` is on: the mean over the sample's rays (traced in packets, or one by one
-    /// with `packets` false; the hits, so the estimate, are the same).
-    pub fn estimate(
+    /// `sampler` is on: the mean over the sample's rays.
+    fn estimate(
         &self,
         ctx: &Context,
         camera: &RayGenerator,

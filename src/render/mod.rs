@@ -365,19 +365,20 @@ fn render_tile(
                     // The first two dimensions place the sample on the film.
                     let film_uv = sampler.next_2d();
                     let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
-                    let l = match emitters.as_ref().filter(|e| e.splits(x, y)) {
+                    let l = match emitters {
                         Some(view) => {
                             let hit = ctx.accel.intersect(&ray);
-                            let rays = &mut out.rays;
-                            let l = view.integrator.li_from_camera_hit(
+                            let lane = (&mut sampler, (x, y));
+                            view.li(
                                 ctx,
+                                integrator,
+                                &camera,
                                 &ray,
                                 hit,
-                                &mut sampler,
-                                rays,
-                            );
-                            Vec3A::from(l)
-                                + view.estimate(ctx, &camera, &sampler, (x, y), false, rays)
+                                lane,
+                                false,
+                                &mut out.rays,
+                            )
                         }
                         None => integrator.li(ctx, &ray, &mut sampler, &mut out.rays).into(),
                     };
@@ -483,36 +484,18 @@ fn render_tile(
                         for k in 0..n {
                             let lane = which[k];
                             let (x, y, _, _) = lanes[lane];
-                            let sampler = &mut samplers[lane];
-                            let rays_k = (&rays[k], hits[k]);
-                            l[k] = if view.splits(x, y) {
-                                let v = view.integrator.li_from_camera_hit(
-                                    ctx,
-                                    rays_k.0,
-                                    rays_k.1,
-                                    sampler,
-                                    &mut out.rays,
-                                );
-                                let e = view.estimate(
-                                    ctx,
-                                    &camera,
-                                    sampler,
-                                    (x, y),
-                                    true,
-                                    &mut out.rays,
-                                );
-                                Vec3A::from(v) + e
-                            } else {
-                                integrator
-                                    .li_from_camera_hit(
-                                        ctx,
-                                        rays_k.0,
-                                        rays_k.1,
-                                        sampler,
-                                        &mut out.rays,
-                                    )
-                                    .into()
-                            };
+                            let lane = (&mut samplers[lane], (x, y));
+                            let (ray, hit) = (&rays[k], hits[k]);
+                            l[k] = view.li(
+                                ctx,
+                                integrator,
+                                &camera,
+                                ray,
+                                hit,
+                                lane,
+                                true,
+                                &mut out.rays,
+                            );
                         }
                     }
                 }
