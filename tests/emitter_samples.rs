@@ -235,3 +235,70 @@ fn packets_and_single_rays_split_alike() {
         );
     }
 }
+
+/// The command line: `--emitter-samples N` reaches the render and its EXR header, 0 traces
+/// no emitter rays (the camera rays are one per sample), and a count over 256 is refused
+/// with an error naming the option, without writing anything.
+#[test]
+fn the_option_reaches_the_render_and_bad_counts_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let mut camera_rays = Vec::new();
+    for n in ["0", "4"] {
+        let out = dir.path().join(format!("cb{n}.exr"));
+        let run = render(
+            dir.path(),
+            &[
+                s(&scene),
+                "-o",
+                s(&out),
+                "--integrator",
+                "path",
+                "--resolution",
+                "32x32",
+                "--spp",
+                "4",
+                "--emitter-samples",
+                n,
+                "--no-png",
+                "--stats",
+            ],
+        );
+        run.assert_success();
+        assert_eq!(
+            attr(&int_attrs(&out), "strata:emitter_samples"),
+            n.parse::<i32>().unwrap()
+        );
+        let line = run
+            .stdout
+            .lines()
+            .chain(run.stderr.lines())
+            .find(|l| l.starts_with("rays:"))
+            .unwrap_or_else(|| panic!("no rays line:\n{}\n{}", run.stdout, run.stderr))
+            .to_string();
+        let camera: u64 = line
+            .trim_start_matches("rays: ")
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        camera_rays.push(camera);
+    }
+    assert_eq!(
+        camera_rays[0],
+        32 * 32 * 4,
+        "one camera ray per sample with 0"
+    );
+    assert!(camera_rays[1] > camera_rays[0], "no emitter rays with 4");
+
+    let out = dir.path().join("bad.exr");
+    let run = render(
+        dir.path(),
+        &[s(&scene), "-o", s(&out), "--emitter-samples", "1000"],
+    );
+    assert!(!run.status.success(), "1000 emitter rays accepted");
+    assert!(run.stderr.contains("--emitter-samples"), "{}", run.stderr);
+    assert_no_panic(&run.stderr);
+    assert!(!out.exists(), "an image was written");
+}
