@@ -58,7 +58,7 @@ struct Cli {
     #[arg(long, default_value = "area", value_name = "area|solid-angle")]
     triangle_sampling: TriangleSampling,
 
-    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixel blocks where an emissive triangle may be seen (antialiases lights' outlines); 0: none.
+    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixel blocks where an emissive triangle may be seen (antialiases lights' outlines); fewer where emitters may be seen over much of the image (at most one per sample on average); 0: none.
     #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
     emitter_samples: u32,
 

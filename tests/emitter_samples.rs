@@ -8,11 +8,13 @@
 
 mod common;
 
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use common::*;
 use glam::Vec3;
 use indicatif::ProgressBar;
+use serde_json::Value;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{Integrator, PathSettings, Prepared};
 use strata::render::output::read_exr_rgb;
@@ -301,4 +303,72 @@ fn the_option_reaches_the_render_and_bad_counts_are_refused() {
     assert!(run.stderr.contains("--emitter-samples"), "{}", run.stderr);
     assert_no_panic(&run.stderr);
     assert!(!out.exists(), "an image was written");
+}
+
+/// The camera rays of `render --stats` for `scene`: (camera rays, samples).
+fn camera_rays_and_samples(dir: &Path, scene: &Path, size: u32, spp: u32) -> (u64, u64) {
+    let out = dir.join("out.exr");
+    let res = format!("{size}x{size}");
+    let spp_s = spp.to_string();
+    let run = render(
+        dir,
+        &[
+            s(scene),
+            "-o",
+            s(&out),
+            "--integrator",
+            "direct",
+            "--resolution",
+            &res,
+            "--spp",
+            &spp_s,
+            "--no-png",
+            "--stats",
+        ],
+    );
+    run.assert_success();
+    let line = run
+        .stdout
+        .lines()
+        .chain(run.stderr.lines())
+        .find(|l| l.starts_with("rays:"))
+        .unwrap_or_else(|| panic!("no rays line:\n{}\n{}", run.stdout, run.stderr))
+        .to_string();
+    let camera = line
+        .trim_start_matches("rays: ")
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    (camera, (size * size * spp) as u64)
+}
+
+/// Emitter rays cost about what a path costs: where emitters may be seen over most of the
+/// image, the split would double the render for little, so the renderer keeps the extra
+/// rays under one per sample over the image (here: none, for an emissive floor that fills
+/// the view), while a small light in view (the Cornell box) gets all 8.
+#[test]
+fn emitters_filling_the_view_are_not_split() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = ao_wall_json();
+    doc["buffers"][0]["uri"] = Value::String(data_uri(&ao_wall_buffer()));
+    doc["materials"][0]["emissiveFactor"] = serde_json::json!([1.0, 1.0, 1.0]);
+    let glowing = dir.path().join("glowing-wall.gltf");
+    std::fs::write(&glowing, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (camera, samples) = camera_rays_and_samples(dir.path(), &glowing, 32, 4);
+    assert_eq!(
+        camera, samples,
+        "an emissive floor filling the view was split"
+    );
+
+    let (camera, samples) =
+        camera_rays_and_samples(dir.path(), &repo_path("scenes/cornell-box.gltf"), 32, 4);
+    assert!(camera > samples, "the Cornell box's light was not split");
+    assert_eq!(
+        (camera - samples) % 8,
+        0,
+        "{} emitter rays",
+        camera - samples
+    );
 }

@@ -32,15 +32,17 @@ pub(super) struct EmitterView {
     mask: BlockMask,
     /// The integrator with `camera_emission` off: what the path estimates in split pixels.
     integrator: Integrator,
-    /// Camera rays per sample that estimate the emission seen.
+    /// Camera rays per sample that estimate the emission seen: `emitter_samples`, or fewer
+    /// where emitters may be seen over much of the image.
     rays: u32,
 }
 
 impl EmitterView {
     /// The view for `integrator` (`direct` or `path` with `emitter_samples` > 0) of a
     /// `width × height` image seen through `camera`; None where nothing is split: another
-    /// integrator, no emissive triangles, or a camera inside one of their boxes (where the
-    /// mask cannot be made; splitting is a choice of estimator, so leaving it out is correct).
+    /// integrator, no emissive triangles, a camera inside one of their boxes (where the
+    /// mask cannot be made; splitting is a choice of estimator, so leaving it out is
+    /// correct), or emitters that may be seen in over half of the image (see below).
     pub fn new(
         ctx: &Context,
         integrator: &Integrator,
@@ -62,6 +64,15 @@ impl EmitterView {
             return None;
         }
         let mask = BlockMask::new(camera, &boxes, width, height)?;
+        // At most one emitter ray per sample over the whole image, on average: where emitters
+        // may be seen in a fraction f of it, at most 1/f rays per sample there. A split whose
+        // rays would cost more than its paths is left out; one of a single ray gains nothing.
+        let rays = settings
+            .emitter_samples
+            .min((1.0 / mask.fraction_seen()).floor().min(u32::MAX as f64) as u32);
+        if rays < 2 {
+            return None;
+        }
         let mut split = settings;
         split.camera_emission = false;
         let integrator = match integrator {
@@ -71,7 +82,7 @@ impl EmitterView {
         Some(EmitterView {
             mask,
             integrator,
-            rays: settings.emitter_samples,
+            rays,
         })
     }
 
