@@ -801,7 +801,7 @@ fn run(cli: Cli) -> Result<Outcome> {
                 .unwrap_or_default()
         );
         println!(
-            "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.3} s ({} passes), write {:.3} s",
+            "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.6} s ({} passes), write {:.3} s",
             load_time.as_secs_f64(),
             build_time.as_secs_f64(),
             prepare_time.as_secs_f64(),

@@ -171,7 +171,10 @@ class StrataAdaptive(Strata):
     def sampling_args(self, spp):
         if self.time_limit is None:
             raise RuntimeError("strata-adaptive needs strata's time at the rung: list strata first in --renderers")
-        return ["--error-metric", "absolute", "--target-error", "1e-4", "--time-limit", f"{self.time_limit:.6g}"]
+        # strata's --stats gives the render phase to the microsecond; a render too short to
+        # register still gets a positive limit (the flag refuses 0).
+        limit = max(self.time_limit, 1e-6)
+        return ["--error-metric", "absolute", "--target-error", "1e-4", "--time-limit", f"{limit:.6g}"]
 
 
 def cpu_seconds(who):
