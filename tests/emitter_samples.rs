@@ -271,21 +271,7 @@ fn the_option_reaches_the_render_and_bad_counts_are_refused() {
             attr(&int_attrs(&out), "strata:emitter_samples"),
             n.parse::<i32>().unwrap()
         );
-        let line = run
-            .stdout
-            .lines()
-            .chain(run.stderr.lines())
-            .find(|l| l.starts_with("rays:"))
-            .unwrap_or_else(|| panic!("no rays line:\n{}\n{}", run.stdout, run.stderr))
-            .to_string();
-        let camera: u64 = line
-            .trim_start_matches("rays: ")
-            .split(' ')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        camera_rays.push(camera);
+        camera_rays.push(camera_rays_of(&run));
     }
     assert_eq!(
         camera_rays[0],
@@ -327,21 +313,22 @@ fn camera_rays_and_samples(dir: &Path, scene: &Path, size: u32, spp: u32) -> (u6
         ],
     );
     run.assert_success();
+    (camera_rays_of(&run), (size * size * spp) as u64)
+}
+
+/// The camera rays of a `render --stats` run (the first figure of its "rays:" line).
+fn camera_rays_of(run: &Run) -> u64 {
     let line = run
         .stdout
         .lines()
         .chain(run.stderr.lines())
         .find(|l| l.starts_with("rays:"))
-        .unwrap_or_else(|| panic!("no rays line:\n{}\n{}", run.stdout, run.stderr))
-        .to_string();
-    let camera = line
-        .trim_start_matches("rays: ")
+        .unwrap_or_else(|| panic!("no rays line:\n{}\n{}", run.stdout, run.stderr));
+    line.trim_start_matches("rays: ")
         .split(' ')
         .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    (camera, (size * size * spp) as u64)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no camera rays in {line}"))
 }
 
 /// Emitter rays cost about what a path costs: where emitters may be seen over most of the
