@@ -21,6 +21,7 @@ use glam::{Vec2, Vec3A};
 use super::culling::BlockMask;
 use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
 use crate::integrators::{path, Context, Integrator, RayCounts};
+use crate::lights::Emitter;
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
 
@@ -56,10 +57,12 @@ impl EmitterView {
         if settings.emitter_samples == 0 || !integrator.traces_rays(ctx) {
             return None;
         }
-        let (scene, materials) = (ctx.scene, ctx.materials);
-        let emissive = (0..scene.triangles.len() as u32)
-            .filter(|&prim| materials.is_emissive_triangle(scene, prim));
-        let boxes = cluster_boxes(scene, emissive);
+        // The emissive triangles, as the light set already lists them.
+        let emissive = ctx.lights.emitters.iter().filter_map(|e| match *e {
+            Emitter::Triangle { prim, .. } => Some(prim),
+            _ => None,
+        });
+        let boxes = cluster_boxes(ctx.scene, emissive);
         if boxes.is_empty() {
             return None;
         }
@@ -67,9 +70,10 @@ impl EmitterView {
         // At most one emitter ray per sample over the whole image, on average: where emitters
         // may be seen in a fraction f of it, at most 1/f rays per sample there. A split whose
         // rays would cost more than its paths is left out; one of a single ray gains nothing.
+        // (`as` saturates: a mask that sees nothing gives u32::MAX.)
         let rays = settings
             .emitter_samples
-            .min((1.0 / mask.fraction_seen()).floor().min(u32::MAX as f64) as u32);
+            .min((1.0 / mask.fraction_seen()).floor() as u32);
         if rays < 2 {
             return None;
         }

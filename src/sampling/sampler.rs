@@ -151,12 +151,7 @@ impl PixelSampler {
             );
         }
         let key = hash_words(&[self.pixel_key, slot as u64]);
-        let sequence = if self.kind == SamplerKind::Sobol {
-            // The slot's seed: the top half of its key.
-            sobol::Sequence::new((key >> 32) as u32)
-        } else {
-            sobol::Sequence::default()
-        };
+        let sequence = self.slot_sequence(key);
         if slot == self.cached_slots && (slot as usize) < CACHED_SLOTS {
             self.slot_keys[slot as usize] = key;
             self.slot_sequences[slot as usize] = sequence;
@@ -283,12 +278,18 @@ impl PixelSampler {
         // Ordinary slots hash (pixel key, slot number), slot numbers being small; a side
         // stream sets the top bit, so the two never share a key.
         let key = hash_words(&[self.pixel_key, (1 << 63) | stream as u64]);
-        let sequence = if self.kind == SamplerKind::Sobol {
+        self.point_set(key, self.slot_sequence(key), n)
+    }
+
+    /// With `sobol`, the Owen-scrambled sequence of the slot whose key is `key` (its seed:
+    /// the key's top half); unused by the other kinds.
+    #[inline]
+    fn slot_sequence(&self, key: u64) -> sobol::Sequence {
+        if self.kind == SamplerKind::Sobol {
             sobol::Sequence::new((key >> 32) as u32)
         } else {
             sobol::Sequence::default()
-        };
-        self.point_set(key, sequence, n)
+        }
     }
 
     /// The current sample's `n` points of the spp·n-point set of a slot.
