@@ -22,40 +22,47 @@ use strata::render::{self, Film, RenderResult, RenderSettings, Stopping};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
 
-/// The Cornell box through the library as `render` would, path traced with `emitter_samples`
-/// rays per sample, camera rays in packets (`packets`) or one by one.
-fn cornell(
+/// How [`cornell`] renders.
+#[derive(Clone, Copy)]
+struct Setup {
     emitter_samples: u32,
-    (width, height): (u32, u32),
+    size: (u32, u32),
     spp: u32,
     seed: u64,
-    packets: bool,
-    stopping: Stopping,
-) -> RenderResult {
-    cornell_with(
-        emitter_samples,
-        (width, height),
-        spp,
-        seed,
-        packets,
-        stopping,
-        SamplerKind::Sobol,
-        2,
-    )
-}
-
-/// [`cornell`] with a sampler and a thread count.
-#[allow(clippy::too_many_arguments)]
-fn cornell_with(
-    emitter_samples: u32,
-    (width, height): (u32, u32),
-    spp: u32,
-    seed: u64,
+    /// Camera rays in packets, or one by one.
     packets: bool,
     stopping: Stopping,
     sampler: SamplerKind,
     threads: usize,
-) -> RenderResult {
+}
+
+impl Default for Setup {
+    fn default() -> Setup {
+        Setup {
+            emitter_samples: 8,
+            size: (64, 64),
+            spp: 8,
+            seed: 1,
+            packets: true,
+            stopping: Stopping::default(),
+            sampler: SamplerKind::Sobol,
+            threads: 2,
+        }
+    }
+}
+
+/// The Cornell box through the library as `render` would, path traced as `setup` says.
+fn cornell(setup: Setup) -> RenderResult {
+    let Setup {
+        emitter_samples,
+        size: (width, height),
+        spp,
+        seed,
+        packets,
+        stopping,
+        sampler,
+        threads,
+    } = setup;
     let path = repo_path("scenes/cornell-box.gltf");
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
@@ -123,16 +130,14 @@ fn emitter_rays_lower_the_error_of_the_light_s_outline() {
         let mut ratios = Vec::new();
         for seed in [1, 2] {
             let [off, on] = [0, 8].map(|k| {
-                let r = cornell_with(
-                    k,
-                    (160, 160),
-                    32,
+                let r = cornell(Setup {
+                    emitter_samples: k,
+                    size: (160, 160),
+                    spp: 32,
                     seed,
-                    true,
-                    Stopping::default(),
                     sampler,
-                    2,
-                );
+                    ..Setup::default()
+                });
                 mse(&pixels(&r.film))
             });
             ratios.push(on / off);
@@ -149,16 +154,13 @@ fn emitter_rays_lower_the_error_of_the_light_s_outline() {
 #[test]
 fn split_images_do_not_depend_on_the_thread_count() {
     let [one, two] = [1, 2].map(|threads| {
-        cornell_with(
-            8,
-            (64, 48),
-            16,
-            9,
-            true,
-            Stopping::default(),
-            SamplerKind::Sobol,
+        cornell(Setup {
+            size: (64, 48),
+            spp: 16,
+            seed: 9,
             threads,
-        )
+            ..Setup::default()
+        })
     });
     let (a, b) = (film_totals(&one.film), film_totals(&two.film));
     let differing = a.iter().zip(&b).filter(|(p, q)| p != q).count();
@@ -175,7 +177,14 @@ fn split_images_do_not_depend_on_the_thread_count() {
 #[test]
 fn only_pixels_that_may_see_an_emitter_change() {
     let size = (64, 64);
-    let [off, on] = [0, 8].map(|k| cornell(k, size, 8, 3, true, Stopping::default()));
+    let [off, on] = [0, 8].map(|k| {
+        cornell(Setup {
+            emitter_samples: k,
+            size,
+            seed: 3,
+            ..Setup::default()
+        })
+    });
     let (a, b) = (film_totals(&off.film), film_totals(&on.film));
     let img = pixels(&off.film);
     // The light: pixels far brighter than any lit wall.
@@ -225,7 +234,16 @@ fn packets_and_single_rays_split_alike() {
         ..Default::default()
     };
     for (spp, stopping) in [(4, Stopping::default()), (64, adaptive)] {
-        let [packets, single] = [true, false].map(|p| cornell(8, (61, 45), spp, 5, p, stopping));
+        let [packets, single] = [true, false].map(|packets| {
+            cornell(Setup {
+                size: (61, 45),
+                spp,
+                seed: 5,
+                packets,
+                stopping,
+                ..Setup::default()
+            })
+        });
         let (a, b) = (film_totals(&packets.film), film_totals(&single.film));
         let differing = a.iter().zip(&b).filter(|(p, q)| p != q).count();
         assert_eq!(differing, 0, "spp {spp}: {differing} pixels differ");
