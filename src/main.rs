@@ -58,8 +58,8 @@ struct Cli {
     #[arg(long, default_value = "area", value_name = "area|solid-angle")]
     triangle_sampling: TriangleSampling,
 
-    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixel blocks where an emissive triangle may be seen (antialiases lights' outlines); fewer where emitters may be seen over much of the image (at most one per sample on average); 0: none.
-    #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
+    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixels where an emitter's outline may be seen (antialiases lights' outlines); fewer where outlines cover much of the image (at most one per sample on average); 0: none.
+    #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
     emitter_samples: u32,
 
     /// Constant environment radiance, linear RGB [default: black].
@@ -828,13 +828,15 @@ fn run(cli: Cli) -> Result<Outcome> {
         );
         println!(
             "rays: {} camera, {} extension, {} shadow, {} total, {} traced ({} camera rays \
-             culled: they could not meet the scene), {:.3} Mrays/s traced",
+             culled: they could not meet the scene; {} through pixel corners, to find \
+             emitters' interiors), {:.3} Mrays/s traced",
             stats.rays.camera,
             stats.rays.extension,
             stats.rays.shadow,
             stats.rays.total(),
             rays,
             stats.rays.culled,
+            stats.rays.probe,
             rays_per_s * 1e-6
         );
     }

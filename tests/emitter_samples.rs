@@ -4,7 +4,7 @@
 //! are traced in packets or one by one, and on any thread count. That the split keeps the
 //! image's expected value is shown by the reference comparisons (`tests/references.rs`: the
 //! Cornell box and the emissive-strength scene, direct and path, render with the default of
-//! 8 rays).
+//! 16 rays).
 
 mod common;
 
@@ -349,12 +349,64 @@ fn camera_rays_of(run: &Run) -> u64 {
         .unwrap_or_else(|| panic!("no camera rays in {line}"))
 }
 
-/// Emitter rays cost about what a path costs: where emitters may be seen over most of the
-/// image, the split would double the render for little, so the renderer keeps the extra
-/// rays under one per sample over the image (here: none, for an emissive floor that fills
-/// the view), while a small light in view (the Cornell box) gets all 8.
+/// Inside an emitter's image every ray sees the same radiance, so splitting there only
+/// costs rays: the pixels inside the Cornell box's light are left to their paths, bit for
+/// bit as without the split, while those on its outline are split. Without the corner rays
+/// that find the interior, the pixels inside would change too.
 #[test]
-fn emitters_filling_the_view_are_not_split() {
+fn the_light_s_interior_is_not_split_and_its_outline_is() {
+    let size = (160, 160);
+    let [off, on] = [0, 8].map(|k| {
+        cornell(Setup {
+            emitter_samples: k,
+            size,
+            spp: 4,
+            seed: 5,
+            ..Setup::default()
+        })
+    });
+    let (a, b) = (film_totals(&off.film), film_totals(&on.film));
+    let (_, _, reference) =
+        read_exr_rgb(&repo_path("scenes/references/cornell-box.path.exr")).unwrap();
+    let at = |x: i64, y: i64| {
+        let p = reference[(y * size.0 as i64 + x) as usize];
+        p[0].min(p[1]).min(p[2])
+    };
+    let (mut inside, mut outline) = (0, 0);
+    for y in 1..size.1 as i64 - 1 {
+        for x in 1..size.0 as i64 - 1 {
+            let i = (y * size.0 as i64 + x) as usize;
+            // Covered whole, with its neighbours: the light's radiance is about 100.
+            let whole = (-1..=1).all(|dy| (-1..=1).all(|dx| at(x + dx, y + dy) > 90.0));
+            if whole {
+                inside += 1;
+                assert_eq!(a[i], b[i], "pixel ({x}, {y}) inside the light was split");
+            } else if (10.0..80.0).contains(&at(x, y)) {
+                outline += 1;
+                assert_ne!(
+                    a[i], b[i],
+                    "pixel ({x}, {y}) on the light's outline was not split"
+                );
+            }
+        }
+    }
+    assert!(
+        inside > 50 && outline > 20,
+        "{inside} inside, {outline} on the outline"
+    );
+    assert!(on.stats.rays.probe > 0, "no corner rays counted");
+    assert_eq!(off.stats.rays.probe, 0, "corner rays without a split");
+}
+
+/// Emitter rays cost about a tenth of a path each: where emitters' outlines cover most of
+/// the image, the split would slow the render for little, so the renderer keeps the extra
+/// rays under one per sample over the image. A floor of emissive squares smaller than a
+/// pixel gets none; an emissive floor that fills the view is all interior and gets none
+/// either; a small light in view (the Cornell box) gets all 16, the default. Without the
+/// cap, the squares
+/// would be split.
+#[test]
+fn emitter_outlines_over_most_of_the_view_are_not_split() {
     let dir = tempfile::tempdir().unwrap();
     let mut doc = ao_wall_json();
     doc["buffers"][0]["uri"] = Value::String(data_uri(&ao_wall_buffer()));
@@ -367,13 +419,91 @@ fn emitters_filling_the_view_are_not_split() {
         "an emissive floor filling the view was split"
     );
 
+    let squares = dir.path().join("glowing-squares.gltf");
+    std::fs::write(&squares, serde_json::to_vec(&glowing_squares()).unwrap()).unwrap();
+    let (camera, samples) = camera_rays_and_samples(dir.path(), &squares, 32, 4);
+    assert_eq!(
+        camera, samples,
+        "emissive squares smaller than a pixel, all over the view, were split"
+    );
+
     let (camera, samples) =
         camera_rays_and_samples(dir.path(), &repo_path("scenes/cornell-box.gltf"), 32, 4);
     assert!(camera > samples, "the Cornell box's light was not split");
     assert_eq!(
-        (camera - samples) % 8,
+        (camera - samples) % 16,
         0,
-        "{} emitter rays",
+        "{} emitter rays: not 16 per sample of the split pixels",
         camera - samples
     );
+}
+
+/// ao-wall with, 0.01 above its floor, a grid of emissive squares of 0.6 of a pixel at
+/// 32 × 32 (pitch 1.2 pixels) over the whole view: nearly every pixel has an emitter's
+/// outline in it.
+fn glowing_squares() -> Value {
+    let mut doc = ao_wall_json();
+    let mut buffer = ao_wall_buffer();
+    while buffer.len() % 4 != 0 {
+        buffer.push(0);
+    }
+    // The camera at (1, 1, 0) looks down at the floor with a 0.5 rad field of view: about
+    // 0.51 across, 0.016 a pixel at 32 pixels.
+    let (n, pitch, side) = (40, 0.6 / 40.0, 0.3 / 40.0);
+    let mut positions = Vec::new();
+    let mut indices: Vec<u32> = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, z) = (0.7 + i as f32 * pitch, -0.3 + j as f32 * pitch);
+            let v = positions.len() as u32 / 3;
+            for (dx, dz) in [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side)] {
+                positions.extend([x + dx, 0.01, z + dz]);
+            }
+            indices.extend([v, v + 2, v + 1, v, v + 3, v + 2]);
+        }
+    }
+    let offset = buffer.len();
+    buffer.extend(positions.iter().flat_map(|f| f.to_le_bytes()));
+    let index_offset = buffer.len();
+    buffer.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let views = doc["bufferViews"].as_array().unwrap().len();
+    let accessors = doc["accessors"].as_array().unwrap().len();
+    doc["bufferViews"].as_array_mut().unwrap().extend([
+        serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": index_offset - offset}),
+        serde_json::json!({"buffer": 0, "byteOffset": index_offset, "byteLength": buffer.len() - index_offset}),
+    ]);
+    doc["accessors"].as_array_mut().unwrap().extend([
+        serde_json::json!({"bufferView": views, "componentType": 5126, "count": positions.len() / 3,
+            "type": "VEC3", "min": [0.7, 0.01, -0.3], "max": [1.3, 0.01, 0.3]}),
+        serde_json::json!({"bufferView": views + 1, "componentType": 5125, "count": indices.len(),
+            "type": "SCALAR"}),
+    ]);
+    doc["buffers"][0]["byteLength"] = buffer.len().into();
+    doc["buffers"][0]["uri"] = Value::String(data_uri(&buffer));
+    let materials = doc["materials"].as_array().unwrap().len();
+    doc["materials"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({
+            "name": "glow", "emissiveFactor": [1.0, 1.0, 1.0]
+        }));
+    let meshes = doc["meshes"].as_array().unwrap().len();
+    doc["meshes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({
+            "name": "squares",
+            "primitives": [{"attributes": {"POSITION": accessors}, "indices": accessors + 1,
+                "material": materials}]
+        }));
+    let nodes = doc["nodes"].as_array().unwrap().len();
+    doc["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"name": "squares", "mesh": meshes}));
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(nodes.into());
+    doc
 }

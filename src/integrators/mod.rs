@@ -101,12 +101,15 @@ pub struct RayCounts {
     /// traversal: those of pixel blocks that cannot see it ([`crate::render::culling`]), and
     /// of packets whose rays all miss the scene's box. They were not traced.
     pub culled: u64,
+    /// Camera rays traced before the render, through pixel corners, to find the pixels
+    /// that see an emitter whole (the renderer's `emitters` module).
+    pub probe: u64,
 }
 
 impl RayCounts {
     /// Rays of every kind, the culled camera rays included.
     pub fn total(&self) -> u64 {
-        self.camera + self.extension + self.shadow
+        self.camera + self.extension + self.shadow + self.probe
     }
 
     /// Rays that went to the BVH: [`RayCounts::total`] without the culled camera rays.
@@ -119,6 +122,7 @@ impl RayCounts {
         self.extension += other.extension;
         self.shadow += other.shadow;
         self.culled += other.culled;
+        self.probe += other.probe;
     }
 }
 

@@ -85,7 +85,7 @@ impl Default for PathSettings {
             rr_depth: 5,
             strategy: Strategy::Mis,
             hemisphere: Hemisphere::Cosine,
-            emitter_samples: 8,
+            emitter_samples: 16,
             camera_emission: true,
         }
     }

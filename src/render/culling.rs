@@ -87,12 +87,6 @@ impl BlockMask {
         debug_assert!(c1 < self.cols && r1 < self.rows);
         (r0..=r1).any(|r| self.seen[r * self.cols + c0..=r * self.cols + c1].contains(&true))
     }
-
-    /// The fraction of the image's blocks that can see a box.
-    pub fn fraction_seen(&self) -> f64 {
-        let seen = self.seen.iter().filter(|&&s| s).count();
-        seen as f64 / self.seen.len().max(1) as f64
-    }
 }
 
 #[cfg(test)]

@@ -15,10 +15,20 @@
 //! ([`PixelSampler::side_2d_set`]), so the light's outline is resolved by spp·n stratified
 //! points instead of spp. Both parts keep their expected values, so the pixel's does too; the
 //! path's own sampler dimensions are untouched, so only the emission term changes.
+//!
+//! The blocks of the mask hold the emitters' interiors too, where every ray sees the same
+//! radiance and a split only costs rays. Before the render, one camera ray through each
+//! corner of the mask's pixels finds them: a pixel whose four corners see the same, non-zero
+//! emitted radiance is left to its path, with the emission its own ray meets. Choosing which
+//! pixels are split is a choice of estimator, so a pixel the corners misjudge (an occluder
+//! or a gap in a light thinner than a pixel, between its corners) keeps its expected value
+//! and only its variance changes. Pixels whose corners see no emitter stay split: a light
+//! smaller than a pixel may lie between them.
 
-use glam::{Vec2, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
+use rayon::prelude::*;
 
-use super::culling::BlockMask;
+use super::culling::{BlockMask, BLOCK_H, BLOCK_W};
 use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
 use crate::integrators::{path, Context, Integrator, RayCounts};
 use crate::lights::Emitter;
@@ -30,7 +40,11 @@ const STREAM: u32 = 0x0e31;
 
 /// Where the camera may see an emitter, and how the samples there are split.
 pub(super) struct EmitterView {
-    mask: BlockMask,
+    /// Row-major, one per pixel of the image: whether the pixel's samples are split.
+    split: Vec<bool>,
+    width: u32,
+    /// Camera rays traced to find the emitters' interiors (one per pixel corner examined).
+    pub corner_rays: u64,
     /// The integrator with `camera_emission` off: what the path estimates in split pixels.
     integrator: Integrator,
     /// Camera rays per sample that estimate the emission seen: `emitter_samples`, or fewer
@@ -67,24 +81,28 @@ impl EmitterView {
             return None;
         }
         let mask = BlockMask::new(camera, &boxes, width, height)?;
-        // At most one emitter ray per sample over the whole image, on average: where emitters
-        // may be seen in a fraction f of it, at most 1/f rays per sample there. A split whose
+        let (split, corner_rays) = split_pixels(ctx, camera, &mask, width, height);
+        // At most one emitter ray per sample over the whole image, on average: where a
+        // fraction f of the pixels is split, at most 1/f rays per sample there. A split whose
         // rays would cost more than its paths is left out; one of a single ray gains nothing.
-        // (`as` saturates: a mask that sees nothing gives u32::MAX.)
+        // (`as` saturates: no split pixel gives u32::MAX, and nothing to split.)
+        let fraction = split.iter().filter(|&&s| s).count() as f64 / split.len().max(1) as f64;
         let rays = settings
             .emitter_samples
-            .min((1.0 / mask.fraction_seen()).floor() as u32);
-        if rays < 2 {
+            .min((1.0 / fraction).floor() as u32);
+        if rays < 2 || fraction == 0.0 {
             return None;
         }
-        let mut split = settings;
-        split.camera_emission = false;
+        let mut rest = settings;
+        rest.camera_emission = false;
         let integrator = match integrator {
-            Integrator::Direct(_) => Integrator::Direct(split),
-            _ => Integrator::Path(split),
+            Integrator::Direct(_) => Integrator::Direct(rest),
+            _ => Integrator::Path(rest),
         };
         Some(EmitterView {
-            mask,
+            split,
+            width,
+            corner_rays,
             integrator,
             rays,
         })
@@ -93,7 +111,7 @@ impl EmitterView {
     /// Whether the samples of pixel (x, y) are split.
     #[inline]
     fn splits(&self, x: u32, y: u32) -> bool {
-        self.mask.sees(x, y, x + 1, y + 1)
+        self.split[(y * self.width + x) as usize]
     }
 
     /// The estimate of a sample of pixel (x, y) along camera ray `ray`, whose closest hit
@@ -127,7 +145,10 @@ impl EmitterView {
     /// Whether any pixel of the block [x0, x1) × [y0, y1) is split.
     #[inline]
     pub fn splits_any(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> bool {
-        self.mask.sees(x0, y0, x1, y1)
+        (y0..y1).any(|y| {
+            let row = (y * self.width) as usize;
+            self.split[row + x0 as usize..row + x1 as usize].contains(&true)
+        })
     }
 
     /// The estimate of the emission the camera sees from pixel (x, y) for the sample that
@@ -166,4 +187,66 @@ impl EmitterView {
         counts.camera += self.rays as u64;
         sum / self.rays as f32
     }
+}
+
+/// The pixels to split, row-major, and the camera rays traced to choose them: those of
+/// `mask`'s blocks, less the pixels whose four corners see the same non-zero emitted radiance
+/// (see the module's documentation). Block rows are examined in parallel on the current
+/// rayon pool; the answer does not depend on how.
+fn split_pixels(
+    ctx: &Context,
+    camera: &RayGenerator,
+    mask: &BlockMask,
+    width: u32,
+    height: u32,
+) -> (Vec<bool>, u64) {
+    let rows: Vec<(Vec<bool>, u64)> = (0..height.div_ceil(BLOCK_H))
+        .into_par_iter()
+        .map(|r| {
+            let (y0, y1) = (r * BLOCK_H, ((r + 1) * BLOCK_H).min(height));
+            let mut split = vec![false; ((y1 - y0) * width) as usize];
+            let mut traced = 0u64;
+            for x0 in (0..width).step_by(BLOCK_W as usize) {
+                let x1 = (x0 + BLOCK_W).min(width);
+                if !mask.sees(x0, y0, x1, y1) {
+                    continue;
+                }
+                // The emission seen through each corner of the block's pixels, row-major.
+                let (cw, ch) = (x1 - x0 + 1, y1 - y0 + 1);
+                let corners: Vec<(u32, u32)> =
+                    (0..ch).flat_map(|j| (0..cw).map(move |i| (i, j))).collect();
+                let mut seen = vec![Vec3::ZERO; corners.len()];
+                for (chunk, out) in corners.chunks(PACKET).zip(seen.chunks_mut(PACKET)) {
+                    let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
+                    for (k, &(i, j)) in chunk.iter().enumerate() {
+                        (fx[k], fy[k]) = ((x0 + i) as f32, (y0 + j) as f32);
+                    }
+                    let rays = camera.rays(&fx, &fy);
+                    let mut hits = [None; PACKET];
+                    ctx.accel.intersect_packet(&rays[..chunk.len()], &mut hits);
+                    for ((o, ray), hit) in out.iter_mut().zip(&rays).zip(hits) {
+                        *o = path::camera_emission(ctx, ray, hit);
+                    }
+                }
+                traced += corners.len() as u64;
+                for j in 0..y1 - y0 {
+                    for i in 0..x1 - x0 {
+                        let at = |di: u32, dj: u32| seen[((j + dj) * cw + i + di) as usize];
+                        let c = at(0, 0);
+                        let interior =
+                            c != Vec3::ZERO && at(1, 0) == c && at(0, 1) == c && at(1, 1) == c;
+                        split[(j * width + x0 + i) as usize] = !interior;
+                    }
+                }
+            }
+            (split, traced)
+        })
+        .collect();
+    let mut split = Vec::with_capacity((width * height) as usize);
+    let mut traced = 0;
+    for (row, n) in rows {
+        split.extend(row);
+        traced += n;
+    }
+    (split, traced)
 }

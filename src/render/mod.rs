@@ -648,7 +648,8 @@ pub fn render_with_checkpoints(
         },
     );
     let tiles = tiles(window, settings.tile_size);
-    let setup = TileSetup::new(ctx, settings);
+    // On the pool: its workers' floating-point mode is the one the tiles trace with.
+    let setup = pool.install(|| TileSetup::new(ctx, settings));
     let mut tile_sums = TileSums::new(&tiles);
     let stopping = settings.stopping;
     let spp = settings.spp;
@@ -693,6 +694,7 @@ pub fn render_with_checkpoints(
     let mut active: Option<Vec<bool>> = stopping.target_error.map(|_| in_window());
     let mut selected: Option<Vec<bool>> = None;
     let mut stats = RenderStats::default();
+    stats.rays.probe = setup.emitters.as_ref().map_or(0, |e| e.corner_rays);
     let mut interrupted = false;
     let mut time_limit_reached = false;
     // Without checkpoints a round is one group of all tiles. With them, groups of at least
