@@ -139,16 +139,29 @@ impl AliasTable {
     /// An index drawn with probability `pmf(index)` from one uniform number in [0, 1).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
+        let (k, pmf, _) = self.sample_remapped(u);
+        (k, pmf)
+    }
+
+    /// [`AliasTable::sample`], and `u` remapped to a new uniform number in [0, 1), independent
+    /// of the index drawn: the stretch of [0, 1) that chose the index, scaled to the whole
+    /// (sample reuse, as pbrt-v4's alias table does). Each index owns one or two intervals of
+    /// `u`, mapped linearly, so points that were stratified stay stratified within each
+    /// index's share: a light can be chosen with one dimension of its own 2D point.
+    #[inline]
+    pub fn sample_remapped(&self, u: f32) -> (usize, f32, f32) {
+        const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
         let n = self.prob.len();
         let x = u * n as f32;
         let i = (x as usize).min(n - 1);
-        let coin = x - i as f32;
-        let k = if coin < self.prob[i] {
-            i
+        let coin = (x - i as f32).min(BELOW_ONE);
+        let p = self.prob[i];
+        let (k, remapped) = if coin < p {
+            (i, coin / p)
         } else {
-            self.alias[i] as usize
+            (self.alias[i] as usize, (coin - p) / (1.0 - p))
         };
-        (k, self.pmf[k])
+        (k, self.pmf[k], remapped.min(BELOW_ONE))
     }
 
     /// The probability of drawing `i`; 0 past the end (and in the empty table).
@@ -492,21 +505,24 @@ impl LightSet {
         })
     }
 
-    /// Chooses an emitter with `u_select` and samples a direction to it from `si`. Returns the
-    /// sample and the selection probability.
+    /// Chooses an emitter with `u.x` and samples a direction to it from `si` with `u`, its
+    /// first dimension reused ([`AliasTable::sample_remapped`]): a stratified set of `u` then
+    /// gives stratified points on each emitter, where a separate choice would scatter the
+    /// points of an emitter made of several triangles (a quad light's two halves) at random
+    /// between them. Returns the sample and the selection probability.
     #[inline]
     pub fn sample(
         &self,
         scene: &Scene,
         materials: &Materials,
         si: &SurfaceInteraction,
-        u_select: f32,
         u: Vec2,
     ) -> Option<(LightSample, f32)> {
         if self.table.is_empty() {
             return None;
         }
-        let (i, pmf) = self.table.sample(u_select);
+        let (i, pmf, ux) = self.table.sample_remapped(u.x);
+        let u = Vec2::new(ux, u.y);
         let p = si.p;
         let s = match self.emitters[i] {
             Emitter::Point {
@@ -593,6 +609,33 @@ mod tests {
             assert!((p - weights[i] / total).abs() < 1e-3, "{i}: {p}");
         }
         assert_eq!(counts[1], 0, "zero weight never drawn");
+    }
+
+    /// The remapped number is uniform in [0, 1) whatever index it came with: over evenly
+    /// spaced `u`, each index's remapped values fill ten bins equally (up to one value per
+    /// interval of `u` that the index owns, at the bins' edges).
+    #[test]
+    fn alias_table_remaps_uniformly_within_each_index() {
+        let weights = [1.0, 0.0, 3.0, 6.0, 0.5];
+        let table = AliasTable::new(&weights);
+        let n = 100_000;
+        let mut bins = [[0i64; 10]; 5];
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, _, r) = table.sample_remapped(u);
+            assert!((0.0..1.0).contains(&r), "u {u}: remapped {r}");
+            bins[i][(r * 10.0) as usize] += 1;
+        }
+        assert_eq!(bins[1], [0; 10], "zero weight never drawn");
+        for (i, b) in bins.iter().enumerate().filter(|(i, _)| *i != 1) {
+            let total: i64 = b.iter().sum();
+            for &c in b {
+                assert!(
+                    (c * 10 - total).abs() <= 10 * 5,
+                    "index {i}: remapped values per tenth {b:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -761,3 +761,85 @@ fn direct_lighting_of_point_lights_traces_no_extension_rays() {
         .rays;
     assert!(path_rays.extension > 0);
 }
+
+/// Light points drawn with a stratified set stay stratified over a light made of two
+/// triangles. The triangle is chosen with the point's own first dimension, which is then
+/// reused for the point (remapped), so each triangle gets a stratified half of the set: here
+/// a 16×16 grid gives each triangle the points of an 8×16 grid, two in each cell of an 8×8
+/// grid, found again by inverting the triangle warp. A choice made with a separate number,
+/// or without the remapping, gives the triangles uneven shares.
+#[test]
+fn light_points_keep_the_stratification_of_their_samples() {
+    use strata::sampling::warps::uniform_triangle_to_square;
+    let light = Material {
+        emissive: Vec3::ONE,
+        ..diffuse(0.0, 1.0)
+    };
+    // A floor and, 1 above it, a unit quad light facing down, as two triangles.
+    let quad = [
+        Vec3::new(-0.5, 1.0, -0.5),
+        Vec3::new(0.5, 1.0, -0.5),
+        Vec3::new(0.5, 1.0, 0.5),
+        Vec3::new(-0.5, 1.0, 0.5),
+    ];
+    let mut positions = vec![
+        Vec3::new(-5.0, 0.0, -5.0),
+        Vec3::new(-5.0, 0.0, 5.0),
+        Vec3::new(5.0, 0.0, 5.0),
+        Vec3::new(5.0, 0.0, -5.0),
+    ];
+    positions.extend(quad);
+    let n = positions.len();
+    let halves = [[4, 5, 6], [4, 6, 7]];
+    let mut scene = Scene {
+        positions,
+        normals: vec![Vec3::ZERO; n],
+        uvs: vec![Vec2::ZERO; n],
+        triangles: vec![[0, 1, 2], [0, 2, 3], halves[0], halves[1]],
+        triangle_materials: vec![1, 1, 2, 2],
+        materials: vec![Material::default(), diffuse(0.5, 0.0), light],
+        ..Default::default()
+    };
+    scene.update_summary();
+    let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
+    let prepared = Prepared::new(&scene, Path::new("test"), &direct(), Vec3::ZERO).unwrap();
+    let down = strata::accel::Ray::new(Vec3::new(0.1, 0.5, 0.2), Vec3::NEG_Y);
+    let hit = accel.intersect(&down).expect("the floor");
+    let si = strata::interaction::SurfaceInteraction::from_hit(&scene, &down, &hit);
+
+    let side = 16;
+    // Per triangle, the samples found again, counted in an 8×8 grid.
+    let mut cells = [[0u32; 64]; 2];
+    for i in 0..side {
+        for j in 0..side {
+            let u = Vec2::new(
+                (i as f32 + 0.5) / side as f32,
+                (j as f32 + 0.5) / side as f32,
+            );
+            let (ls, _) = prepared
+                .lights
+                .sample(&scene, &prepared.materials, &si, u)
+                .expect("a light sample");
+            // Where the direction meets the light's plane, on which half, and the sample
+            // that the uniform triangle warp took there (barycentrics of the first two
+            // corners).
+            let q = si.p + (1.0 - si.p.y) / ls.wi.y * ls.wi;
+            let half = usize::from(q.z > q.x);
+            let [a, b, c] = halves[half].map(|k| scene.positions[k as usize]);
+            let (e1, e2, v) = (a - c, b - c, q - c);
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let den = d11 * d22 - d12 * d12;
+            let b0 = (d22 * v.dot(e1) - d12 * v.dot(e2)) / den;
+            let b1 = (d11 * v.dot(e2) - d12 * v.dot(e1)) / den;
+            let w = uniform_triangle_to_square(Vec2::new(b0, b1));
+            let cell = |x: f32| ((x * 8.0).floor() as usize).min(7);
+            cells[half][cell(w.y) * 8 + cell(w.x)] += 1;
+        }
+    }
+    for (half, counts) in cells.iter().enumerate() {
+        assert!(
+            counts.iter().all(|&c| c == 2),
+            "triangle {half}: samples per cell of its square (2 expected in each): {counts:?}"
+        );
+    }
+}

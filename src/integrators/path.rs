@@ -15,9 +15,10 @@
 //! | `hemisphere`| cosine  | BSDF directions cosine-weighted, or `uniform` (pdf 1/2π, in the   |
 //! |             |         | MIS weights too): unbiased as well; for comparisons               |
 //!
-//! Sample dimensions per bounce, in order: one 2×2D slot (BSDF direction, light point) and
-//! one 2D slot (light choice, Russian roulette); all are drawn whether used or not, so a
-//! pixel's dimensions do not shift between strategies.
+//! Sample dimensions per bounce, in order: one 2×2D slot (BSDF direction, light point; the
+//! light is chosen with the point's first dimension, which is then reused for the point) and
+//! one 2D slot (Russian roulette, and a dimension left unused); all are drawn whether used or
+//! not, so a pixel's dimensions do not shift between strategies.
 
 use std::fmt;
 use std::str::FromStr;
@@ -166,13 +167,12 @@ pub fn li(
         if settings.hemisphere != Hemisphere::Cosine {
             bsdf = bsdf.with_uniform_sampling();
         }
-        // Two slots per bounce: (BSDF direction, light point) and (light choice, roulette).
+        // Two slots per bounce: (BSDF direction, light choice and point) and (roulette, -).
         let (u_bsdf, u_light) = sampler.next_2x2d();
-        let u_misc = sampler.next_2d();
-        let (u_light_select, u_rr) = (u_misc.x, u_misc.y);
+        let u_rr = sampler.next_2d().y;
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF.
-        if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light_select, u_light) {
+        if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light) {
             let use_it = ls.is_delta || settings.strategy != Strategy::Bsdf;
             let f = bsdf.f_cos(ls.wi);
             if use_it && ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
