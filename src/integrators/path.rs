@@ -17,8 +17,8 @@
 //!
 //! Sample dimensions per bounce, in order: one 2×2D slot (BSDF direction, light point; the
 //! light is chosen with the point's first dimension, which is then reused for the point) and
-//! one 2D slot (Russian roulette, and a dimension left unused); all are drawn whether used or
-//! not, so a pixel's dimensions do not shift between strategies.
+//! one 1D slot (Russian roulette); all are drawn whether used or not, so a pixel's dimensions
+//! do not shift between strategies.
 
 use std::fmt;
 use std::str::FromStr;
@@ -167,9 +167,9 @@ pub fn li(
         if settings.hemisphere != Hemisphere::Cosine {
             bsdf = bsdf.with_uniform_sampling();
         }
-        // Two slots per bounce: (BSDF direction, light choice and point) and (roulette, -).
+        // Two slots per bounce: (BSDF direction, light choice and point) and roulette.
         let (u_bsdf, u_light) = sampler.next_2x2d();
-        let u_rr = sampler.next_2d().y;
+        let u_rr = sampler.next_1d();
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF.
         if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light) {
