@@ -111,7 +111,7 @@ impl EmitterView {
     /// Whether the samples of pixel (x, y) are split.
     #[inline]
     fn splits(&self, x: u32, y: u32) -> bool {
-        self.split[(y * self.width + x) as usize]
+        self.split[y as usize * self.width as usize + x as usize]
     }
 
     /// The estimate of a sample of pixel (x, y) along camera ray `ray`, whose closest hit
@@ -146,7 +146,7 @@ impl EmitterView {
     #[inline]
     pub fn splits_any(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> bool {
         (y0..y1).any(|y| {
-            let row = (y * self.width) as usize;
+            let row = y as usize * self.width as usize;
             self.split[row + x0 as usize..row + x1 as usize].contains(&true)
         })
     }
