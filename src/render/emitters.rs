@@ -48,7 +48,7 @@ pub(super) struct EmitterView {
     /// The integrator with `camera_emission` off: what the path estimates in split pixels.
     integrator: Integrator,
     /// Camera rays per sample that estimate the emission seen: `emitter_samples`, or fewer
-    /// where emitters may be seen over much of the image.
+    /// where emitters' outlines cover much of the image.
     rays: u32,
 }
 
@@ -57,7 +57,7 @@ impl EmitterView {
     /// `width × height` image seen through `camera`; None where nothing is split: another
     /// integrator, no emissive triangles, a camera inside one of their boxes (where the
     /// mask cannot be made; splitting is a choice of estimator, so leaving it out is
-    /// correct), or emitters that may be seen in over half of the image (see below).
+    /// correct), or emitters' outlines over half of the image's pixels (see below).
     pub fn new(
         ctx: &Context,
         integrator: &Integrator,
@@ -171,22 +171,42 @@ impl EmitterView {
                 let u: Vec2 = set.get(first + k as u32);
                 (fx[k], fy[k]) = (x as f32 + u.x, y as f32 + u.y);
             }
-            let rays = camera.rays(&fx, &fy);
-            let mut hits = [None; PACKET];
-            if packets {
-                ctx.accel.intersect_packet(&rays[..m], &mut hits);
-            } else {
-                for (hit, ray) in hits.iter_mut().zip(&rays[..m]) {
-                    *hit = ctx.accel.intersect(ray);
-                }
-            }
-            for (ray, hit) in rays[..m].iter().zip(&hits[..m]) {
-                sum += Vec3A::from(path::camera_emission(ctx, ray, *hit));
+            for e in &emission_through(ctx, camera, (&fx, &fy), m, packets)[..m] {
+                sum += Vec3A::from(*e);
             }
         }
         counts.camera += self.rays as u64;
         sum / self.rays as f32
     }
+}
+
+/// The emission that the camera rays through the first `m` film positions of `(fx, fy)` see
+/// ([`path::camera_emission`]), traced as one packet or, with `packets` false, one by one
+/// (the hits are the same).
+#[inline]
+fn emission_through(
+    ctx: &Context,
+    camera: &RayGenerator,
+    (fx, fy): (&[f32; PACKET], &[f32; PACKET]),
+    m: usize,
+    packets: bool,
+) -> [Vec3; PACKET] {
+    let rays = camera.rays(fx, fy);
+    let mut hits = [None; PACKET];
+    if packets {
+        ctx.accel.intersect_packet(&rays[..m], &mut hits);
+    } else {
+        for (hit, ray) in hits.iter_mut().zip(&rays[..m]) {
+            *hit = ctx.accel.intersect(ray);
+        }
+    }
+    std::array::from_fn(|k| {
+        if k < m {
+            path::camera_emission(ctx, &rays[k], hits[k])
+        } else {
+            Vec3::ZERO
+        }
+    })
 }
 
 /// The pixels to split, row-major, and the camera rays traced to choose them: those of
@@ -211,24 +231,24 @@ fn split_pixels(
                 if !mask.sees(x0, y0, x1, y1) {
                     continue;
                 }
-                // The emission seen through each corner of the block's pixels, row-major.
+                // The emission seen through each corner of the block's pixels, row-major:
+                // at most (4 + 1) × (2 + 1) corners, two packets.
+                const CORNERS: usize = ((BLOCK_W + 1) * (BLOCK_H + 1)) as usize;
+                const _: () = assert!(CORNERS <= 2 * PACKET);
                 let (cw, ch) = (x1 - x0 + 1, y1 - y0 + 1);
-                let corners: Vec<(u32, u32)> =
-                    (0..ch).flat_map(|j| (0..cw).map(move |i| (i, j))).collect();
-                let mut seen = vec![Vec3::ZERO; corners.len()];
-                for (chunk, out) in corners.chunks(PACKET).zip(seen.chunks_mut(PACKET)) {
+                let count = (cw * ch) as usize;
+                let mut seen = [Vec3::ZERO; 2 * PACKET];
+                for first in (0..count).step_by(PACKET) {
+                    let m = (count - first).min(PACKET);
                     let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
-                    for (k, &(i, j)) in chunk.iter().enumerate() {
-                        (fx[k], fy[k]) = ((x0 + i) as f32, (y0 + j) as f32);
+                    for k in 0..m {
+                        let c = (first + k) as u32;
+                        (fx[k], fy[k]) = ((x0 + c % cw) as f32, (y0 + c / cw) as f32);
                     }
-                    let rays = camera.rays(&fx, &fy);
-                    let mut hits = [None; PACKET];
-                    ctx.accel.intersect_packet(&rays[..chunk.len()], &mut hits);
-                    for ((o, ray), hit) in out.iter_mut().zip(&rays).zip(hits) {
-                        *o = path::camera_emission(ctx, ray, hit);
-                    }
+                    let e = emission_through(ctx, camera, (&fx, &fy), m, true);
+                    seen[first..first + PACKET].copy_from_slice(&e);
                 }
-                traced += corners.len() as u64;
+                traced += count as u64;
                 for j in 0..y1 - y0 {
                     for i in 0..x1 - x0 {
                         let at = |di: u32, dj: u32| seen[((j + dj) * cw + i + di) as usize];
@@ -242,7 +262,7 @@ fn split_pixels(
             (split, traced)
         })
         .collect();
-    let mut split = Vec::with_capacity((width * height) as usize);
+    let mut split = Vec::with_capacity(width as usize * height as usize);
     let mut traced = 0;
     for (row, n) in rows {
         split.extend(row);
