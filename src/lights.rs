@@ -136,14 +136,8 @@ impl AliasTable {
         AliasTable { prob, alias, pmf }
     }
 
-    /// An index drawn with probability `pmf(index)` from one uniform number in [0, 1).
-    #[inline]
-    pub fn sample(&self, u: f32) -> (usize, f32) {
-        let (k, pmf, _) = self.sample_remapped(u);
-        (k, pmf)
-    }
-
-    /// [`AliasTable::sample`], and `u` remapped to a new uniform number in [0, 1), independent
+    /// An index drawn with probability `pmf(index)` from one uniform number `u` in [0, 1),
+    /// its pmf, and `u` remapped to a new uniform number in [0, 1), independent
     /// of the index drawn: the stretch of [0, 1) that chose the index, scaled to the whole
     /// (sample reuse, as pbrt-v4's alias table does). Each index owns one or two intervals of
     /// `u`, mapped linearly, so points that were stratified stay stratified within each
@@ -600,7 +594,7 @@ mod tests {
         let mut counts = [0usize; 5];
         for k in 0..n {
             let u = (k as f32 + 0.5) / n as f32;
-            let (i, pmf) = table.sample(u);
+            let (i, pmf, _) = table.sample_remapped(u);
             counts[i] += 1;
             assert!((pmf as f64 - weights[i] / total).abs() < 1e-6);
         }
