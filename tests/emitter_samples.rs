@@ -98,6 +98,16 @@ fn cornell(setup: Setup) -> RenderResult {
     )
 }
 
+/// [`cornell`] without the split and with it (`setup`'s emitter rays), in that order.
+fn without_and_with_split(setup: Setup) -> [RenderResult; 2] {
+    [0, setup.emitter_samples].map(|emitter_samples| {
+        cornell(Setup {
+            emitter_samples,
+            ..setup
+        })
+    })
+}
+
 fn pixels(film: &Film) -> Vec<Vec3> {
     film.pixels()
 }
@@ -129,17 +139,14 @@ fn emitter_rays_lower_the_error_of_the_light_s_outline() {
     ] {
         let mut ratios = Vec::new();
         for seed in [1, 2] {
-            let [off, on] = [0, 8].map(|k| {
-                let r = cornell(Setup {
-                    emitter_samples: k,
-                    size: (160, 160),
-                    spp: 32,
-                    seed,
-                    sampler,
-                    ..Setup::default()
-                });
-                mse(&pixels(&r.film))
-            });
+            let [off, on] = without_and_with_split(Setup {
+                size: (160, 160),
+                spp: 32,
+                seed,
+                sampler,
+                ..Setup::default()
+            })
+            .map(|r| mse(&pixels(&r.film)));
             ratios.push(on / off);
         }
         let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
@@ -177,13 +184,10 @@ fn split_images_do_not_depend_on_the_thread_count() {
 #[test]
 fn only_pixels_that_may_see_an_emitter_change() {
     let size = (64, 64);
-    let [off, on] = [0, 8].map(|k| {
-        cornell(Setup {
-            emitter_samples: k,
-            size,
-            seed: 3,
-            ..Setup::default()
-        })
+    let [off, on] = without_and_with_split(Setup {
+        size,
+        seed: 3,
+        ..Setup::default()
     });
     let (a, b) = (film_totals(&off.film), film_totals(&on.film));
     let img = pixels(&off.film);
@@ -356,14 +360,11 @@ fn camera_rays_of(run: &Run) -> u64 {
 #[test]
 fn the_light_s_interior_is_not_split_and_its_outline_is() {
     let size = (160, 160);
-    let [off, on] = [0, 8].map(|k| {
-        cornell(Setup {
-            emitter_samples: k,
-            size,
-            spp: 4,
-            seed: 5,
-            ..Setup::default()
-        })
+    let [off, on] = without_and_with_split(Setup {
+        size,
+        spp: 4,
+        seed: 5,
+        ..Setup::default()
     });
     let (a, b) = (film_totals(&off.film), film_totals(&on.film));
     let (_, _, reference) =
