@@ -27,6 +27,13 @@ fn run_tool(out: &Path, args: &[&str]) -> (String, String) {
     (stdout, csv)
 }
 
+/// The header and the rows of a CSV the tool wrote (no quoted fields), split at commas.
+fn table(csv: &str) -> (Vec<&str>, Vec<Vec<&str>>) {
+    let mut lines = csv.lines().map(|l| l.split(',').collect::<Vec<_>>());
+    let head = lines.next().unwrap_or_default();
+    (head, lines.collect())
+}
+
 #[test]
 fn convergence_tool_writes_csv_plots_and_slopes() {
     let out = tempfile::tempdir().unwrap();
@@ -41,21 +48,10 @@ fn convergence_tool_writes_csv_plots_and_slopes() {
             "16",
         ],
     );
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
+    let (head, rows) = table(&csv);
     // Two configurations × spp 1, 2, 4, 8, 16.
     assert_eq!(rows.len(), 10, "{csv}");
-    let col = |name: &str| {
-        csv.lines()
-            .next()
-            .unwrap()
-            .split(',')
-            .position(|c| c == name)
-            .unwrap()
-    };
+    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
     let (spp, rmse, rays) = (col("spp"), col("rmse"), col("rays"));
     let random: Vec<(u32, f64, f64)> = rows
         .iter()
@@ -121,13 +117,8 @@ fn convergence_tool_compares_uniform_and_adaptive_at_equal_time() {
             "0.2,0.6",
         ],
     );
-    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let (head, rows) = table(&csv);
     let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
     // Two modes × two time limits, in that order.
     let modes: Vec<(&str, &str)> = rows
         .iter()
@@ -185,14 +176,9 @@ fn convergence_tool_compares_emitter_sample_counts() {
         String::from_utf8_lossy(&run.stderr)
     );
     let csv = std::fs::read_to_string(out.path().join("convergence.csv")).unwrap();
-    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let (head, rows) = table(&csv);
     let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
     let (c_em, c_spp, c_rmse) = (col("emitter_samples"), col("spp"), col("rmse"));
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
     // Two configurations × spp 1, 2, 4, 8.
     assert_eq!(rows.len(), 8, "{csv}");
     let rmse_at_8 = |n: &str| -> f64 {
