@@ -619,13 +619,22 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
     );
     let mut rmse = Vec::new();
     for strategy in [Strategy::Bsdf, Strategy::Mis] {
+        // BSDF sampling alone finds the small light in a few of a block's 16 384 samples at
+        // 256 spp, or in none: the block means are then far apart from seed to seed (0.0012
+        // to 0.011 against 0.0047 in one block over 24 seeds), more than their spread over
+        // pixels says. At 2048 spp they stay within 0.0032–0.0065.
+        let spp = if strategy == Strategy::Bsdf {
+            2048
+        } else {
+            256
+        };
         for hemisphere in [Hemisphere::Cosine, Hemisphere::Uniform] {
             let img = render(
                 &scene,
                 cam.clone(),
                 direct(strategy, hemisphere),
                 size,
-                256,
+                spp,
                 7,
             );
             let name = format!("{strategy}, {hemisphere}");
@@ -633,7 +642,7 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
             rmse.push((name, rmse_of(&img, &reference)));
         }
     }
-    eprintln!("RMSE at 256 spp: {rmse:?}");
+    eprintln!("RMSE at 2048 spp (BSDF) and 256 spp (MIS): {rmse:?}");
     // BSDF sampling alone: cosine importance-samples the diffuse f·cos θ.
     assert!(rmse[0].1 < 0.9 * rmse[1].1, "{rmse:?}");
     // Path tracing through the furnace: same expectation with uniform directions.
@@ -843,3 +852,4 @@ fn light_points_keep_the_stratification_of_their_samples() {
         );
     }
 }
+
