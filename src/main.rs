@@ -517,6 +517,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         hemisphere: cli.hemisphere,
         emitter_samples: cli.emitter_samples,
         camera_emission: true,
+        paired_bounces: true,
     };
     let integrator = match cli.integrator {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {
