@@ -110,27 +110,22 @@ pub fn sample_1d(index: u32, seed: u32) -> f32 {
     Sequence::new(seed).sample_1d(index)
 }
 
-/// The Sobol sequence keyed by one seed, with the hashed scramble keys of its index shuffle
-/// and its first two dimensions: they depend on the seed alone, so a caller that draws
-/// several points of one sequence (a pixel's samples in one dimension slot) hashes them once.
+/// The Sobol sequence keyed by one seed, as the hashed scramble keys of its index shuffle
+/// and of its four dimensions: they depend on the seed alone, so a caller that draws several
+/// points of one sequence (a pixel's samples in one dimension slot) hashes them once.
 /// Its points are those of [`sample_4d`] with the same seed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Sequence {
-    seed: u32,
     shuffle: u32,
-    dims: [u32; 2],
+    dims: [u32; 4],
 }
 
 impl Sequence {
     #[inline]
     pub fn new(seed: u32) -> Sequence {
         Sequence {
-            seed,
             shuffle: hash(seed ^ 0x2c1b_3c6d),
-            dims: [
-                hash(seed ^ DIMENSION_KEYS[0]),
-                hash(seed ^ DIMENSION_KEYS[1]),
-            ],
+            dims: DIMENSION_KEYS.map(|k| hash(seed ^ k)),
         }
     }
 
@@ -153,16 +148,9 @@ impl Sequence {
     #[inline(always)]
     fn sample<const N: usize>(&self, index: u32) -> [f32; N] {
         // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point,
-        // then scramble each dimension with its own key (dimensions 2 and 3, drawn less
-        // often, hash theirs here).
+        // then scramble each dimension with its own key.
         let sobol = sobol_rev_of_rev(shuffled_rev(index, self.shuffle));
-        std::array::from_fn(|d| {
-            let key = match d {
-                0 | 1 => self.dims[d],
-                _ => hash(self.seed ^ DIMENSION_KEYS[d]),
-            };
-            scrambled(sobol[d], key)
-        })
+        std::array::from_fn(|d| scrambled(sobol[d], self.dims[d]))
     }
 }
 
@@ -298,19 +286,19 @@ mod tests {
     /// sizes that do and do not fill the lanes.
     #[test]
     fn side_by_side_points_equal_single_points() {
-        let sequences: [Sequence; 8] =
-            std::array::from_fn(|i| Sequence::new(hash(i as u32 ^ 0x51ed)));
+        let seeds: [u32; 8] = std::array::from_fn(|i| hash(i as u32 ^ 0x51ed));
+        let sequences = seeds.map(Sequence::new);
         for start in (0..MAX_INDEX).step_by(8 * 97) {
             let indices: [u32; 8] = std::array::from_fn(|i| (start + 8191 * i as u32) % MAX_INDEX);
             let lanes = sample_2d_lanes(&sequences, &indices);
             for i in 0..8 {
-                let want = sample_2d(indices[i], sequences[i].seed);
+                let want = sample_2d(indices[i], seeds[i]);
                 assert_eq!(lanes[i].map(f32::to_bits), want.map(f32::to_bits));
             }
             let three = sample_2d_lanes::<3>(&[sequences[5]; 3], &[indices[0], 7, 1]);
             assert_eq!(
                 three[1].map(f32::to_bits),
-                sample_2d(7, sequences[5].seed).map(f32::to_bits)
+                sample_2d(7, seeds[5]).map(f32::to_bits)
             );
         }
     }
