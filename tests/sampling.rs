@@ -1263,6 +1263,34 @@ fn a_slot_depends_on_its_position_not_on_the_kind_of_earlier_draws() {
     }
 }
 
+/// `skip_slot` passes over a slot as a draw would: the slots after it hold the same values,
+/// whether the skipped slot was the first of its pixel to be reached (and cached), a cached
+/// one, or one past the cache; and across the pixel's samples, whichever draws skipped.
+#[test]
+fn a_skipped_slot_leaves_the_later_slots_as_a_draw_would() {
+    for kind in KINDS {
+        let mut drawn = PixelSampler::new(kind, 16, 5);
+        let mut skipping = PixelSampler::new(kind, 16, 5);
+        for i in 0..16u32 {
+            drawn.start(4, 9, i);
+            skipping.start(4, 9, i);
+            // 24 slots, past the 16 the sampler caches; a different set skipped per sample.
+            for slot in 0..24u32 {
+                if (slot + i) % 3 == 0 {
+                    drawn.next_1d();
+                    skipping.skip_slot();
+                } else {
+                    assert_eq!(
+                        drawn.next_2d().to_array(),
+                        skipping.next_2d().to_array(),
+                        "{kind}: sample {i}, slot {slot}"
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// All values of one pixel's spp samples under the fixed draw pattern.
 fn pixel_signature(kind: SamplerKind, spp: u32, seed: u64, x: u32, y: u32) -> Vec<f32> {
     let mut s = PixelSampler::new(kind, spp, seed);

@@ -194,7 +194,13 @@ pub fn li(
             u_light = u_own;
             (u_bsdf, Vec2::ZERO)
         };
-        let u_rr = sampler.next_1d();
+        // The roulette's slot is computed only where the roulette runs.
+        let u_rr = if depth >= settings.rr_depth {
+            sampler.next_1d()
+        } else {
+            sampler.skip_slot();
+            1.0
+        };
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF.
         if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light) {

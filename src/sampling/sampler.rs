@@ -160,6 +160,20 @@ impl PixelSampler {
         (key, sequence)
     }
 
+    /// Passes over the next dimension slot without computing its value, for a value the
+    /// caller does not need (the roulette's before its first bounce): the slots after it
+    /// keep their dimensions, as if it had been drawn.
+    #[inline]
+    pub fn skip_slot(&mut self) {
+        if self.slot < self.cached_slots || self.slot as usize >= CACHED_SLOTS {
+            self.slot += 1;
+        } else {
+            // The first sample of the pixel to reach this slot: cache its key as a draw does,
+            // or the slots after it would not be cached.
+            self.next_slot();
+        }
+    }
+
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let (key, sequence) = self.next_slot();
