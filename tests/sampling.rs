@@ -1291,6 +1291,29 @@ fn a_skipped_slot_leaves_the_later_slots_as_a_draw_would() {
     }
 }
 
+/// `film_pair` is the second value of the first slot's 2×2D draw: what `next_2x2d` gives
+/// there beside the value `next_2d` gave, for every kind; None before that slot is drawn.
+#[test]
+fn the_film_pair_is_the_first_slot_s_second_value() {
+    for kind in KINDS {
+        let mut a = PixelSampler::new(kind, 16, 5);
+        let mut b = PixelSampler::new(kind, 16, 5);
+        for i in 0..16u32 {
+            a.start(4, 9, i);
+            b.start(4, 9, i);
+            assert_eq!(a.film_pair(), None, "{kind} #{i}: before the first slot");
+            let film = a.next_2d();
+            let (first, second) = b.next_2x2d();
+            assert_eq!(film.to_array(), first.to_array(), "{kind} #{i}");
+            let pair = a.film_pair().expect("the first slot was drawn");
+            assert_eq!(pair.to_array(), second.to_array(), "{kind} #{i}");
+            // Later draws leave it alone.
+            a.next_2d();
+            assert_eq!(a.film_pair(), Some(pair), "{kind} #{i}");
+        }
+    }
+}
+
 /// All values of one pixel's spp samples under the fixed draw pattern.
 fn pixel_signature(kind: SamplerKind, spp: u32, seed: u64, x: u32, y: u32) -> Vec<f32> {
     let mut s = PixelSampler::new(kind, spp, seed);

@@ -15,18 +15,22 @@
 //! | `hemisphere`| cosine  | BSDF directions cosine-weighted, or `uniform` (pdf 1/2π, in the   |
 //! |             |         | MIS weights too): unbiased as well; for comparisons               |
 //!
-//! Sample dimensions: the first surface vertex draws its light point from a 2D slot of its
-//! own; then each bounce draws one 4D slot, the BSDF direction (its first two dimensions)
-//! and the light point of the vertex that direction reaches (its last two), and one 1D slot
-//! for Russian roulette. The light is chosen with the point's first dimension, which is then
-//! reused for the point. All are drawn whether used or not, so a pixel's dimensions do not
-//! shift between strategies.
+//! Sample dimensions: the first surface vertex takes its light point from the film
+//! position's slot (dimensions 2–3 of the 4D point whose dimensions 0–1 placed the sample in
+//! the pixel, [`PixelSampler::film_pair`]); then each bounce draws one 4D slot, the BSDF
+//! direction (its first two dimensions) and the light point of the vertex that direction
+//! reaches (its last two), and one 1D slot for Russian roulette (skipped, not computed,
+//! before `rr_depth`). The light is chosen with the point's first dimension, which is then
+//! reused for the point. All slots are drawn whether used or not, so a pixel's dimensions do
+//! not shift between strategies.
 //!
-//! Pairing a direction with the light point at its far end stratifies the two jointly, and
-//! they are what the one-bounce indirect light depends on, most of a diffuse scene's noise:
-//! 7% less variance on the Cornell box at 256 spp than pairing each vertex's own direction
-//! and light point (BENCHMARKS.md). `PathSettings::paired_bounces` = false gives that layout,
-//! for comparisons.
+//! Each light point is thus stratified jointly with what its light depends on most: the
+//! first with where in the pixel the sample lies (an edge or a penumbra in the pixel: 55%
+//! less direct-lighting variance on the Cornell box's edges), the others with the direction
+//! that reached their vertex, the pair the one-bounce indirect light depends on (most of a
+//! diffuse scene's noise: 7% less variance on the Cornell box at 256 spp, 11% at 1024). See
+//! BENCHMARKS.md. `PathSettings::paired_bounces` = false pairs each vertex's own direction
+//! and light point instead, the layout before, for comparisons.
 
 use std::fmt;
 use std::str::FromStr;
@@ -85,9 +89,10 @@ pub struct PathSettings {
     /// Whether [`li`] adds the emission its camera ray meets (true, except where the renderer
     /// estimates that term apart with `emitter_samples` rays).
     pub camera_emission: bool,
-    /// True (the default): a bounce's BSDF direction and the light point of the next vertex
-    /// come from one 4D point (see the module docs). False: each vertex's BSDF direction
-    /// and its own light point do, the layout before; for comparisons.
+    /// True (the default): the first light point comes with the film position, and a
+    /// bounce's BSDF direction with the light point of the next vertex, each pair from one
+    /// 4D point (see the module docs). False: each vertex's BSDF direction and its own light
+    /// point do, the layout before; for comparisons.
     pub paired_bounces: bool,
 }
 
@@ -186,7 +191,9 @@ pub fn li(
         // The slots of the bounce (see the module docs).
         let (u_bsdf, u_light_next) = if settings.paired_bounces {
             if depth == 1 {
-                u_light = sampler.next_2d();
+                // Paired with the film position (a slot of its own if none was drawn, which
+                // no caller in strata does).
+                u_light = sampler.film_pair().unwrap_or_else(|| sampler.next_2d());
             }
             sampler.next_2x2d()
         } else {

@@ -245,22 +245,55 @@ impl PixelSampler {
         match self.kind {
             SamplerKind::Random => {
                 let a = hash_words(&[key, self.index as u64]);
-                let b = hash_words(&[key ^ 0x6a09_e667_f3bc_c908, self.index as u64]);
                 (
                     Vec2::new(u32_to_unit_f32(a as u32), u32_to_unit_f32((a >> 32) as u32)),
-                    Vec2::new(u32_to_unit_f32(b as u32), u32_to_unit_f32((b >> 32) as u32)),
+                    self.second_random_2d(key),
                 )
             }
-            SamplerKind::Stratified => (
-                self.cmj_2d(key),
-                self.cmj_2d(mix64(key ^ 0x6a09_e667_f3bc_c908)),
-            ),
+            SamplerKind::Stratified => (self.cmj_2d(key), self.second_cmj_2d(key)),
             SamplerKind::Sobol => {
                 let [a, b, c, d] = sequence.sample_4d(self.index);
                 let h = Vec2::splat(SOBOL_HALF_CELL);
                 (Vec2::new(a, b) + h, Vec2::new(c, d) + h)
             }
         }
+    }
+
+    /// The second value that [`PixelSampler::next_2x2d`] would have given in the sample's
+    /// first slot, which places the sample on the film and is drawn with `next_2d` (whose
+    /// value is the first): with `sobol`, dimensions 2–3 of the 4D point whose dimensions
+    /// 0–1 are the film position. The two are stratified together, which suits a value
+    /// whose effect depends on where in the pixel the sample lies, such as the light point
+    /// of the camera ray's hit (a penumbra crossing the pixel). None until the first slot
+    /// is drawn.
+    #[inline]
+    pub fn film_pair(&self) -> Option<Vec2> {
+        if self.slot == 0 || self.cached_slots == 0 {
+            return None;
+        }
+        let key = self.slot_keys[0];
+        Some(match self.kind {
+            SamplerKind::Random => self.second_random_2d(key),
+            SamplerKind::Stratified => self.second_cmj_2d(key),
+            SamplerKind::Sobol => {
+                let [_, _, c, d] = self.slot_sequences[0].sample_4d(self.index);
+                Vec2::new(c, d) + Vec2::splat(SOBOL_HALF_CELL)
+            }
+        })
+    }
+
+    /// The second 2D value of a `random` slot with key `key`.
+    #[inline]
+    fn second_random_2d(&self, key: u64) -> Vec2 {
+        let b = hash_words(&[key ^ 0x6a09_e667_f3bc_c908, self.index as u64]);
+        Vec2::new(u32_to_unit_f32(b as u32), u32_to_unit_f32((b >> 32) as u32))
+    }
+
+    /// The second 2D value of a `stratified` slot with key `key`: a CMJ pattern permuted
+    /// independently of the first.
+    #[inline]
+    fn second_cmj_2d(&self, key: u64) -> Vec2 {
+        self.cmj_2d(mix64(key ^ 0x6a09_e667_f3bc_c908))
     }
 
     #[inline]
