@@ -524,6 +524,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             max_distance: ao_distance,
             hemisphere: cli.hemisphere,
             samples: cli.ao_samples,
+            film_paired: true,
         }),
         IntegratorKind::Direct => Integrator::Direct(PathSettings {
             max_depth: 1,

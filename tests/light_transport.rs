@@ -688,7 +688,15 @@ fn light_bsdf_and_mis_agree_and_mis_has_the_lowest_error() {
         ("bsdf", Strategy::Bsdf),
     ] {
         let img = render(&scene, cam.clone(), strat(strategy), size, SPP, 7);
-        assert_agrees_in_blocks(name, &img, &reference, size);
+        if strategy == Strategy::Bsdf {
+            // BSDF sampling alone finds the small light too rarely at 256 spp for block means
+            // to agree reliably (see the hemisphere test below): its agreement is checked at
+            // 2048 spp, its error at the others' spp.
+            let more = render(&scene, cam.clone(), strat(strategy), size, 2048, 7);
+            assert_agrees_in_blocks(name, &more, &reference, size);
+        } else {
+            assert_agrees_in_blocks(name, &img, &reference, size);
+        }
         rmse.push((name, rmse_of(&img, &reference)));
     }
     let (mis, light, bsdf) = (rmse[0].1, rmse[1].1, rmse[2].1);
@@ -925,8 +933,8 @@ fn variance_over_seeds(
     (var / pixels as f64, mean / pixels as f64)
 }
 
-/// Renders `scene` with `paired_bounces` on and off (`integrator(paired_bounces)`, Sobol,
-/// 16 seeds at 256 spp) and checks that both estimate the same image, that it is not dark,
+/// Renders `scene` with a pairing of sample dimensions on and off (`integrator(true)` and
+/// `integrator(false)`, Sobol, 16 seeds at 256 spp) and checks that both estimate the same image, that it is not dark,
 /// and that pairing leaves at most `ratio` of the other layout's variance.
 fn assert_pairing_lowers_the_variance(
     scene: &Scene,
@@ -988,8 +996,8 @@ fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
 /// light point taken from the film position's 4D point does (`paired_bounces`), estimates
 /// each side's light with its own well-spread light points. Paired with the BSDF direction
 /// instead, the light points of the samples on one side are a random share of the pixel's
-/// (0.74× the variance when written, at 256 spp; stripes much narrower than a pixel gain
-/// nothing at that count, their edges being finer than the 4D point's strata).
+/// (0.20× the variance when written, at 256 spp; 0.74× when the light point took the 4D
+/// point's last two dimensions and the film position the first two).
 #[test]
 fn the_first_light_point_is_stratified_with_the_film_position() {
     let mut quads = vec![
@@ -1022,5 +1030,31 @@ fn the_first_light_point_is_stratified_with_the_film_position() {
             ..Default::default()
         })
     };
-    assert_pairing_lowers_the_variance(&scene, &cam, integrator, 16, 0.85);
+    assert_pairing_lowers_the_variance(&scene, &cam, integrator, 16, 0.5);
+}
+
+/// AO's one direction per hit, paired with the film position: a floor with raised stripes
+/// 0.02 above it, a little wider than a pixel, seen from above. A pixel holding a stripe's
+/// edge is part open stripe top (AO 1 whatever the direction) and part floor between two
+/// stripes (occluded in many directions); the directions of the samples that land on the
+/// floor are stratified among themselves only when drawn with the film position (0.54× the
+/// variance of directions from a slot of their own when written, at 256 spp).
+#[test]
+fn ao_directions_are_stratified_with_the_film_position() {
+    use strata::integrators::AoSettings;
+    let mut quads = vec![((-4.0, 4.0), 0.0, (-4.0, 4.0), true, 1)];
+    let w = 0.6 / 37.0;
+    for k in (0..37).step_by(2) {
+        let x0 = -0.3 + k as f32 * w;
+        quads.push(((x0, x0 + w), 0.02, (-4.0, 4.0), true, 1));
+    }
+    let scene = horizontal_quads(&quads, vec![Material::default(), diffuse(0.5, 0.0)]);
+    let cam = camera(Vec3::new(0.0, 0.4, 0.0), Vec3::ZERO, 0.5);
+    let integrator = |film_paired| {
+        Integrator::Ao(AoSettings {
+            film_paired,
+            ..Default::default()
+        })
+    };
+    assert_pairing_lowers_the_variance(&scene, &cam, integrator, 16, 0.8);
 }

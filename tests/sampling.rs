@@ -1291,10 +1291,11 @@ fn a_skipped_slot_leaves_the_later_slots_as_a_draw_would() {
     }
 }
 
-/// `film_pair` is the second value of the first slot's 2×2D draw: what `next_2x2d` gives
-/// there beside the value `next_2d` gave, for every kind; None before that slot is drawn.
+/// The film position and its pair are the first slot's 2×2D draw: `next_film` the second
+/// value `next_2x2d` gives there, `film_pair` the first, for every kind; the pair is None
+/// before that slot is drawn, and the same after later draws.
 #[test]
-fn the_film_pair_is_the_first_slot_s_second_value() {
+fn the_film_position_and_its_pair_are_the_first_slot_s_two_values() {
     for kind in KINDS {
         let mut a = PixelSampler::new(kind, 16, 5);
         let mut b = PixelSampler::new(kind, 16, 5);
@@ -1302,12 +1303,11 @@ fn the_film_pair_is_the_first_slot_s_second_value() {
             a.start(4, 9, i);
             b.start(4, 9, i);
             assert_eq!(a.film_pair(), None, "{kind} #{i}: before the first slot");
-            let film = a.next_2d();
+            let film = a.next_film();
             let (first, second) = b.next_2x2d();
-            assert_eq!(film.to_array(), first.to_array(), "{kind} #{i}");
+            assert_eq!(film.to_array(), second.to_array(), "{kind} #{i}");
             let pair = a.film_pair().expect("the first slot was drawn");
-            assert_eq!(pair.to_array(), second.to_array(), "{kind} #{i}");
-            // Later draws leave it alone.
+            assert_eq!(pair.to_array(), first.to_array(), "{kind} #{i}");
             a.next_2d();
             assert_eq!(a.film_pair(), Some(pair), "{kind} #{i}");
         }
@@ -1581,6 +1581,48 @@ fn point_set_checks_reject_independent_points() {
 /// `next_2d_lanes` gives each sampler the values its own `next_2d` calls would, in the same
 /// slots: for any number of lanes (one to more than a group of eight), any subset and order
 /// of samplers, and samplers at different pixels, sample indices and slots.
+/// Film positions and their pairs drawn side by side equal those drawn one sampler at a
+/// time, and leave each sampler in the slot after the film position's.
+#[test]
+fn side_by_side_film_positions_and_pairs_are_each_samplers_own() {
+    let mut rng = Pcg32::new(5, 23);
+    for kind in KINDS {
+        for lanes in 1..=11usize {
+            let new = || -> Vec<PixelSampler> {
+                (0..12).map(|_| PixelSampler::new(kind, 64, 42)).collect()
+            };
+            let (mut together, mut alone) = (new(), new());
+            for s in 0..12 {
+                let (x, y, i) = (rng.below(4000), rng.below(4000), rng.below(64));
+                together[s].start(x, y, i);
+                alone[s].start(x, y, i);
+            }
+            let mut which: Vec<usize> = (0..12).collect();
+            for k in (1..which.len()).rev() {
+                which.swap(k, rng.below(k as u32 + 1) as usize);
+            }
+            which.truncate(lanes);
+            let mut got = vec![Vec2::ZERO; lanes];
+            PixelSampler::next_film_lanes(&mut together, &which, &mut got);
+            let want: Vec<Vec2> = which.iter().map(|&s| alone[s].next_film()).collect();
+            assert_eq!(got, want, "{kind}, {lanes} lanes: film positions");
+            PixelSampler::film_pair_lanes(&mut together, &which, &mut got);
+            let want: Vec<Vec2> = which
+                .iter()
+                .map(|&s| alone[s].film_pair().unwrap())
+                .collect();
+            assert_eq!(got, want, "{kind}, {lanes} lanes: their pairs");
+            for &s in &which {
+                assert_eq!(
+                    together[s].next_1d().to_bits(),
+                    alone[s].next_1d().to_bits(),
+                    "{kind}: sampler {s}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn side_by_side_2d_values_are_each_samplers_own() {
     let mut rng = Pcg32::new(3, 17);

@@ -329,6 +329,7 @@ fn ao() -> Integrator {
         max_distance: f32::INFINITY,
         hemisphere: Hemisphere::Cosine,
         samples: 1,
+        film_paired: true,
     })
 }
 

@@ -13,8 +13,12 @@
 //! | `samples`      | 1        | AO rays per camera hit, averaged (`--ao-samples`; Mitsuba's     |
 //! |                |          | `shading_samples`)                                             |
 //!
-//! The `samples` directions of a camera sample come from one dimension slot as one stratified
-//! set ([`PixelSampler::next_2d_set`]), not from independent slots. Directions are drawn
+//! With one AO ray per camera hit (the default) its direction is paired with the film
+//! position, the two halves of one 4D point ([`PixelSampler::film_pair`]): in a pixel that
+//! holds an edge, the samples on each side then have directions stratified among themselves
+//! (0.36× the variance on the Cornell box's edges). With several, the `samples` directions of
+//! a camera sample come from one dimension slot as one stratified set
+//! ([`PixelSampler::next_2d_set`]), not from independent slots. Directions are drawn
 //! around the shading normal; one that points below the geometric
 //! surface would enter the object, and counts as occluded. Each AO ray is an any-hit query
 //! leaving the surface as [`SurfaceInteraction::spawn_ray`] sends it (with several rays per
@@ -75,6 +79,10 @@ pub struct AoSettings {
     pub hemisphere: Hemisphere,
     /// AO rays per camera hit (at least 1).
     pub samples: u32,
+    /// True (the default): with one ray per hit, its direction is paired with the film
+    /// position (see the module docs). False: it comes from a slot of its own, the layout
+    /// before; for comparisons.
+    pub film_paired: bool,
 }
 
 impl Default for AoSettings {
@@ -83,6 +91,7 @@ impl Default for AoSettings {
             max_distance: f32::INFINITY,
             hemisphere: Hemisphere::Cosine,
             samples: 1,
+            film_paired: true,
         }
     }
 }
@@ -130,9 +139,15 @@ pub fn li_packet(
             n_hits += 1;
         }
     }
-    // A set of one point is the slot's `next_2d` point. Points past `n_hits` are not used.
+    // Each direction is paired with its film position (see `one_ray`). Points past `n_hits`
+    // are not used.
     let mut u = [Vec2::splat(0.5); PACKET];
-    PixelSampler::next_2d_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
+    if settings.film_paired {
+        PixelSampler::film_pair_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
+    } else {
+        // A set of one point is the slot's `next_2d` point.
+        PixelSampler::next_2d_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
+    }
     let directions: [(Vec3, f32); PACKET] = if settings.hemisphere == Hemisphere::Cosine {
         square_to_cosine_hemisphere_lanes(&u).map(|local| (local, 1.0))
     } else {
@@ -211,7 +226,13 @@ fn one_ray(
     settings: &AoSettings,
 ) -> Option<(Ray, f32)> {
     let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
-    let (local, weight) = direction(sampler.next_2d_set(1).get(0), settings.hemisphere);
+    // The direction is paired with the film position (stratified with it, for pixels that
+    // hold an edge); a slot of its own if none was drawn, which no caller in strata does.
+    let u = match settings.film_paired {
+        true => sampler.film_pair().unwrap_or_else(|| sampler.next_2d()),
+        false => sampler.next_2d_set(1).get(0),
+    };
+    let (local, weight) = direction(u, settings.hemisphere);
     let onb = Onb::from_normal(si.ns);
     let wi = world_direction(&si, &onb, local, weight)?;
     // Its one origin, where [`SurfaceInteraction::front_origins`] prepares both kinds for

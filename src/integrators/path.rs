@@ -16,7 +16,7 @@
 //! |             |         | MIS weights too): unbiased as well; for comparisons               |
 //!
 //! Sample dimensions: the first surface vertex takes its light point from the film
-//! position's slot (dimensions 2–3 of the 4D point whose dimensions 0–1 placed the sample in
+//! position's slot (dimensions 0–1 of the 4D point whose dimensions 2–3 placed the sample in
 //! the pixel, [`PixelSampler::film_pair`]); then each bounce draws one 4D slot, the BSDF
 //! direction (its first two dimensions) and the light point of the vertex that direction
 //! reaches (its last two), and one 1D slot for Russian roulette (skipped, not computed,
@@ -25,7 +25,7 @@
 //! not shift between strategies.
 //!
 //! Each light point is thus stratified jointly with what its light depends on most: the
-//! first with where in the pixel the sample lies (an edge or a penumbra in the pixel: 55%
+//! first with where in the pixel the sample lies (an edge or a penumbra in the pixel: 66%
 //! less direct-lighting variance on the Cornell box's edges), the others with the direction
 //! that reached their vertex, the pair the one-bounce indirect light depends on (most of a
 //! diffuse scene's noise: 7% less variance on the Cornell box at 256 spp, 11% at 1024). See

@@ -362,8 +362,8 @@ fn render_tile(
                 *pixel = round.film.totals(x, y);
                 for index in samples.0..samples.1 {
                     sampler.start(x, y, index);
-                    // The first two dimensions place the sample on the film.
-                    let film_uv = sampler.next_2d();
+                    // The first slot places the sample on the film.
+                    let film_uv = sampler.next_film();
                     let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
                     let l = match emitters {
                         Some(view) => {
@@ -448,9 +448,9 @@ fn render_tile(
                         n += 1;
                     }
                 }
-                // The first two dimensions place the samples on the film.
+                // The first slot places the samples on the film.
                 let mut film_uv = [Vec2::ZERO; PACKET];
-                PixelSampler::next_2d_lanes(&mut samplers, &which[..n], &mut film_uv[..n]);
+                PixelSampler::next_film_lanes(&mut samplers, &which[..n], &mut film_uv[..n]);
                 let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
                 for k in 0..n {
                     let (x, y, _, _) = lanes[which[k]];

@@ -206,12 +206,31 @@ impl PixelSampler {
     /// eight at a time, so that their chains of multiplies and lookups overlap (1.35× as fast
     /// as one after another, `cargo bench --bench ao -- sobol`).
     pub fn next_2d_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
+        Self::slot_lanes(samplers, which, out, 0, PixelSampler::next_2d);
+    }
+
+    /// [`PixelSampler::next_film`] of several samplers, side by side as in
+    /// [`PixelSampler::next_2d_lanes`].
+    pub fn next_film_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
+        Self::slot_lanes(samplers, which, out, 2, PixelSampler::next_film);
+    }
+
+    /// Draws the next slot of `samplers[which[k]]` into `out[k]`: with `sobol`, dimensions
+    /// `first` and `first + 1` of the slot's 4D point, side by side; otherwise `one`.
+    #[inline]
+    fn slot_lanes(
+        samplers: &mut [PixelSampler],
+        which: &[usize],
+        out: &mut [Vec2],
+        first: usize,
+        one: fn(&mut PixelSampler) -> Vec2,
+    ) {
         const LANES: usize = 8;
         debug_assert_eq!(which.len(), out.len());
         for (which, out) in which.chunks(LANES).zip(out.chunks_mut(LANES)) {
             if samplers[which[0]].kind != SamplerKind::Sobol {
                 for (&s, out) in which.iter().zip(out) {
-                    *out = samplers[s].next_2d();
+                    *out = one(&mut samplers[s]);
                 }
                 continue;
             }
@@ -227,7 +246,7 @@ impl PixelSampler {
             for k in which.len()..LANES {
                 (sequences[k], indices[k]) = (sequences[0], indices[0]);
             }
-            let points = sobol::sample_2d_lanes(&sequences, &indices);
+            let points = sobol::sample_pair_lanes(&sequences, &indices, first);
             for (out, point) in out.iter_mut().zip(points) {
                 *out = sobol_open_2d(point);
             }
@@ -259,13 +278,29 @@ impl PixelSampler {
         }
     }
 
-    /// The second value that [`PixelSampler::next_2x2d`] would have given in the sample's
-    /// first slot, which places the sample on the film and is drawn with `next_2d` (whose
-    /// value is the first): with `sobol`, dimensions 2–3 of the 4D point whose dimensions
-    /// 0–1 are the film position. The two are stratified together, which suits a value
-    /// whose effect depends on where in the pixel the sample lies, such as the light point
-    /// of the camera ray's hit (a penumbra crossing the pixel). None until the first slot
-    /// is drawn.
+    /// The sample's position in the pixel, from its first slot: the second value that
+    /// [`PixelSampler::next_2x2d`] would give there (with `sobol`, dimensions 2–3 of the
+    /// slot's 4D point), leaving the first to [`PixelSampler::film_pair`]. Dimensions 0–1
+    /// project to the better-stratified 2D set, and the film position needs it least: it
+    /// matters only where the pixel holds an edge, the value paired with it everywhere.
+    #[inline]
+    pub fn next_film(&mut self) -> Vec2 {
+        debug_assert_eq!(self.slot, 0, "the film position is the sample's first slot");
+        let (key, sequence) = self.next_slot();
+        match self.kind {
+            SamplerKind::Random => self.second_random_2d(key),
+            SamplerKind::Stratified => self.second_cmj_2d(key),
+            SamplerKind::Sobol => sobol_open_2d(sequence.sample_high_2d(self.index)),
+        }
+    }
+
+    /// The value paired with the film position ([`PixelSampler::next_film`]): the first
+    /// value of the sample's first slot, what [`PixelSampler::next_2d`] would give there
+    /// (with `sobol`, dimensions 0–1 of the 4D point whose dimensions 2–3 are the film
+    /// position). The two are stratified together, which suits a value whose effect depends
+    /// on where in the pixel the sample lies, such as the light point or the AO direction
+    /// of the camera ray's hit (an edge or a penumbra crossing the pixel). None until the
+    /// first slot is drawn.
     #[inline]
     pub fn film_pair(&self) -> Option<Vec2> {
         if self.slot == 0 || self.cached_slots == 0 {
@@ -273,13 +308,44 @@ impl PixelSampler {
         }
         let key = self.slot_keys[0];
         Some(match self.kind {
-            SamplerKind::Random => self.second_random_2d(key),
-            SamplerKind::Stratified => self.second_cmj_2d(key),
-            SamplerKind::Sobol => {
-                let [_, _, c, d] = self.slot_sequences[0].sample_4d(self.index);
-                Vec2::new(c, d) + Vec2::splat(SOBOL_HALF_CELL)
-            }
+            SamplerKind::Random => random_2d(key, self.index as u64),
+            SamplerKind::Stratified => self.cmj_2d(key),
+            SamplerKind::Sobol => sobol_2d(&self.slot_sequences[0], self.index),
         })
+    }
+
+    /// [`PixelSampler::film_pair`] of several samplers (`out[k]` from `samplers[which[k]]`),
+    /// side by side with `sobol`; a sampler that has not drawn its film position draws a
+    /// slot of its own instead (`next_2d`), as `film_pair().unwrap_or_else(next_2d)` does.
+    pub fn film_pair_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
+        const LANES: usize = 8;
+        debug_assert_eq!(which.len(), out.len());
+        for (which, out) in which.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let drawn = |s: &PixelSampler| s.slot > 0 && s.cached_slots > 0;
+            if samplers[which[0]].kind != SamplerKind::Sobol
+                || !which.iter().all(|&s| drawn(&samplers[s]))
+            {
+                for (&s, out) in which.iter().zip(out) {
+                    let sampler = &mut samplers[s];
+                    *out = sampler.film_pair().unwrap_or_else(|| sampler.next_2d());
+                }
+                continue;
+            }
+            let mut sequences = [sobol::Sequence::default(); LANES];
+            let mut indices = [0u32; LANES];
+            for (k, &s) in which.iter().enumerate() {
+                let sampler = &samplers[s];
+                (sequences[k], indices[k]) = (sampler.slot_sequences[0], sampler.index);
+            }
+            // Lanes past `which.len()` repeat the first point; they are not used.
+            for k in which.len()..LANES {
+                (sequences[k], indices[k]) = (sequences[0], indices[0]);
+            }
+            let points = sobol::sample_2d_lanes(&sequences, &indices);
+            for (out, point) in out.iter_mut().zip(points) {
+                *out = sobol_open_2d(point);
+            }
+        }
     }
 
     /// The second 2D value of a `random` slot with key `key`.

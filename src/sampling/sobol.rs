@@ -139,6 +139,13 @@ impl Sequence {
         self.sample::<2>(index)
     }
 
+    /// Dimensions 2 and 3 of point `index`, the second half of [`Sequence::sample_4d`].
+    #[inline]
+    pub fn sample_high_2d(&self, index: u32) -> [f32; 2] {
+        let [_, _, c, d] = self.sample::<4>(index);
+        [c, d]
+    }
+
     #[inline]
     pub fn sample_1d(&self, index: u32) -> f32 {
         self.sample::<1>(index)[0]
@@ -162,14 +169,26 @@ pub fn sample_2d_lanes<const N: usize>(
     sequences: &[Sequence; N],
     indices: &[u32; N],
 ) -> [[f32; 2]; N] {
+    sample_pair_lanes(sequences, indices, 0)
+}
+
+/// Dimensions `first` and `first + 1` (`first` 0 or 2) of `N` points, computed side by side
+/// as [`sample_2d_lanes`] computes dimensions 0 and 1.
+#[inline]
+pub fn sample_pair_lanes<const N: usize>(
+    sequences: &[Sequence; N],
+    indices: &[u32; N],
+    first: usize,
+) -> [[f32; 2]; N] {
+    debug_assert!(first == 0 || first == 2);
     let shuffled: [u32; N] =
         std::array::from_fn(|i| shuffled_rev(indices[i], sequences[i].shuffle));
     let t = tables();
     let sobol: [[u32; 4]; N] = std::array::from_fn(|i| lookup(t, shuffled[i]));
     std::array::from_fn(|i| {
         [
-            scrambled(sobol[i][0], sequences[i].dims[0]),
-            scrambled(sobol[i][1], sequences[i].dims[1]),
+            scrambled(sobol[i][first], sequences[i].dims[first]),
+            scrambled(sobol[i][first + 1], sequences[i].dims[first + 1]),
         ]
     })
 }
