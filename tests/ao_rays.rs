@@ -153,10 +153,13 @@ fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
         SamplerKind::Random,
     ] {
         for hemisphere in [Hemisphere::Cosine, Hemisphere::Uniform] {
-            for n in [1, 2] {
+            // One ray per hit with its direction paired with the film position (the default)
+            // or from a slot of its own, and two rays per hit.
+            for (n, film_paired) in [(1, true), (1, false), (2, true)] {
                 let settings = AoSettings {
                     hemisphere,
                     samples: n,
+                    film_paired,
                     ..AoSettings::default()
                 };
                 let mut samplers: [PixelSampler; PACKET] =
@@ -218,7 +221,7 @@ fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
                             };
                             if !close {
                                 failures.push(format!(
-                                    "{sampler_kind} {hemisphere} n={n} pixel ({x}, {y}) sample \
+                                    "{sampler_kind} {hemisphere} n={n} paired={film_paired} pixel ({x}, {y}) sample \
                                      {i}: {} in the packet, {want} from single rays",
                                     got[j]
                                 ));
@@ -227,7 +230,7 @@ fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
                         }
                         if counts.shadow != traced_all {
                             failures.push(format!(
-                                "{sampler_kind} {hemisphere} n={n} block at ({bx}, {by}) \
+                                "{sampler_kind} {hemisphere} n={n} paired={film_paired} block at ({bx}, {by}) \
                                  sample {i}: {} rays traced, single rays trace {traced_all}",
                                 counts.shadow
                             ));
