@@ -1310,6 +1310,11 @@ fn the_film_position_and_its_pair_are_the_first_slot_s_two_values() {
             assert_eq!(pair.to_array(), first.to_array(), "{kind} #{i}");
             a.next_2d();
             assert_eq!(a.film_pair(), Some(pair), "{kind} #{i}");
+            assert_eq!(a.paired_with_film(), pair, "{kind} #{i}");
+            // Without a film position, the value paired with it takes a slot of its own.
+            let mut c = PixelSampler::new(kind, 16, 5);
+            c.start(4, 9, i);
+            assert_eq!(c.paired_with_film(), first, "{kind} #{i}: no film position");
         }
     }
 }
@@ -1606,12 +1611,11 @@ fn side_by_side_film_positions_and_pairs_are_each_samplers_own() {
             PixelSampler::next_film_lanes(&mut together, &which, &mut got);
             let want: Vec<Vec2> = which.iter().map(|&s| alone[s].next_film()).collect();
             assert_eq!(got, want, "{kind}, {lanes} lanes: film positions");
-            PixelSampler::film_pair_lanes(&mut together, &which, &mut got);
-            let want: Vec<Vec2> = which
-                .iter()
-                .map(|&s| alone[s].film_pair().unwrap())
-                .collect();
-            assert_eq!(got, want, "{kind}, {lanes} lanes: their pairs");
+            for &s in &which {
+                let pair = together[s].film_pair();
+                assert!(pair.is_some(), "{kind}: sampler {s} kept no pair");
+                assert_eq!(pair, alone[s].film_pair(), "{kind}, {lanes} lanes: pairs");
+            }
             for &s in &which {
                 assert_eq!(
                     together[s].next_1d().to_bits(),

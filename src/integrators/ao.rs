@@ -14,7 +14,7 @@
 //! |                |          | `shading_samples`)                                             |
 //!
 //! With one AO ray per camera hit (the default) its direction is paired with the film
-//! position, the two halves of one 4D point ([`PixelSampler::film_pair`]): in a pixel that
+//! position, the two halves of one 4D point ([`PixelSampler::paired_with_film`]): in a pixel that
 //! holds an edge, the samples on each side then have directions stratified among themselves
 //! (0.36× the variance on the Cornell box's edges). With several, the `samples` directions of
 //! a camera sample come from one dimension slot as one stratified set
@@ -143,7 +143,9 @@ pub fn li_packet(
     // are not used.
     let mut u = [Vec2::splat(0.5); PACKET];
     if settings.film_paired {
-        PixelSampler::film_pair_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
+        for (u, &lane) in u.iter_mut().zip(&hit_lanes[..n_hits]) {
+            *u = samplers[lane].paired_with_film();
+        }
     } else {
         // A set of one point is the slot's `next_2d` point.
         PixelSampler::next_2d_lanes(samplers, &hit_lanes[..n_hits], &mut u[..n_hits]);
@@ -227,10 +229,11 @@ fn one_ray(
 ) -> Option<(Ray, f32)> {
     let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
     // The direction is paired with the film position (stratified with it, for pixels that
-    // hold an edge); a slot of its own if none was drawn, which no caller in strata does.
-    let u = match settings.film_paired {
-        true => sampler.film_pair().unwrap_or_else(|| sampler.next_2d()),
-        false => sampler.next_2d_set(1).get(0),
+    // hold an edge).
+    let u = if settings.film_paired {
+        sampler.paired_with_film()
+    } else {
+        sampler.next_2d_set(1).get(0)
     };
     let (local, weight) = direction(u, settings.hemisphere);
     let onb = Onb::from_normal(si.ns);

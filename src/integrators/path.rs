@@ -17,7 +17,7 @@
 //!
 //! Sample dimensions: the first surface vertex takes its light point from the film
 //! position's slot (dimensions 0–1 of the 4D point whose dimensions 2–3 placed the sample in
-//! the pixel, [`PixelSampler::film_pair`]); then each bounce draws one 4D slot, the BSDF
+//! the pixel, [`PixelSampler::paired_with_film`]); then each bounce draws one 4D slot, the BSDF
 //! direction (its first two dimensions) and the light point of the vertex that direction
 //! reaches (its last two), and one 1D slot for Russian roulette (skipped, not computed,
 //! before `rr_depth`). The light is chosen with the point's first dimension, which is then
@@ -191,9 +191,7 @@ pub fn li(
         // The slots of the bounce (see the module docs).
         let (u_bsdf, u_light_next) = if settings.paired_bounces {
             if depth == 1 {
-                // Paired with the film position (a slot of its own if none was drawn, which
-                // no caller in strata does).
-                u_light = sampler.film_pair().unwrap_or_else(|| sampler.next_2d());
+                u_light = sampler.paired_with_film();
             }
             sampler.next_2x2d()
         } else {

@@ -78,6 +78,8 @@ pub struct PixelSampler {
     cached_slots: u32,
     index: u32,
     slot: u32,
+    /// The value drawn with the current sample's film position ([`PixelSampler::next_film`]).
+    film_pair: Option<Vec2>,
 }
 
 /// The m × n grid of the correlated multi-jittered pattern for `spp` samples.
@@ -101,6 +103,9 @@ pub fn cmj_grid(spp: u32) -> (u32, u32) {
 /// Dimension-slot keys kept per pixel: enough for path tracing to depth 7.
 const CACHED_SLOTS: usize = 16;
 
+/// Samplers whose points [`PixelSampler::next_2d_lanes`] computes side by side.
+const LANES: usize = 8;
+
 impl PixelSampler {
     /// A sampler for `spp` samples per pixel.
     pub fn new(kind: SamplerKind, spp: u32, seed: u64) -> PixelSampler {
@@ -119,6 +124,7 @@ impl PixelSampler {
             cached_slots: 0,
             index: 0,
             slot: 0,
+            film_pair: None,
         }
     }
 
@@ -136,6 +142,7 @@ impl PixelSampler {
         }
         self.index = index;
         self.slot = 0;
+        self.film_pair = None;
     }
 
     /// The key of the current dimension slot and, with `sobol`, its sequence (the default
@@ -206,51 +213,62 @@ impl PixelSampler {
     /// eight at a time, so that their chains of multiplies and lookups overlap (1.35× as fast
     /// as one after another, `cargo bench --bench ao -- sobol`).
     pub fn next_2d_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
-        Self::slot_lanes(samplers, which, out, 0, PixelSampler::next_2d);
+        debug_assert_eq!(which.len(), out.len());
+        for (which, out) in which.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            if samplers[which[0]].kind != SamplerKind::Sobol {
+                for (&s, out) in which.iter().zip(out) {
+                    *out = samplers[s].next_2d();
+                }
+                continue;
+            }
+            let (sequences, indices) = Self::slot_lanes(samplers, which);
+            let points = sobol::sample_2d_lanes(&sequences, &indices);
+            for (out, point) in out.iter_mut().zip(points) {
+                *out = sobol_open_2d(point);
+            }
+        }
     }
 
     /// [`PixelSampler::next_film`] of several samplers, side by side as in
     /// [`PixelSampler::next_2d_lanes`].
     pub fn next_film_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
-        Self::slot_lanes(samplers, which, out, 2, PixelSampler::next_film);
-    }
-
-    /// Draws the next slot of `samplers[which[k]]` into `out[k]`: with `sobol`, dimensions
-    /// `first` and `first + 1` of the slot's 4D point, side by side; otherwise `one`.
-    #[inline]
-    fn slot_lanes(
-        samplers: &mut [PixelSampler],
-        which: &[usize],
-        out: &mut [Vec2],
-        first: usize,
-        one: fn(&mut PixelSampler) -> Vec2,
-    ) {
-        const LANES: usize = 8;
         debug_assert_eq!(which.len(), out.len());
         for (which, out) in which.chunks(LANES).zip(out.chunks_mut(LANES)) {
             if samplers[which[0]].kind != SamplerKind::Sobol {
                 for (&s, out) in which.iter().zip(out) {
-                    *out = one(&mut samplers[s]);
+                    *out = samplers[s].next_film();
                 }
                 continue;
             }
-            // Lanes past `which.len()` repeat the first point; they are not used.
-            let mut sequences = [sobol::Sequence::default(); LANES];
-            let mut indices = [0u32; LANES];
-            for (k, &s) in which.iter().enumerate() {
-                let sampler = &mut samplers[s];
-                debug_assert_eq!(sampler.kind, SamplerKind::Sobol);
-                sequences[k] = sampler.next_slot().1;
-                indices[k] = sampler.index;
-            }
-            for k in which.len()..LANES {
-                (sequences[k], indices[k]) = (sequences[0], indices[0]);
-            }
-            let points = sobol::sample_pair_lanes(&sequences, &indices, first);
-            for (out, point) in out.iter_mut().zip(points) {
-                *out = sobol_open_2d(point);
+            let (sequences, indices) = Self::slot_lanes(samplers, which);
+            let points = sobol::sample_4d_lanes(&sequences, &indices);
+            for ((out, &s), [a, b, c, d]) in out.iter_mut().zip(which).zip(points) {
+                *out = sobol_open_2d([c, d]);
+                samplers[s].film_pair = Some(sobol_open_2d([a, b]));
             }
         }
+    }
+
+    /// Advances `samplers[which[k]]` (`sobol`, at most [`LANES`]) past their next slot and
+    /// returns each slot's sequence and sample index, for points computed side by side;
+    /// lanes past `which.len()` repeat the first, and are not used.
+    #[inline]
+    fn slot_lanes(
+        samplers: &mut [PixelSampler],
+        which: &[usize],
+    ) -> ([sobol::Sequence; LANES], [u32; LANES]) {
+        let mut sequences = [sobol::Sequence::default(); LANES];
+        let mut indices = [0u32; LANES];
+        for (k, &s) in which.iter().enumerate() {
+            let sampler = &mut samplers[s];
+            debug_assert_eq!(sampler.kind, SamplerKind::Sobol);
+            sequences[k] = sampler.next_slot().1;
+            indices[k] = sampler.index;
+        }
+        for k in which.len()..LANES {
+            (sequences[k], indices[k]) = (sequences[0], indices[0]);
+        }
+        (sequences, indices)
     }
 
     /// Two 2D values from one dimension slot. `sobol` evaluates one 4D point (dimensions 0–3
@@ -278,74 +296,36 @@ impl PixelSampler {
         }
     }
 
-    /// The sample's position in the pixel, from its first slot: the second value that
-    /// [`PixelSampler::next_2x2d`] would give there (with `sobol`, dimensions 2–3 of the
-    /// slot's 4D point), leaving the first to [`PixelSampler::film_pair`]. Dimensions 0–1
-    /// project to the better-stratified 2D set, and the film position needs it least: it
-    /// matters only where the pixel holds an edge, the value paired with it everywhere.
+    /// The sample's position in the pixel, from its first slot: the second value of
+    /// [`PixelSampler::next_2x2d`] there (with `sobol`, dimensions 2–3 of the slot's 4D
+    /// point). The first is kept for [`PixelSampler::paired_with_film`]: dimensions 0–1
+    /// project to the better-stratified 2D set, and the film position needs it least, since
+    /// it matters only where the pixel holds an edge, the value paired with it everywhere.
     #[inline]
     pub fn next_film(&mut self) -> Vec2 {
         debug_assert_eq!(self.slot, 0, "the film position is the sample's first slot");
-        let (key, sequence) = self.next_slot();
-        match self.kind {
-            SamplerKind::Random => self.second_random_2d(key),
-            SamplerKind::Stratified => self.second_cmj_2d(key),
-            SamplerKind::Sobol => sobol_open_2d(sequence.sample_high_2d(self.index)),
-        }
+        let (pair, film) = self.next_2x2d();
+        self.film_pair = Some(pair);
+        film
     }
 
-    /// The value paired with the film position ([`PixelSampler::next_film`]): the first
-    /// value of the sample's first slot, what [`PixelSampler::next_2d`] would give there
-    /// (with `sobol`, dimensions 0–1 of the 4D point whose dimensions 2–3 are the film
-    /// position). The two are stratified together, which suits a value whose effect depends
-    /// on where in the pixel the sample lies, such as the light point or the AO direction
-    /// of the camera ray's hit (an edge or a penumbra crossing the pixel). None until the
-    /// first slot is drawn.
+    /// The value drawn with the film position ([`PixelSampler::next_film`]), stratified
+    /// together with it, which suits a value whose effect depends on where in the pixel the
+    /// sample lies, such as the light point or the AO direction of the camera ray's hit (an
+    /// edge or a penumbra crossing the pixel). A sampler that has not drawn its film
+    /// position draws a slot of its own instead (`next_2d`).
     #[inline]
-    pub fn film_pair(&self) -> Option<Vec2> {
-        if self.slot == 0 || self.cached_slots == 0 {
-            return None;
+    pub fn paired_with_film(&mut self) -> Vec2 {
+        match self.film_pair {
+            Some(pair) => pair,
+            None => self.next_2d(),
         }
-        let key = self.slot_keys[0];
-        Some(match self.kind {
-            SamplerKind::Random => random_2d(key, self.index as u64),
-            SamplerKind::Stratified => self.cmj_2d(key),
-            SamplerKind::Sobol => sobol_2d(&self.slot_sequences[0], self.index),
-        })
     }
 
-    /// [`PixelSampler::film_pair`] of several samplers (`out[k]` from `samplers[which[k]]`),
-    /// side by side with `sobol`; a sampler that has not drawn its film position draws a
-    /// slot of its own instead (`next_2d`), as `film_pair().unwrap_or_else(next_2d)` does.
-    pub fn film_pair_lanes(samplers: &mut [PixelSampler], which: &[usize], out: &mut [Vec2]) {
-        const LANES: usize = 8;
-        debug_assert_eq!(which.len(), out.len());
-        for (which, out) in which.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let drawn = |s: &PixelSampler| s.slot > 0 && s.cached_slots > 0;
-            if samplers[which[0]].kind != SamplerKind::Sobol
-                || !which.iter().all(|&s| drawn(&samplers[s]))
-            {
-                for (&s, out) in which.iter().zip(out) {
-                    let sampler = &mut samplers[s];
-                    *out = sampler.film_pair().unwrap_or_else(|| sampler.next_2d());
-                }
-                continue;
-            }
-            let mut sequences = [sobol::Sequence::default(); LANES];
-            let mut indices = [0u32; LANES];
-            for (k, &s) in which.iter().enumerate() {
-                let sampler = &samplers[s];
-                (sequences[k], indices[k]) = (sampler.slot_sequences[0], sampler.index);
-            }
-            // Lanes past `which.len()` repeat the first point; they are not used.
-            for k in which.len()..LANES {
-                (sequences[k], indices[k]) = (sequences[0], indices[0]);
-            }
-            let points = sobol::sample_2d_lanes(&sequences, &indices);
-            for (out, point) in out.iter_mut().zip(points) {
-                *out = sobol_open_2d(point);
-            }
-        }
+    /// The value drawn with the film position, as [`PixelSampler::paired_with_film`] gives
+    /// it; None until the film position is drawn.
+    pub fn film_pair(&self) -> Option<Vec2> {
+        self.film_pair
     }
 
     /// The second 2D value of a `random` slot with key `key`.

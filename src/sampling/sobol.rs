@@ -139,13 +139,6 @@ impl Sequence {
         self.sample::<2>(index)
     }
 
-    /// Dimensions 2 and 3 of point `index`, the second half of [`Sequence::sample_4d`].
-    #[inline]
-    pub fn sample_high_2d(&self, index: u32) -> [f32; 2] {
-        let [_, _, c, d] = self.sample::<4>(index);
-        [c, d]
-    }
-
     #[inline]
     pub fn sample_1d(&self, index: u32) -> f32 {
         self.sample::<1>(index)[0]
@@ -169,28 +162,30 @@ pub fn sample_2d_lanes<const N: usize>(
     sequences: &[Sequence; N],
     indices: &[u32; N],
 ) -> [[f32; 2]; N] {
-    sample_pair_lanes(sequences, indices, 0)
+    sample_lanes(sequences, indices)
 }
 
-/// Dimensions `first` and `first + 1` (`first` 0 or 2) of `N` points, computed side by side
-/// as [`sample_2d_lanes`] computes dimensions 0 and 1.
+/// [`Sequence::sample_4d`] of `N` points, computed side by side as [`sample_2d_lanes`]
+/// computes their first two dimensions.
 #[inline]
-pub fn sample_pair_lanes<const N: usize>(
+pub fn sample_4d_lanes<const N: usize>(
     sequences: &[Sequence; N],
     indices: &[u32; N],
-    first: usize,
-) -> [[f32; 2]; N] {
-    debug_assert!(first == 0 || first == 2);
+) -> [[f32; 4]; N] {
+    sample_lanes(sequences, indices)
+}
+
+/// Dimensions 0 to `D` − 1 (`D` ≤ 4) of `N` points, a step at a time over all of them.
+#[inline]
+fn sample_lanes<const N: usize, const D: usize>(
+    sequences: &[Sequence; N],
+    indices: &[u32; N],
+) -> [[f32; D]; N] {
     let shuffled: [u32; N] =
         std::array::from_fn(|i| shuffled_rev(indices[i], sequences[i].shuffle));
     let t = tables();
     let sobol: [[u32; 4]; N] = std::array::from_fn(|i| lookup(t, shuffled[i]));
-    std::array::from_fn(|i| {
-        [
-            scrambled(sobol[i][first], sequences[i].dims[first]),
-            scrambled(sobol[i][first + 1], sequences[i].dims[first + 1]),
-        ]
-    })
+    std::array::from_fn(|i| std::array::from_fn(|d| scrambled(sobol[i][d], sequences[i].dims[d])))
 }
 
 /// One dimension's nested uniform scramble with the hashed key `scramble`, as a float in
@@ -313,6 +308,11 @@ mod tests {
             for i in 0..8 {
                 let want = sample_2d(indices[i], seeds[i]);
                 assert_eq!(lanes[i].map(f32::to_bits), want.map(f32::to_bits));
+            }
+            let four = super::sample_4d_lanes(&sequences, &indices);
+            for i in 0..8 {
+                let want = sequences[i].sample_4d(indices[i]);
+                assert_eq!(four[i].map(f32::to_bits), want.map(f32::to_bits));
             }
             let three = sample_2d_lanes::<3>(&[sequences[5]; 3], &[indices[0], 7, 1]);
             assert_eq!(
