@@ -11,6 +11,9 @@
 //! layout. It also traces the incoherent diffuse rays both ways, eight consecutive ones per
 //! packet.
 //!
+//! The `quads/` group traces the bundled Cornell box and `emissive-strength` with Embree's
+//! geometry as quads (the default) and as triangles (`cargo bench --bench backends -- quads/`).
+//!
 //! Meshes: the bundled flight helmet, plus every `*.glb`/`*.gltf` in `$STRATA_BENCH_MESHES`
 //! (default `~/.cache/strata/meshes`, filled by the script above). Throughput is in rays.
 
@@ -236,5 +239,50 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Embree's geometry as quads (pairs of triangles, the default where they pay) against plain
+/// triangles, on the bundled scenes whose triangles pair (`quads/`): one thread, the same
+/// ray sets as `trace/`.
+fn bench_quads(c: &mut Criterion) {
+    strata::embree::enable_ftz_daz();
+    for file in ["cornell-box.gltf", "emissive-strength.gltf"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(file);
+        let scene = scene::load(&path, &LoadOptions::default()).unwrap();
+        let accel = |quads: bool| {
+            Accel::build(
+                &scene,
+                &AccelOptions {
+                    quads,
+                    threads: 1,
+                    ..Default::default()
+                },
+            )
+            .unwrap()
+        };
+        let (plain, quads) = (accel(false), accel(true));
+        assert!(
+            quads.as_embree().unwrap().uses_quads(),
+            "{file} pairs no triangles"
+        );
+        let (coherent, incoherent) = ray_sets(&scene, &plain);
+        let mut g = c.benchmark_group(format!("quads/{}", file.trim_end_matches(".gltf")));
+        g.sample_size(20).measurement_time(Duration::from_secs(3));
+        for (kind, rays) in [("coherent", &coherent), ("incoherent", &incoherent)] {
+            g.throughput(Throughput::Elements(rays.len() as u64));
+            for (geometry, accel) in [("triangles", &plain), ("quads", &quads)] {
+                g.bench_function(
+                    BenchmarkId::new(format!("closest, {geometry}"), kind),
+                    |b| b.iter(|| rays.iter().filter(|r| accel.intersect(r).is_some()).count()),
+                );
+                g.bench_function(BenchmarkId::new(format!("any, {geometry}"), kind), |b| {
+                    b.iter(|| rays.iter().filter(|r| accel.occluded(r)).count())
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, bench, bench_quads);
 criterion_main!(benches);

@@ -142,6 +142,11 @@ struct Cli {
     #[arg(long, hide = true)]
     no_robust: bool,
 
+    /// Trace every triangle as a triangle, never pairs of them as quads (Embree), for
+    /// measurements only.
+    #[arg(long, hide = true)]
+    no_quads: bool,
+
     /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
     /// an RGB EXR, for statistical comparisons.
     #[arg(long, value_name = "FILE.exr")]
@@ -501,6 +506,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             quality: cli.bvh_quality,
             threads,
             robust: !cli.no_robust,
+            quads: !cli.no_quads,
         },
     )
     .with_context(|| format!("{}: building the {} BVH", cli.scene.display(), cli.backend))?;

@@ -234,8 +234,8 @@ fn render_workers_flush_denormals() {
 }
 
 /// The memory each backend reports follows from what it must store: Embree copies the
-/// vertex and index buffers (12 bytes per vertex and per triangle, at least) and builds a
-/// non-empty BVH, and its build peak covers what it keeps; obvhs stores one 48-byte
+/// vertex and index buffers (12 bytes per vertex and per triangle, or 16 per quad, at least)
+/// and builds a non-empty BVH, and its build peak covers what it keeps; obvhs stores one 48-byte
 /// triangle and a 4-byte id per triangle. A grid of 2·n² triangles makes the sizes clear.
 #[test]
 fn backends_report_the_memory_they_hold() {
@@ -257,25 +257,35 @@ fn backends_report_the_memory_they_hold() {
     let scene = scene_of(&positions, &triangles);
     let t = triangles.len();
 
-    let embree = Accel::build(&scene, &AccelOptions::default())
-        .unwrap()
-        .memory();
-    assert!(
-        embree.geometry >= 12 * positions.len() + 12 * t,
-        "Embree geometry {} B for {} vertices and {t} triangles",
-        embree.geometry,
-        positions.len()
-    );
-    assert!(
-        embree.bvh >= 8 * t,
-        "Embree BVH {} B for {t} triangles",
-        embree.bvh
-    );
-    let peak = embree.build_peak.expect("Embree reports its peak");
-    assert!(
-        peak >= embree.geometry + embree.bvh,
-        "peak {peak} B, {embree:?}"
-    );
+    // As triangles, and as quads (the grid's squares pair: 16 bytes per quad).
+    for (quads, primitives, index_bytes) in [(false, t, 12), (true, t / 2, 16)] {
+        let accel = Accel::build(
+            &scene,
+            &AccelOptions {
+                quads,
+                ..AccelOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(accel.as_embree().unwrap().uses_quads(), quads);
+        let embree = accel.memory();
+        assert!(
+            embree.geometry >= 12 * positions.len() + index_bytes * primitives,
+            "Embree geometry {} B for {} vertices and {primitives} primitives",
+            embree.geometry,
+            positions.len()
+        );
+        assert!(
+            embree.bvh >= 8 * primitives,
+            "Embree BVH {} B for {primitives} primitives",
+            embree.bvh
+        );
+        let peak = embree.build_peak.expect("Embree reports its peak");
+        assert!(
+            peak >= embree.geometry + embree.bvh,
+            "peak {peak} B, {embree:?}"
+        );
+    }
 
     let options = AccelOptions {
         backend: strata::accel::Backend::Obvhs,

@@ -191,6 +191,9 @@ pub struct AccelOptions {
     pub threads: usize,
     /// Watertight traversal (Embree's `RTC_SCENE_FLAG_ROBUST`); on by default.
     pub robust: bool,
+    /// Embree: triangles that share an edge traced as quads where that pays (see
+    /// `embree_backend`); on by default, off for comparisons.
+    pub quads: bool,
 }
 
 impl Default for AccelOptions {
@@ -200,6 +203,7 @@ impl Default for AccelOptions {
             quality: BuildQuality::default(),
             threads: 0,
             robust: true,
+            quads: true,
         }
     }
 }

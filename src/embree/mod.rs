@@ -344,10 +344,46 @@ impl SceneBuilder {
         positions: &[[f32; 3]],
         indices: &[[u32; 3]],
     ) -> Result<u32, EmbreeError> {
+        self.attach_mesh(
+            positions,
+            indices,
+            sys::RTC_GEOMETRY_TYPE_TRIANGLE,
+            sys::RTC_FORMAT_UINT3,
+        )
+    }
+
+    /// Attaches a quad mesh (vertices v0 v1 v2 v3 in order around the quad); returns its
+    /// geometry id. Embree treats each quad as the triangles (v0, v1, v3) and (v2, v3, v1):
+    /// a hit on the first reports that triangle's barycentrics as `u`, `v`, one on the second
+    /// reports 1 − u′ and 1 − v′ of its barycentrics u′, v′, so that u + v > 1 there (Embree's
+    /// `RTC_GEOMETRY_TYPE_QUAD`); `ng` is the normal of the triangle hit, with its winding. A
+    /// triangle may be given as a quad with v3 = v2. As [`Self::attach_triangles`] otherwise.
+    pub fn attach_quads(
+        &mut self,
+        positions: &[[f32; 3]],
+        indices: &[[u32; 4]],
+    ) -> Result<u32, EmbreeError> {
+        self.attach_mesh(
+            positions,
+            indices,
+            sys::RTC_GEOMETRY_TYPE_QUAD,
+            sys::RTC_FORMAT_UINT4,
+        )
+    }
+
+    /// A mesh of `N`-gons (triangles or quads) of Embree geometry type `kind`, its index
+    /// buffer items of `format` (`N` × u32).
+    fn attach_mesh<const N: usize>(
+        &mut self,
+        positions: &[[f32; 3]],
+        indices: &[[u32; N]],
+        kind: sys::RTCGeometryType,
+        format: sys::RTCFormat,
+    ) -> Result<u32, EmbreeError> {
         if positions.is_empty() || indices.is_empty() {
             return Err(EmbreeError {
                 code: sys::RTC_ERROR_INVALID_ARGUMENT,
-                message: "a triangle mesh needs at least one vertex and one triangle".into(),
+                message: "a mesh needs at least one vertex and one primitive".into(),
             });
         }
         let vertex_count = positions.len();
@@ -363,10 +399,10 @@ impl SceneBuilder {
         }
         let device = self.device.inner.raw;
         // SAFETY: the device is live; a null geometry is reported by device.check().
-        let geom = unsafe { sys::rtcNewGeometry(device, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        let geom = unsafe { sys::rtcNewGeometry(device, kind) };
         self.device.check()?;
         let result = (|| {
-            // SAFETY: `geom` is a live triangle geometry. Embree allocates buffers of exactly
+            // SAFETY: `geom` is a live geometry. Embree allocates buffers of exactly
             // `count` items of the given stride (plus its own padding); we write no more than
             // `count` items into each, and null pointers are checked before use.
             unsafe {
@@ -388,10 +424,10 @@ impl SceneBuilder {
                     geom,
                     sys::RTC_BUFFER_TYPE_INDEX,
                     0,
-                    sys::RTC_FORMAT_UINT3,
-                    12,
+                    format,
+                    4 * N,
                     indices.len(),
-                ) as *mut [u32; 3];
+                ) as *mut [u32; N];
                 self.device.check()?;
                 if ib.is_null() {
                     return Err(null_buffer("index"));
