@@ -62,6 +62,14 @@ pub enum Emitter {
         /// every light sample needs them, and each costs a square root or a division.
         area: f32,
         normal: Vec3,
+        /// Its vertices, copied here so that a light sample reads them without going through
+        /// the scene's index buffer.
+        vertices: [Vec3; 3],
+        /// A per-axis bound on the rounding error of any point b₀·a + b₁·b + b₂·c computed on
+        /// the triangle, and on the error of a ray–triangle test near it: γ₇·(max |vᵢ| + the
+        /// triangle's largest extent). A point's own bound (γ₇·Σ|bᵢ·vᵢ| plus γ₇ times its
+        /// distance to the farthest vertex) is never larger, as bᵢ ≥ 0 sum to 1.
+        point_error: Vec3,
     },
     Background {
         radiance: Vec3,
@@ -310,10 +318,15 @@ impl LightSet {
                         triangle_light = vec![u32::MAX; scene.triangles.len()];
                     }
                     triangle_light[prim] = emitters.len() as u32;
+                    let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
+                    let point_error =
+                        gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
                     emitters.push(Emitter::Triangle {
                         prim: prim as u32,
                         area,
                         normal: cross / (2.0 * area),
+                        vertices: [a, b, c],
+                        point_error,
                     });
                     weights.push(power);
                 }
@@ -432,14 +445,23 @@ impl LightSet {
         &self,
         scene: &Scene,
         materials: &Materials,
-        (prim, area, n): (u32, f32, Vec3),
+        triangle: &Emitter,
         p: Vec3,
         u: Vec2,
     ) -> Option<LightSample> {
+        let &Emitter::Triangle {
+            prim,
+            area,
+            normal: n,
+            vertices: [a, b, c],
+            point_error,
+        } = triangle
+        else {
+            return None;
+        };
         if area.is_nan() || area <= 0.0 {
             return None;
         }
-        let [a, b, c] = scene.triangle_positions(prim);
         let (q, bary, pdf_solid_angle) = match self.spherical_area(a, b, c, p) {
             Some(omega) => {
                 let da = (a - p).normalize();
@@ -479,16 +501,9 @@ impl LightSet {
             return None;
         }
         let li = materials.emitted_at(scene, prim, bary, cos_l > 0.0);
-        // Offset the light point off its triangle toward the receiver.
-        let b0 = 1.0 - bary.x - bary.y;
-        let extent = (a - q)
-            .abs()
-            .max((b - q).abs())
-            .max((c - q).abs())
-            .max_element();
-        let err = gamma(7) * ((b0 * a).abs() + (bary.x * b).abs() + (bary.y * c).abs())
-            + Vec3::splat(gamma(7) * extent);
-        let p_light = crate::interaction::offset_ray_origin(q, err, n, -wi);
+        // Offset the light point off its triangle toward the receiver, past the triangle's
+        // error bound.
+        let p_light = crate::interaction::offset_ray_origin(q, point_error, n, -wi);
         Some(LightSample {
             wi,
             li,
@@ -518,8 +533,8 @@ impl LightSet {
         let (i, pmf, ux) = self.table.sample_remapped(u.x);
         let u = Vec2::new(ux, u.y);
         let p = si.p;
-        let s = match self.emitters[i] {
-            Emitter::Point {
+        let s = match &self.emitters[i] {
+            &Emitter::Point {
                 position,
                 intensity,
             } => {
@@ -534,7 +549,7 @@ impl LightSet {
                     infinite: false,
                 }
             }
-            Emitter::Spot {
+            &Emitter::Spot {
                 position,
                 direction,
                 intensity,
@@ -554,7 +569,7 @@ impl LightSet {
                     infinite: false,
                 }
             }
-            Emitter::Directional {
+            &Emitter::Directional {
                 direction,
                 irradiance,
             } => LightSample {
@@ -565,7 +580,7 @@ impl LightSet {
                 p_light: Vec3::ZERO,
                 infinite: true,
             },
-            Emitter::Background { radiance } => LightSample {
+            &Emitter::Background { radiance } => LightSample {
                 wi: square_to_uniform_sphere(u),
                 li: radiance,
                 pdf: 0.25 * std::f32::consts::FRAC_1_PI,
@@ -573,8 +588,8 @@ impl LightSet {
                 p_light: Vec3::ZERO,
                 infinite: true,
             },
-            Emitter::Triangle { prim, area, normal } => {
-                self.sample_triangle(scene, materials, (prim, area, normal), p, u)?
+            triangle @ Emitter::Triangle { .. } => {
+                self.sample_triangle(scene, materials, triangle, p, u)?
             }
         };
         Some((s, pmf))
