@@ -5,8 +5,9 @@
 //! not much larger than theirs (two halves of a rectangle, as in most architectural and
 //! modelled scenes), and the rest as degenerate quads (v3 = v2) in the same geometry (a
 //! second geometry of triangles would make Embree build and traverse a second BVH). Embree
-//! intersects a quad's two triangles in one test: on the Cornell box random rays trace 1.2–1.27×
-//! as fast, and a path-traced render takes 9% less time (BENCHMARKS.md). Hits are mapped back to the scene's triangle and its own
+//! intersects a quad's two triangles in one test: on the Cornell box diffuse rays trace
+//! 1.17–1.21× as fast (`cargo bench --bench backends -- quads/`), and a path-traced render
+//! takes 9% less time (BENCHMARKS.md). Hits are mapped back to the scene's triangle and its own
 //! barycentrics ([`QuadTriangles`]). Where few triangles pair (meshes without shared edges),
 //! plain triangles are used: a degenerate quad costs a little more than a triangle.
 
