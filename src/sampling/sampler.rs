@@ -278,20 +278,18 @@ impl PixelSampler {
     /// values per bounce.
     #[inline]
     pub fn next_2x2d(&mut self) -> (Vec2, Vec2) {
+        // The second value's key, for the kinds that key each value.
+        const SECOND: u64 = 0x6a09_e667_f3bc_c908;
         let (key, sequence) = self.next_slot();
         match self.kind {
             SamplerKind::Random => {
-                let a = hash_words(&[key, self.index as u64]);
-                (
-                    Vec2::new(u32_to_unit_f32(a as u32), u32_to_unit_f32((a >> 32) as u32)),
-                    self.second_random_2d(key),
-                )
+                let index = self.index as u64;
+                (random_2d(key, index), random_2d(key ^ SECOND, index))
             }
-            SamplerKind::Stratified => (self.cmj_2d(key), self.second_cmj_2d(key)),
+            SamplerKind::Stratified => (self.cmj_2d(key), self.cmj_2d(mix64(key ^ SECOND))),
             SamplerKind::Sobol => {
                 let [a, b, c, d] = sequence.sample_4d(self.index);
-                let h = Vec2::splat(SOBOL_HALF_CELL);
-                (Vec2::new(a, b) + h, Vec2::new(c, d) + h)
+                (sobol_open_2d([a, b]), sobol_open_2d([c, d]))
             }
         }
     }
@@ -326,20 +324,6 @@ impl PixelSampler {
     /// it; None until the film position is drawn.
     pub fn film_pair(&self) -> Option<Vec2> {
         self.film_pair
-    }
-
-    /// The second 2D value of a `random` slot with key `key`.
-    #[inline]
-    fn second_random_2d(&self, key: u64) -> Vec2 {
-        let b = hash_words(&[key ^ 0x6a09_e667_f3bc_c908, self.index as u64]);
-        Vec2::new(u32_to_unit_f32(b as u32), u32_to_unit_f32((b >> 32) as u32))
-    }
-
-    /// The second 2D value of a `stratified` slot with key `key`: a CMJ pattern permuted
-    /// independently of the first.
-    #[inline]
-    fn second_cmj_2d(&self, key: u64) -> Vec2 {
-        self.cmj_2d(mix64(key ^ 0x6a09_e667_f3bc_c908))
     }
 
     #[inline]
