@@ -56,21 +56,7 @@ pub enum Emitter {
         direction: Vec3,
         irradiance: Vec3,
     },
-    Triangle {
-        prim: u32,
-        /// The triangle's area and unit geometric normal (along e1 × e2), computed once:
-        /// every light sample needs them, and each costs a square root or a division.
-        area: f32,
-        normal: Vec3,
-        /// Its vertices, copied here so that a light sample reads them without going through
-        /// the scene's index buffer.
-        vertices: [Vec3; 3],
-        /// A per-axis bound on the rounding error of any point b₀·a + b₁·b + b₂·c computed on
-        /// the triangle, and on the error of a ray–triangle test near it: γ₇·(max |vᵢ| + the
-        /// triangle's largest extent). A point's own bound (γ₇·Σ|bᵢ·vᵢ| plus γ₇ times its
-        /// distance to the farthest vertex) is never larger, as bᵢ ≥ 0 sum to 1.
-        point_error: Vec3,
-    },
+    Triangle(TriangleLight),
     Background {
         radiance: Vec3,
     },
@@ -83,6 +69,24 @@ impl Emitter {
             Emitter::Point { .. } | Emitter::Spot { .. } | Emitter::Directional { .. }
         )
     }
+}
+
+/// An emissive triangle as a light: what every light sample on it needs, computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleLight {
+    pub prim: u32,
+    /// The triangle's area and unit geometric normal (along e1 × e2): each costs a square
+    /// root or a division.
+    pub area: f32,
+    pub normal: Vec3,
+    /// Its vertices, copied here so that a light sample reads them without going through the
+    /// scene's index buffer.
+    pub vertices: [Vec3; 3],
+    /// A per-axis bound on the rounding error of any point b₀·a + b₁·b + b₂·c computed on the
+    /// triangle, and on the error of a ray–triangle test near it: γ₇·(max |vᵢ| + the
+    /// triangle's largest extent). A point's own bound (γ₇·Σ|bᵢ·vᵢ| plus γ₇ times its distance
+    /// to the farthest vertex) is never larger, as bᵢ ≥ 0 sum to 1.
+    pub point_error: Vec3,
 }
 
 /// Angular attenuation of a `KHR_lights_punctual` spot light for `cos_angle` between the
@@ -321,13 +325,13 @@ impl LightSet {
                     let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
                     let point_error =
                         gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
-                    emitters.push(Emitter::Triangle {
+                    emitters.push(Emitter::Triangle(TriangleLight {
                         prim: prim as u32,
                         area,
                         normal: cross / (2.0 * area),
                         vertices: [a, b, c],
                         point_error,
-                    });
+                    }));
                     weights.push(power);
                 }
             }
@@ -405,8 +409,8 @@ impl LightSet {
                 return self.table.pmf(i as usize) / omega;
             }
         }
-        let area = match self.emitters[i as usize] {
-            Emitter::Triangle { area, .. } => area,
+        let area = match &self.emitters[i as usize] {
+            Emitter::Triangle(t) => t.area,
             _ => {
                 debug_assert!(false, "triangle_light indexes triangle emitters");
                 return 0.0;
@@ -445,20 +449,17 @@ impl LightSet {
         &self,
         scene: &Scene,
         materials: &Materials,
-        triangle: &Emitter,
+        triangle: &TriangleLight,
         p: Vec3,
         u: Vec2,
     ) -> Option<LightSample> {
-        let &Emitter::Triangle {
+        let &TriangleLight {
             prim,
             area,
             normal: n,
             vertices: [a, b, c],
             point_error,
-        } = triangle
-        else {
-            return None;
-        };
+        } = triangle;
         if area.is_nan() || area <= 0.0 {
             return None;
         }
@@ -588,7 +589,7 @@ impl LightSet {
                 p_light: Vec3::ZERO,
                 infinite: true,
             },
-            triangle @ Emitter::Triangle { .. } => {
+            Emitter::Triangle(triangle) => {
                 self.sample_triangle(scene, materials, triangle, p, u)?
             }
         };

@@ -72,8 +72,8 @@ impl EmitterView {
             return None;
         }
         // The emissive triangles, as the light set already lists them.
-        let emissive = ctx.lights.emitters.iter().filter_map(|e| match *e {
-            Emitter::Triangle { prim, .. } => Some(prim),
+        let emissive = ctx.lights.emitters.iter().filter_map(|e| match e {
+            Emitter::Triangle(t) => Some(t.prim),
             _ => None,
         });
         let boxes = cluster_boxes(ctx.scene, emissive);
