@@ -138,6 +138,11 @@ struct Cli {
     #[arg(long, default_value = "medium", value_name = "low|medium|high")]
     bvh_quality: BuildQuality,
 
+    /// Path tracing: draw each bounce's sample point from a Sobol sequence of its own
+    /// (padding) instead of stratifying the bounces jointly; for measurements only.
+    #[arg(long, hide = true)]
+    padded_bounces: bool,
+
     /// Turn off Embree's watertight (robust) traversal, for measurements only.
     #[arg(long, hide = true)]
     no_robust: bool,
@@ -524,6 +529,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         emitter_samples: cli.emitter_samples,
         camera_emission: true,
         paired_bounces: true,
+        joint_bounces: !cli.padded_bounces,
     };
     let integrator = match cli.integrator {
         IntegratorKind::Ao => Integrator::Ao(AoSettings {

@@ -960,18 +960,9 @@ fn assert_pairing_lowers_the_variance(
     );
 }
 
-/// A floor seen from above, lit only by light that a ceiling reflects: a long, narrow strip
-/// light between the two emits upward (one-sided), so the floor sees only its dark back. With
-/// light sampling alone, a floor pixel is then one-bounce indirect light, a function of the
-/// floor's BSDF direction (where on the ceiling it lands) and of the light point sampled from
-/// there, which matters because the strip's near part outshines the rest. Drawing the two as
-/// one 4D Sobol point (`paired_bounces`, the default) stratifies them jointly. Drawing each
-/// vertex's direction with its own light point instead pairs the direction with a point that
-/// the floor cannot use, leaving the pair that matters unstratified: the pixels' variance over
-/// seeds is higher (0.78× paired against apart when written, at 256 spp).
-#[test]
-fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
-    // Floor, ceiling, and the strip light facing the ceiling.
+/// The scene of the test below, and the camera looking down at its floor: floor, ceiling,
+/// and between them a strip light facing the ceiling.
+fn floor_lit_through_the_ceiling() -> (Scene, Camera) {
     let scene = horizontal_quads(
         &[
             ((-4.0, 4.0), 0.0, (-4.0, 4.0), true, 1),
@@ -981,15 +972,80 @@ fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
         vec![Material::default(), diffuse(0.5, 0.0), diffuse(0.0, 5.0)],
     );
     let cam = camera(Vec3::new(-1.0, 0.8, 0.5), Vec3::new(-1.0, 0.0, 0.5), 0.5);
+    (scene, cam)
+}
+
+/// A floor seen from above, lit only by light that a ceiling reflects: a long, narrow strip
+/// light between the two emits upward (one-sided), so the floor sees only its dark back. With
+/// light sampling alone, a floor pixel is then one-bounce indirect light, a function of the
+/// floor's BSDF direction (where on the ceiling it lands) and of the light point sampled from
+/// there, which matters because the strip's near part outshines the rest. Drawing the two as
+/// one 4D Sobol point (`paired_bounces`, the default) stratifies them jointly. Drawing each
+/// vertex's direction with its own light point instead pairs the direction with a point that
+/// the floor cannot use, leaving the pair that matters unstratified: the pixels' variance over
+/// seeds is higher (0.78× paired against apart when written, at 256 spp). Both arms pad
+/// their bounces apart (`joint_bounces` off): drawn from one Sobol sequence, the first
+/// bounce's direction and the second bounce's own light point are stratified jointly too,
+/// and the two layouts then have the same variance here (2.41e-5 and 2.33e-5).
+#[test]
+fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
+    let (scene, cam) = floor_lit_through_the_ceiling();
     let integrator = |paired_bounces| {
         Integrator::Path(PathSettings {
             max_depth: 2,
             strategy: Strategy::Light,
             paired_bounces,
+            joint_bounces: false,
             ..Default::default()
         })
     };
     assert_pairing_lowers_the_variance(&scene, &cam, integrator, 32, 0.9);
+}
+
+/// The path tracer draws its bounces' points jointly (`joint_bounces`, the default) or
+/// padded: the first bounce's point is the same either way, so direct lighting
+/// (`max_depth` 1) gives the same image bit for bit, while deeper paths take other points
+/// for their later bounces (different pixels) that estimate the same light (the same
+/// mean). The variance this saves is measured in BENCHMARKS.md ("Bounces stratified
+/// jointly"); `tests/sampling.rs` checks the points themselves.
+#[test]
+fn later_bounces_take_jointly_stratified_points() {
+    let (scene, cam) = floor_lit_through_the_ceiling();
+    let render = |max_depth, joint_bounces| {
+        let setup = Setup {
+            sampler: SamplerKind::Sobol,
+            ..Setup::new(16, 256, 3)
+        };
+        let integrator = Integrator::Path(PathSettings {
+            max_depth,
+            joint_bounces,
+            ..Default::default()
+        });
+        render_film(&scene, cam.clone(), integrator, setup)
+            .film
+            .pixels()
+    };
+    let bits = |img: &[Vec3]| -> Vec<[u32; 3]> {
+        img.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    };
+    assert_eq!(
+        bits(&render(1, true)),
+        bits(&render(1, false)),
+        "direct lighting"
+    );
+    let (joint, padded) = (render(4, true), render(4, false));
+    let differing = joint.iter().zip(&padded).filter(|(a, b)| a != b).count();
+    assert!(
+        differing > joint.len() / 2,
+        "{differing} of {} pixels differ",
+        joint.len()
+    );
+    let mean = |img: &[Vec3]| img.iter().map(|p| p.x as f64).sum::<f64>() / img.len() as f64;
+    let (a, b) = (mean(&joint), mean(&padded));
+    assert!(
+        a > 0.01 && (a - b).abs() < 0.01 * b,
+        "means {a} joint, {b} padded"
+    );
 }
 
 /// Direct light on a striped floor: stripes of albedo 0.9 and 0.1, a little wider than a

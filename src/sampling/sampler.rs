@@ -80,6 +80,9 @@ pub struct PixelSampler {
     slot: u32,
     /// The value drawn with the current sample's film position ([`PixelSampler::next_film`]).
     film_pair: Option<Vec2>,
+    /// With `sobol`, the sequence of the current sample's first bounce slot, whose index
+    /// shuffle the later bounces share ([`PixelSampler::next_bounce_2x2d`]).
+    first_bounce: Option<sobol::Sequence>,
 }
 
 /// The m × n grid of the correlated multi-jittered pattern for `spp` samples.
@@ -125,6 +128,7 @@ impl PixelSampler {
             index: 0,
             slot: 0,
             film_pair: None,
+            first_bounce: None,
         }
     }
 
@@ -143,6 +147,7 @@ impl PixelSampler {
         self.index = index;
         self.slot = 0;
         self.film_pair = None;
+        self.first_bounce = None;
     }
 
     /// The key of the current dimension slot and, with `sobol`, its sequence (the default
@@ -292,6 +297,34 @@ impl PixelSampler {
                 (sobol_open_2d([a, b]), sobol_open_2d([c, d]))
             }
         }
+    }
+
+    /// [`PixelSampler::next_2x2d`] for bounce `bounce` (1, 2, …) of a path, drawn from a slot
+    /// of its own as that is. With `sobol`, the bounces share one Sobol sequence: bounce k
+    /// takes dimensions 4(k − 1) to 4k − 1 under the first bounce's index shuffle (each
+    /// dimension scrambled with its own slot's keys), so the bounces' points are stratified
+    /// jointly, not only each bounce's four dimensions among themselves. Up to
+    /// [`sobol::DIMENSION_SETS`] bounces; later ones, and a bounce drawn without the first,
+    /// are padded as [`PixelSampler::next_2x2d`] pads. The first bounce keeps dimensions
+    /// 0–3, whose 2D projections are the best stratified: it carries most of the indirect
+    /// light. The other kinds draw [`PixelSampler::next_2x2d`].
+    #[inline]
+    pub fn next_bounce_2x2d(&mut self, bounce: u32) -> (Vec2, Vec2) {
+        if self.kind != SamplerKind::Sobol {
+            return self.next_2x2d();
+        }
+        let (_, sequence) = self.next_slot();
+        let [a, b, c, d] = match (bounce, self.first_bounce) {
+            (1, _) => {
+                self.first_bounce = Some(sequence);
+                sequence.sample_4d(self.index)
+            }
+            (2..=sobol::DIMENSION_SETS, Some(first)) => sequence
+                .with_shuffle_of(&first)
+                .sample_4d_of_set(self.index, bounce - 1),
+            _ => sequence.sample_4d(self.index),
+        };
+        (sobol_open_2d([a, b]), sobol_open_2d([c, d]))
     }
 
     /// The sample's position in the pixel, from its first slot: the second value of

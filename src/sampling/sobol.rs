@@ -10,6 +10,11 @@
 //! `parts::sobol_int4_rev`, so they hold its matrices by construction; the index shuffle and
 //! the per-dimension Owen scrambles are the crate's `parts` too, keyed here by our seeds, and
 //! run in scalar code per dimension, so a 2D point costs half a 4D one.
+//!
+//! Dimensions 4 to 31 (sets 1–7, [`Sequence::sample_4d_of_set`]) have tables too, 8 KiB
+//! each, for a path's later bounces, which take further dimensions of their first bounce's
+//! sequence ([`Sequence::with_shuffle_of`]) rather than dimensions 0–3 of sequences of
+//! their own.
 
 use std::sync::OnceLock;
 
@@ -26,26 +31,35 @@ struct Tables {
     next: [[u32; 4]; 256],
 }
 
-fn tables() -> &'static Tables {
-    static TABLES: OnceLock<Tables> = OnceLock::new();
-    TABLES.get_or_init(|| {
-        let mut t = Tables {
-            top: [[0; 4]; 256],
-            next: [[0; 4]; 256],
-        };
-        for b in 0..256u32 {
-            t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, 0).into();
-            t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, 0).into();
-        }
-        t
-    })
+/// Dimension sets with tables: dimensions 0–31 of the sequence, in sets of four.
+pub const DIMENSION_SETS: u32 = 8;
+
+/// The tables of dimension set `set` (dimensions 4·set to 4·set + 3), `set` < [`DIMENSION_SETS`].
+fn tables(set: u32) -> &'static Tables {
+    static TABLES: OnceLock<Vec<Tables>> = OnceLock::new();
+    let all = TABLES.get_or_init(|| {
+        (0..DIMENSION_SETS)
+            .map(|set| {
+                let mut t = Tables {
+                    top: [[0; 4]; 256],
+                    next: [[0; 4]; 256],
+                };
+                for b in 0..256u32 {
+                    t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, set).into();
+                    t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, set).into();
+                }
+                t
+            })
+            .collect()
+    });
+    &all[set as usize]
 }
 
 /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of the 16-bit index whose
 /// bit-reversal is `index_rev` (only its top 16 bits are read).
 #[inline]
 fn sobol_rev_of_rev(index_rev: u32) -> [u32; 4] {
-    lookup(tables(), index_rev)
+    lookup(tables(0), index_rev)
 }
 
 /// [`sobol_rev_of_rev`] in the given tables.
@@ -144,6 +158,26 @@ impl Sequence {
         self.sample::<1>(index)[0]
     }
 
+    /// This sequence's dimension scrambles under `other`'s index shuffle: dimension set `s`
+    /// of the result ([`Sequence::sample_4d_of_set`]) and set `t` ≠ `s` of `other` are then
+    /// dimensions of one Sobol sequence, stratified jointly, where two sequences with their
+    /// own shuffles are independent of each other (padding).
+    #[inline]
+    pub fn with_shuffle_of(self, other: &Sequence) -> Sequence {
+        Sequence {
+            shuffle: other.shuffle,
+            dims: self.dims,
+        }
+    }
+
+    /// Dimensions 4·`set` to 4·`set` + 3 of point `index` (< [`DIMENSION_SETS`] sets), each
+    /// scrambled with this sequence's keys; set 0 is [`Sequence::sample_4d`].
+    #[inline]
+    pub fn sample_4d_of_set(&self, index: u32, set: u32) -> [f32; 4] {
+        let sobol = lookup(tables(set), shuffled_rev(index, self.shuffle));
+        std::array::from_fn(|d| scrambled(sobol[d], self.dims[d]))
+    }
+
     /// The first `N` ≤ 4 dimensions of point `index`.
     #[inline(always)]
     fn sample<const N: usize>(&self, index: u32) -> [f32; N] {
@@ -183,7 +217,7 @@ fn sample_lanes<const N: usize, const D: usize>(
 ) -> [[f32; D]; N] {
     let shuffled: [u32; N] =
         std::array::from_fn(|i| shuffled_rev(indices[i], sequences[i].shuffle));
-    let t = tables();
+    let t = tables(0);
     let sobol: [[u32; 4]; N] = std::array::from_fn(|i| lookup(t, shuffled[i]));
     std::array::from_fn(|i| std::array::from_fn(|d| scrambled(sobol[i][d], sequences[i].dims[d])))
 }
@@ -229,6 +263,31 @@ mod tests {
             let want: [u32; 4] = sobol_burley::parts::sobol_int4_rev(i.reverse_bits(), 0).into();
             let got: [u32; 4] = sobol_rev(i).into();
             assert_eq!(got, want, "index {i}");
+        }
+    }
+
+    /// Every dimension set's tables reproduce the crate's bit-serial product for that set,
+    /// and set 0 under a sequence's own shuffle is [`Sequence::sample_4d`].
+    #[test]
+    fn every_set_s_tables_match_the_bit_serial_product() {
+        for set in 0..DIMENSION_SETS {
+            for i in (0..MAX_INDEX).step_by(7) {
+                let want: [u32; 4] = sobol_int4_rev(i.reverse_bits(), set).into();
+                assert_eq!(
+                    lookup(tables(set), i.reverse_bits()),
+                    want,
+                    "set {set}, index {i}"
+                );
+            }
+        }
+        let (a, b) = (Sequence::new(5), Sequence::new(6));
+        for i in 0..64 {
+            assert_eq!(a.sample_4d_of_set(i, 0), a.sample_4d(i));
+            // Another sequence's shuffle, with this one's scrambles: a different point.
+            assert_ne!(
+                a.with_shuffle_of(&b).sample_4d_of_set(i, 1),
+                a.sample_4d_of_set(i, 1)
+            );
         }
     }
 
