@@ -64,6 +64,12 @@ struct Cli {
     #[arg(long, value_delimiter = ',', value_name = "N,...")]
     emitter_samples: Vec<u32>,
 
+    /// Path only: how the bounces' sample points are drawn, comma-separated: `joint` (one
+    /// Sobol sequence for all bounces, the renderer's default) or `padded` (each bounce its
+    /// own, `render --padded-bounces`) [default: the renderer's default alone].
+    #[arg(long, value_delimiter = ',', value_name = "joint|padded,...")]
+    bounces: Vec<String>,
+
     /// The last rung of the spp ladder 1, 2, 4, …
     #[arg(long, default_value_t = 1024)]
     max_spp: u32,
@@ -117,6 +123,8 @@ struct Config {
     adaptive: Option<String>,
     /// `--emitter-samples`; `None`: the renderer's default.
     emitter_samples: Option<u32>,
+    /// `joint` or `padded` bounces; `None`: the renderer's default.
+    bounces: Option<String>,
 }
 
 impl Config {
@@ -133,6 +141,9 @@ impl Config {
         }
         if let Some(n) = self.emitter_samples {
             write!(s, ", {n} emitter rays").unwrap();
+        }
+        if let Some(b) = &self.bounces {
+            write!(s, ", {b} bounces").unwrap();
         }
         s
     }
@@ -155,6 +166,9 @@ impl Config {
         }
         if let Some(n) = self.emitter_samples {
             a.extend(["--emitter-samples".into(), n.to_string()]);
+        }
+        if self.bounces.as_deref() == Some("padded") {
+            a.push("--padded-bounces".into());
         }
         a
     }
@@ -302,16 +316,25 @@ fn configs(cli: &Cli, integrator: &str) -> Vec<Config> {
                 _ if cli.emitter_samples.is_empty() => vec![None],
                 _ => cli.emitter_samples.iter().copied().map(Some).collect(),
             };
+            let bounces: Vec<Option<String>> = match integrator {
+                "path" if !cli.bounces.is_empty() => {
+                    cli.bounces.iter().cloned().map(Some).collect()
+                }
+                _ => vec![None],
+            };
             for h in &hemispheres {
                 for st in &strategies {
                     for &n in &emitter_samples {
-                        out.push(Config {
-                            sampler: s.clone(),
-                            hemisphere: h.clone(),
-                            strategy: st.clone(),
-                            adaptive: adaptive.clone(),
-                            emitter_samples: n,
-                        });
+                        for b in &bounces {
+                            out.push(Config {
+                                sampler: s.clone(),
+                                hemisphere: h.clone(),
+                                strategy: st.clone(),
+                                adaptive: adaptive.clone(),
+                                emitter_samples: n,
+                                bounces: b.clone(),
+                            });
+                        }
                     }
                 }
             }
@@ -462,9 +485,10 @@ fn replot(out: &Path) -> Result<()> {
         col("rmse")?,
         col("reference_variance")?,
     );
-    // Absent from CSVs written before adaptive sampling, and before --emitter-samples.
+    // Absent from CSVs written before adaptive sampling, --emitter-samples and --bounces.
     let c_ad = col("adaptive").ok();
     let c_em = col("emitter_samples").ok();
+    let c_b = col("bounces").ok();
     let mut by_spp: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut by_time: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let (mut name, mut floor) = (String::new(), 0.0f64);
@@ -484,6 +508,10 @@ fn replot(out: &Path) -> Result<()> {
                 .filter(|v| !v.is_empty())
                 .map(|v| v.to_string()),
             emitter_samples: c_em.and_then(|c| f.get(c)).and_then(|v| v.parse().ok()),
+            bounces: c_b
+                .and_then(|c| f.get(c))
+                .filter(|v| !v.is_empty())
+                .map(|v| v.to_string()),
         };
         let label = config.label();
         if by_spp.last().is_none_or(|(l, _)| *l != label) {
@@ -550,6 +578,13 @@ fn main() -> Result<()> {
     {
         bail!("--adaptive: '{a}': expected none, relative or absolute");
     }
+    if let Some(b) = cli
+        .bounces
+        .iter()
+        .find(|b| !["joint", "padded"].contains(&b.as_str()))
+    {
+        bail!("--bounces: '{b}': expected joint or padded");
+    }
     let reference = read_manifest(&cli)?;
     let (rw, rh, ref_pixels) = read_exr_rgb(&cli.reference)
         .with_context(|| format!("{}: cannot read the reference", cli.reference.display()))?;
@@ -579,7 +614,7 @@ fn main() -> Result<()> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut csv = String::from(
-        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance,adaptive,time_limit,emitter_samples\n",
+        "reference,integrator,sampler,hemisphere,strategy,spp,seeds,seconds,rays,rmse,rmse_corrected,relmse,mae,reference_variance,adaptive,time_limit,emitter_samples,bounces\n",
     );
     let mut by_spp = Vec::new();
     let mut by_time = Vec::new();
@@ -634,7 +669,7 @@ fn main() -> Result<()> {
             };
             writeln!(
                 csv,
-                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{},{}",
+                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{},{},{}",
                 reference.integrator,
                 config.sampler,
                 config.hemisphere.as_deref().unwrap_or(""),
@@ -654,6 +689,7 @@ fn main() -> Result<()> {
                     .emitter_samples
                     .map(|n| n.to_string())
                     .unwrap_or_default(),
+                config.bounces.as_deref().unwrap_or(""),
             )
             .unwrap();
             eprintln!(
