@@ -34,25 +34,23 @@ struct Tables {
 /// Dimension sets with tables: dimensions 0–31 of the sequence, in sets of four.
 pub const DIMENSION_SETS: u32 = 8;
 
-/// The tables of dimension set `set` (dimensions 4·set to 4·set + 3), `set` < [`DIMENSION_SETS`].
+/// The tables of dimension set `set` (dimensions 4·set to 4·set + 3), `set` < [`DIMENSION_SETS`],
+/// each built on its first use (a render that never reaches a path's second bounce builds
+/// set 0 alone).
 fn tables(set: u32) -> &'static Tables {
-    static TABLES: OnceLock<Vec<Tables>> = OnceLock::new();
-    let all = TABLES.get_or_init(|| {
-        (0..DIMENSION_SETS)
-            .map(|set| {
-                let mut t = Tables {
-                    top: [[0; 4]; 256],
-                    next: [[0; 4]; 256],
-                };
-                for b in 0..256u32 {
-                    t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, set).into();
-                    t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, set).into();
-                }
-                t
-            })
-            .collect()
-    });
-    &all[set as usize]
+    static TABLES: [OnceLock<Tables>; DIMENSION_SETS as usize] =
+        [const { OnceLock::new() }; DIMENSION_SETS as usize];
+    TABLES[set as usize].get_or_init(|| {
+        let mut t = Tables {
+            top: [[0; 4]; 256],
+            next: [[0; 4]; 256],
+        };
+        for b in 0..256u32 {
+            t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, set).into();
+            t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, set).into();
+        }
+        t
+    })
 }
 
 /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of the 16-bit index whose
