@@ -138,6 +138,11 @@ struct Cli {
     #[arg(long, default_value = "medium", value_name = "low|medium|high")]
     bvh_quality: BuildQuality,
 
+    /// Adaptive sampling: estimate each pixel's error from its samples' variance alone, not
+    /// from the two halves of its samples; for measurements only.
+    #[arg(long, hide = true)]
+    sample_variance_error: bool,
+
     /// Path tracing: draw each bounce's sample point from a Sobol sequence of its own
     /// (padding) instead of stratifying the bounces jointly; for measurements only.
     #[arg(long, hide = true)]
@@ -447,6 +452,10 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
         if cli.checkpoint.is_some() {
             extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
+            if cli.target_error.is_some() && !cli.sample_variance_error {
+                // The snapshot copies the film's halves too.
+                extra += Film::HALVES_BYTES_PER_PIXEL;
+            }
         }
         Film::memory_estimate(w, h) + w as u64 * h as u64 * extra
     };
@@ -583,6 +592,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             min_spp,
             metric: cli.error_metric,
             time_limit: cli.time_limit.map(Duration::from_secs_f64),
+            halves: !cli.sample_variance_error,
         },
     };
     let progress = if std::io::stderr().is_terminal() {

@@ -1,8 +1,21 @@
 //! Adaptive sampling: which pixels have converged.
 //!
-//! A pixel's error is estimated from its own samples: the standard error of its mean,
-//! σ/√n per channel (sample variance over the sample count, as [`Film::variance_of_mean`]
-//! gives). For RGB it is the sum of the channels' standard errors, which bounds the standard
+//! A pixel's error is estimated from its own samples: the standard error of its mean per
+//! channel. The sample variance over the sample count (σ²/n, [`Film::variance_of_mean`])
+//! assumes independent samples; a pixel's Sobol points are not, and their mean's true error
+//! is far lower (on the Cornell box at 256 spp, σ²/n is 8× the true squared error, and 20×
+//! on the light's outline, where the split emitter samples are stratified too). So the
+//! estimate compares the two halves of the pixel's samples instead, each a stratified set of
+//! its own (Rousselle et al. 2012 compare two half buffers the same way): for the first p
+//! samples, p the count's last power of two, with half means a and b, (a − b)²/4 estimates
+//! the variance of their mean whatever the correlation within a half, and p/n scales it to
+//! the pixel's n samples ([`Film::halves_variance_of_mean`]). It overstates the true squared
+//! error by a near-constant 1.4–1.7× on the Cornell box (BENCHMARKS.md). Being the square of
+//! one difference per channel, it is noisy, so it is never taken below a sixteenth of σ²/n
+//! ([`HALVES_FLOOR`]), and the neighbourhood rule below needs nine of them under the target.
+//! `Stopping::halves` = false takes σ²/n alone, the estimate before, for comparisons.
+//!
+//! For RGB the error is the sum of the channels' standard errors, which bounds the standard
 //! error of the channel sum whatever the channels' correlation (Cauchy–Schwarz). By default
 //! ([`ErrorMetric::Relative`]) it is taken relative to the sum of the channel means:
 //!
@@ -12,7 +25,8 @@
 //!
 //! The floor keeps nearly black pixels from demanding samples without end: their error is
 //! measured relative to 1% of the image's mean instead of their own tiny value.
-//! [`ErrorMetric::Absolute`] drops the denominator: e = σ_R + σ_G + σ_B, in radiance units.
+//! [`ErrorMetric::Absolute`] drops the denominator: e = σ_R + σ_G + σ_B, in radiance units
+//! (σ_c the channel's standard error as estimated above).
 //!
 //! **With a time limit**, each round's samples go to the half of the unconverged pixels
 //! where one more sample lowers the squared error most ([`select_most_useful`]). Over many
@@ -35,9 +49,6 @@
 //! Stopping on the samples' own variance biases a pixel slightly (one whose early samples
 //! happen to agree stops sooner, with a value nearer to those samples); the minimum and the
 //! neighbourhood keep this small, and the tests measure it against the references.
-//!
-//! With low-discrepancy samplers the true error of a pixel's mean is lower than σ/√n (the
-//! samples are negatively correlated), so the estimate errs on the side of more samples.
 
 use rayon::prelude::*;
 
@@ -78,6 +89,10 @@ impl fmt::Display for ErrorMetric {
     }
 }
 
+/// How far below the sample variance over n the two-halves estimate may put a pixel's
+/// variance ([`pixel_error`]): a sixteenth (a quarter of the error).
+pub const HALVES_FLOOR: f64 = 16.0;
+
 /// The floor of the denominator, as a fraction of the image's mean channel sum.
 pub const FLOOR_FRACTION: f64 = 1e-2;
 
@@ -94,12 +109,13 @@ pub fn pixel_error(
     if film.count(x, y) < min_spp.max(2) {
         return f64::INFINITY;
     }
-    let sigma: f64 = film
-        .variance_of_mean(x, y)
-        .to_array()
-        .iter()
-        .map(|&v| (v as f64).sqrt())
-        .sum();
+    let sample = film.variance_of_mean(x, y).to_array();
+    let sigma: f64 = match film.halves_variance_of_mean(x, y) {
+        Some(halves) => (halves.to_array().iter().zip(sample))
+            .map(|(&h, s)| (h as f64).max(s as f64 / HALVES_FLOOR).sqrt())
+            .sum(),
+        None => sample.iter().map(|&v| (v as f64).sqrt()).sum(),
+    };
     if sigma == 0.0 {
         return 0.0;
     }
@@ -285,6 +301,41 @@ mod tests {
             }
         }
         film
+    }
+
+    /// With halves kept, the error is the two-halves estimate, floored at a quarter of σ/√n
+    /// (a sixteenth of its variance). Pixel 0: 32 samples, 0 in the first 16 and 1 in the
+    /// second, halves far apart; pixel 1: 32 samples alternating 0 and 1, both halves with
+    /// mean ½, whose estimate is 0 and takes the floor.
+    #[test]
+    fn the_error_comes_from_the_two_halves_above_a_floor() {
+        let mut film = Film::new(2, 1);
+        film.keep_halves();
+        for i in 0..32u32 {
+            let first = if i < 16 { 0.0 } else { 1.0 };
+            let alternating = (i % 2) as f64;
+            film.add(0, 0, [first; 3], [first; 3], 1);
+            film.add(1, 0, [alternating; 3], [alternating; 3], 1);
+        }
+        let e = |x| pixel_error(&film, x, 0, ErrorMetric::Absolute, 0.0, 16);
+        // Pixel 0: ((0 − 1)/2)² = ¼ per channel, a standard error of ½; three channels.
+        assert!((e(0) - 1.5).abs() < 1e-6, "{}", e(0));
+        // Pixel 1: σ² = 32/31 · ¼ over n = 32; a quarter of σ/√n per channel.
+        let sigma = (32.0 / 31.0 * 0.25 / 32.0f64).sqrt();
+        assert!(
+            (e(1) - 3.0 * sigma / 4.0).abs() < 1e-6,
+            "{} against {}",
+            e(1),
+            0.75 * sigma
+        );
+        // Without halves: σ/√n for both.
+        let mut plain = Film::new(1, 1);
+        for i in 0..32u32 {
+            let v = (i % 2) as f64;
+            plain.add(0, 0, [v; 3], [v; 3], 1);
+        }
+        let e = pixel_error(&plain, 0, 0, ErrorMetric::Absolute, 0.0, 16);
+        assert!((e - 3.0 * sigma).abs() < 1e-6, "{e}");
     }
 
     #[test]

@@ -23,6 +23,34 @@ pub struct Film {
     sq_sums: Vec<[f64; 3]>,
     /// Samples taken per pixel (rejected NaN/Inf samples count as taken).
     counts: Vec<u32>,
+    /// For adaptive sampling ([`Film::keep_halves`]): per pixel, the sums of sample values
+    /// when its count last reached a power of two p and when it reached p/2, from which
+    /// [`Film::halves_variance_of_mean`] compares the first and second halves of its first p
+    /// samples.
+    halves: Option<Vec<Halves>>,
+}
+
+/// A pixel's sums at the count p/2 and at p, p its count's last power of two.
+type Halves = [[f64; 3]; 2];
+
+/// Keeps `halves` current when a pixel's count goes from `old` to `new` with sums `sum`:
+/// landing on a power of two p from at least p/2, the sums at p/2 become the first half's;
+/// passing over a power of two (or landing on one from below p/2) leaves no halves (NaN)
+/// until the pixel lands on the next two in a row.
+#[inline]
+fn record_halves(halves: &mut Halves, old: u32, new: u32, sum: [f64; 3]) {
+    if new <= old {
+        return;
+    }
+    let p = 1u32 << (31 - new.leading_zeros());
+    if p <= old {
+        return;
+    }
+    *halves = if new == p && old >= p / 2 {
+        [halves[1], sum]
+    } else {
+        [[f64::NAN; 3]; 2]
+    };
 }
 
 /// `n` zeros, written one by one rather than allocated already zero. `vec![0; n]` gets
@@ -43,6 +71,7 @@ pub struct FilmRows<'a> {
     sums: &'a mut [[f64; 3]],
     sq_sums: &'a mut [[f64; 3]],
     counts: &'a mut [u32],
+    halves: Option<&'a mut [Halves]>,
 }
 
 impl FilmRows<'_> {
@@ -51,6 +80,9 @@ impl FilmRows<'_> {
     #[inline]
     pub fn set(&mut self, x: u32, y: u32, (sum, sq_sum, count): PixelTotals) {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
+        if let Some(h) = self.halves.as_deref_mut() {
+            record_halves(&mut h[i], self.counts[i], count, sum);
+        }
         self.sums[i] = sum;
         self.sq_sums[i] = sq_sum;
         self.counts[i] = count;
@@ -68,10 +100,15 @@ impl Film {
     /// [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
     pub const BYTES_PER_PIXEL: u64 = 52 + 52 + 12;
 
-    /// Adaptive sampling's extra memory per pixel: the active and selected masks (2 bytes)
-    /// and the judgement's three f64 error images (own, row maximum, neighbourhood maximum)
-    /// plus the selection's gains (32 bytes).
-    pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 2 + 32;
+    /// Adaptive sampling's extra memory per pixel: the active and selected masks (2 bytes),
+    /// the judgement's three f64 error images (own, row maximum, neighbourhood maximum)
+    /// plus the selection's gains (32 bytes), and the film's sums of the two halves (48 bytes,
+    /// [`Film::keep_halves`]).
+    pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 2 + 32 + Self::HALVES_BYTES_PER_PIXEL;
+
+    /// The sums of the two halves that adaptive sampling keeps per pixel
+    /// ([`Film::keep_halves`]).
+    pub const HALVES_BYTES_PER_PIXEL: u64 = 48;
 
     /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (52 bytes).
     pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 52;
@@ -90,7 +127,17 @@ impl Film {
             sums: zeroed_by_writing(n),
             sq_sums: zeroed_by_writing(n),
             counts: zeroed_by_writing(n),
+            halves: None,
         }
+    }
+
+    /// Keeps, from now on, each pixel's sums at its last two power-of-two counts, for
+    /// [`Film::halves_variance_of_mean`] (adaptive sampling). They follow counts that land on
+    /// every power of two, as the progressive passes of adaptive renders do
+    /// ([`crate::render::progressive_next`]); a pixel that jumps over one has no halves until
+    /// it lands on the next. Call on a new film.
+    pub fn keep_halves(&mut self) {
+        self.halves = Some(zeroed_by_writing(self.counts.len()));
     }
 
     /// Disjoint mutable views of the rows `ranges` ([y0, y1) each, sorted and not
@@ -102,6 +149,7 @@ impl Film {
             &mut self.sq_sums[..],
             &mut self.counts[..],
         );
+        let mut halves = self.halves.as_deref_mut();
         let mut at = 0u32;
         let mut out = Vec::with_capacity(ranges.len());
         for &(y0, y1) in ranges {
@@ -114,12 +162,18 @@ impl Film {
             sq_sums = rest;
             let (c, rest) = std::mem::take(&mut counts)[skip..].split_at_mut(take);
             counts = rest;
+            let h = halves.take().map(|all| {
+                let (h, rest) = all[skip..].split_at_mut(take);
+                halves = Some(rest);
+                h
+            });
             out.push(FilmRows {
                 y0,
                 width: self.width,
                 sums: s,
                 sq_sums: q,
                 counts: c,
+                halves: h,
             });
             at = y1;
         }
@@ -140,7 +194,11 @@ impl Film {
             self.sums[i][c] += sum[c];
             self.sq_sums[i][c] += sq_sum[c];
         }
+        let old = self.counts[i];
         self.counts[i] += count;
+        if let Some(h) = self.halves.as_mut() {
+            record_halves(&mut h[i], old, old + count, self.sums[i]);
+        }
     }
 
     /// The estimated variance of pixel (x, y)'s mean: the unbiased sample variance of its
@@ -156,6 +214,31 @@ impl Film {
             (((self.sq_sums[i][c] - mean * self.sums[i][c]) / (n - 1.0)).max(0.0) / n) as f32
         };
         Vec3::new(v(0), v(1), v(2))
+    }
+
+    /// The variance of pixel (x, y)'s mean estimated from the two halves of its first p
+    /// samples, p its count's last power of two (at least 2): (a − b)²/4 per channel for the
+    /// halves' means a and b, which estimates the variance of the mean of p samples whatever
+    /// their correlation within a half (for Sobol points, far below the sample variance over
+    /// p), scaled by p/n to the pixel's n samples. `None` without halves
+    /// ([`Film::keep_halves`]) or under two samples.
+    pub fn halves_variance_of_mean(&self, x: u32, y: u32) -> Option<Vec3> {
+        let i = self.index(x, y);
+        let n = self.counts[i];
+        if n < 2 {
+            return None;
+        }
+        let [first, upto_p] = self.halves.as_ref()?[i];
+        if first[0].is_nan() || upto_p[0].is_nan() {
+            return None;
+        }
+        let p = 1u32 << (31 - n.leading_zeros());
+        let half = (p / 2) as f64;
+        let v = |c: usize| {
+            let (a, b) = (first[c] / half, (upto_p[c] - first[c]) / half);
+            ((a - b) * (a - b) / 4.0 * p as f64 / n as f64) as f32
+        };
+        Some(Vec3::new(v(0), v(1), v(2)))
     }
 
     /// [`Film::variance_of_mean`] of every pixel, row-major from the top row.
@@ -223,6 +306,85 @@ impl Film {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The two-halves estimate from first principles: p the count's last power of two, the
+    /// first and second halves of the first p samples, ((a − b)/2)² · p/n.
+    fn halves_by_hand(samples: &[f64]) -> f64 {
+        let n = samples.len();
+        let p = 1usize << (usize::BITS - 1 - n.leading_zeros());
+        let mean = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
+        let (a, b) = (mean(&samples[..p / 2]), mean(&samples[p / 2..p]));
+        (a - b).powi(2) / 4.0 * p as f64 / n as f64
+    }
+
+    #[test]
+    fn the_halves_follow_the_power_of_two_counts() {
+        let samples: Vec<f64> = (0..70).map(|i| ((i * 37 % 11) as f64).sqrt()).collect();
+        // One sample at a time through `add`.
+        let mut film = Film::new(1, 1);
+        film.keep_halves();
+        for (k, &v) in samples.iter().enumerate() {
+            film.add(0, 0, [v; 3], [v * v; 3], 1);
+            let got = film.halves_variance_of_mean(0, 0);
+            if k == 0 {
+                assert_eq!(got, None, "one sample");
+                continue;
+            }
+            let want = halves_by_hand(&samples[..=k]);
+            let got = got.expect("halves").x as f64;
+            assert!(
+                (got - want).abs() <= 1e-6 * want.max(1e-6),
+                "n={}: {got} against {want}",
+                k + 1
+            );
+        }
+        // Rounds as a progressive render writes them (FilmRows::set with the totals), from
+        // 16 to 24, 32, 40: the same estimate.
+        let totals = |n: usize| -> PixelTotals {
+            let s: f64 = samples[..n].iter().sum();
+            let q: f64 = samples[..n].iter().map(|v| v * v).sum();
+            ([s; 3], [q; 3], n as u32)
+        };
+        let mut film = Film::new(1, 1);
+        film.keep_halves();
+        for n in [1, 2, 4, 8, 16, 24, 32, 40] {
+            film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(n));
+        }
+        let got = film.halves_variance_of_mean(0, 0).unwrap().x as f64;
+        let want = halves_by_hand(&samples[..40]);
+        assert!((got - want).abs() <= 1e-6 * want, "{got} against {want}");
+        // A round that passes over a power of two (24 → 40, over 32) leaves no halves;
+        // landing on 64 then gives the sums at 64 but no first half; from 128, whose first
+        // half is the sums at 64, there are halves again.
+        let mut film = Film::new(1, 1);
+        film.keep_halves();
+        let long: Vec<f64> = (0..128).map(|i| (i % 7) as f64).collect();
+        let totals = |n: usize| -> PixelTotals {
+            let s: f64 = long[..n].iter().sum();
+            ([s; 3], [0.0; 3], n as u32)
+        };
+        for n in [1, 2, 4, 8, 16, 24] {
+            film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(n));
+        }
+        assert!(film.halves_variance_of_mean(0, 0).is_some());
+        film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(40));
+        assert_eq!(film.halves_variance_of_mean(0, 0), None, "passed over 32");
+        film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(64));
+        assert_eq!(
+            film.halves_variance_of_mean(0, 0),
+            None,
+            "landed on 64 from 40"
+        );
+        film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(128));
+        let got = film.halves_variance_of_mean(0, 0).unwrap().x as f64;
+        let want = halves_by_hand(&long[..128]);
+        assert!(
+            (got - want).abs() <= 1e-6 * want.max(1e-6),
+            "{got} against {want}"
+        );
+        // Without keep_halves there is no estimate.
+        assert_eq!(Film::new(1, 1).halves_variance_of_mean(0, 0), None);
+    }
 
     #[test]
     fn variance_of_the_mean_matches_the_textbook_formula() {

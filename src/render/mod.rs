@@ -90,6 +90,10 @@ pub struct Stopping {
     /// Stop the whole render after this much time (checked between tiles, from the second
     /// round of samples on).
     pub time_limit: Option<Duration>,
+    /// Adaptive sampling: estimate a pixel's error from the two halves of its samples (true,
+    /// the default; [`adaptive::pixel_error`]) or from their sample variance alone (false,
+    /// the estimate before; for comparisons).
+    pub halves: bool,
 }
 
 impl Stopping {
@@ -110,6 +114,7 @@ impl Default for Stopping {
             min_spp: Self::DEFAULT_MIN_SPP,
             metric: adaptive::ErrorMetric::Relative,
             time_limit: None,
+            halves: true,
         }
     }
 }
@@ -681,6 +686,9 @@ pub fn render_with_checkpoints(
     let time_is_up =
         |first_round: bool| !first_round && deadline.is_some_and(|d| Instant::now() >= d);
     let mut film = Film::new(settings.width, settings.height);
+    if stopping.target_error.is_some() && stopping.halves {
+        film.keep_halves();
+    }
     // Adaptive sampling: which pixels have not converged (all of the window at first), and
     // which of them sample in the current round.
     let in_window = || {
