@@ -30,6 +30,12 @@ pub struct Film {
     halves: Option<Vec<Halves>>,
 }
 
+/// The largest power of two at most `n` (> 0).
+#[inline]
+fn last_power_of_two(n: u32) -> u32 {
+    1 << (31 - n.leading_zeros())
+}
+
 /// A pixel's sums at the count p/2 and at p, p its count's last power of two.
 type Halves = [[f64; 3]; 2];
 
@@ -42,7 +48,7 @@ fn record_halves(halves: &mut Halves, old: u32, new: u32, sum: [f64; 3]) {
     if new <= old {
         return;
     }
-    let p = 1u32 << (31 - new.leading_zeros());
+    let p = last_power_of_two(new);
     if p <= old {
         return;
     }
@@ -232,7 +238,7 @@ impl Film {
         if first[0].is_nan() || upto_p[0].is_nan() {
             return None;
         }
-        let p = 1u32 << (31 - n.leading_zeros());
+        let p = last_power_of_two(n);
         let half = (p / 2) as f64;
         let v = |c: usize| {
             let (a, b) = (first[c] / half, (upto_p[c] - first[c]) / half);

@@ -53,14 +53,8 @@ fn tables(set: u32) -> &'static Tables {
     })
 }
 
-/// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of the 16-bit index whose
-/// bit-reversal is `index_rev` (only its top 16 bits are read).
-#[inline]
-fn sobol_rev_of_rev(index_rev: u32) -> [u32; 4] {
-    lookup(tables(0), index_rev)
-}
-
-/// [`sobol_rev_of_rev`] in the given tables.
+/// The unscrambled Sobol point of tables `t` (a dimension set, bit-reversed) for the 16-bit
+/// index whose bit-reversal is `index_rev` (only its top 16 bits are read).
 #[inline(always)]
 fn lookup(t: &Tables, index_rev: u32) -> [u32; 4] {
     let (top, next) = (
@@ -172,16 +166,21 @@ impl Sequence {
     /// scrambled with this sequence's keys; set 0 is [`Sequence::sample_4d`].
     #[inline]
     pub fn sample_4d_of_set(&self, index: u32, set: u32) -> [f32; 4] {
-        let sobol = lookup(tables(set), shuffled_rev(index, self.shuffle));
-        std::array::from_fn(|d| scrambled(sobol[d], self.dims[d]))
+        self.sample_of_set::<4>(index, set)
     }
 
     /// The first `N` ≤ 4 dimensions of point `index`.
     #[inline(always)]
     fn sample<const N: usize>(&self, index: u32) -> [f32; N] {
+        self.sample_of_set::<N>(index, 0)
+    }
+
+    /// The first `N` ≤ 4 dimensions of dimension set `set` of point `index`.
+    #[inline(always)]
+    fn sample_of_set<const N: usize>(&self, index: u32, set: u32) -> [f32; N] {
         // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point,
         // then scramble each dimension with its own key.
-        let sobol = sobol_rev_of_rev(shuffled_rev(index, self.shuffle));
+        let sobol = lookup(tables(set), shuffled_rev(index, self.shuffle));
         std::array::from_fn(|d| scrambled(sobol[d], self.dims[d]))
     }
 }
@@ -239,7 +238,7 @@ mod tests {
 
     /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of a 16-bit index.
     fn sobol_rev(index: u32) -> Int4 {
-        sobol_rev_of_rev(index.reverse_bits()).into()
+        lookup(tables(0), index.reverse_bits()).into()
     }
 
     /// [`sample_4d`] written with the crate's 4-lane scramble and its bit-serial matrix
