@@ -237,6 +237,9 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// component and the normal offset either has none or has the same sign, so the extra step
 /// never moves the point back toward the surface (`back = 0`: none). Each coordinate moves
 /// by a whole number of ulps in one step.
+///
+/// Branch-free integer arithmetic on each axis: this runs three times per path vertex (the
+/// shadow ray, the light point, the extension ray).
 #[inline(always)]
 pub fn offset_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
@@ -245,36 +248,38 @@ pub fn offset_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Ve
         offset = -offset;
     }
     let po = p + offset;
-    let sign = |v: f32| (v > 0.0) as i32 - (v < 0.0) as i32;
-    let ulps = |o: f32, b: f32| {
-        let (so, sb) = (sign(o), sign(b));
-        so + if so == 0 || so == sb { sb } else { 0 }
-    };
-    Vec3::new(
-        step_ulps(po.x, ulps(offset.x, back.x)),
-        step_ulps(po.y, ulps(offset.y, back.y)),
-        step_ulps(po.z, ulps(offset.z, back.z)),
-    )
+    let (po, offset, back) = (po.to_array(), offset.to_array(), back.to_array());
+    let mut out = [0.0f32; 3];
+    for i in 0..3 {
+        let (so, sb) = (sign(offset[i]), sign(back[i]));
+        // One ulp along the offset, and one toward `back` where the offset is zero or
+        // agrees with it.
+        let toward_back = (so == 0) | (so == sb);
+        out[i] = step_ulps(po[i], so + sb * toward_back as i32);
+    }
+    Vec3::from_array(out)
+}
+
+/// −1, 0 or 1 (0 for ±0 and NaN).
+#[inline(always)]
+fn sign(v: f32) -> i32 {
+    (v > 0.0) as i32 - (v < 0.0) as i32
 }
 
 /// Moves a finite `v` by `k` ulps, toward +∞ for k > 0 (crossing zero through the
-/// denormals), without branches: floats are mapped to integers in the same order.
+/// denormals), without branches: floats are mapped to integers in the same order, with ±0
+/// both at 0.
 #[inline(always)]
 fn step_ulps(v: f32, k: i32) -> f32 {
-    const MAG: u32 = 0x7fff_ffff;
-    let bits = v.to_bits();
-    let magnitude = (bits & MAG) as i32;
-    let ordered = if bits >> 31 == 1 {
-        -magnitude
-    } else {
-        magnitude
-    };
-    let moved = ordered + k;
-    f32::from_bits(if moved < 0 {
-        (-moved) as u32 | !MAG
-    } else {
-        moved as u32
-    })
+    const MAG: i32 = 0x7fff_ffff;
+    // Sign-magnitude to two's complement: s is −1 for a set sign bit, 0 otherwise, and
+    // (i ^ (s & MAG)) − s is −magnitude for negative floats and i for the others.
+    let i = v.to_bits() as i32;
+    let s = i >> 31;
+    let moved = (i ^ (s & MAG)).wrapping_sub(s).wrapping_add(k);
+    // And back: for moved < 0 (t = −1), (moved − 1) ^ MAG sets the sign bit over −moved.
+    let t = moved >> 31;
+    f32::from_bits((moved.wrapping_add(t) ^ (t & MAG)) as u32)
 }
 
 #[cfg(test)]
@@ -302,6 +307,79 @@ mod tests {
             assert_eq!(step_ulps(v, 2), v.next_up().next_up(), "{v} up 2");
             assert_eq!(step_ulps(v, -2), v.next_down().next_down(), "{v} down 2");
         }
+    }
+
+    /// The lane-wise offset against the same rule written axis by axis with branches and
+    /// `next_up`/`next_down`, on random points, normals, directions and `back` vectors, with
+    /// components that are exactly ±0 mixed in.
+    #[test]
+    fn offset_origin_matches_the_rule_axis_by_axis() {
+        fn by_hand(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Vec3 {
+            let d = n.abs().dot(p_error);
+            let offset = if w.dot(n) < 0.0 { -(d * n) } else { d * n };
+            let po = p + offset;
+            let mut out = po;
+            for i in 0..3 {
+                let mut k = 0;
+                for (c, agrees) in [
+                    (offset[i], true),
+                    (
+                        back[i],
+                        offset[i] == 0.0 || (offset[i] > 0.0) == (back[i] > 0.0),
+                    ),
+                ] {
+                    if c > 0.0 && agrees {
+                        k += 1;
+                    } else if c < 0.0 && agrees {
+                        k -= 1;
+                    }
+                }
+                if out[i] == 0.0 {
+                    out[i] = 0.0; // ±0 both map to the integer 0, and come back as +0
+                }
+                for _ in 0..k.max(0) {
+                    out[i] = out[i].next_up();
+                }
+                for _ in 0..(-k).max(0) {
+                    out[i] = out[i].next_down();
+                }
+            }
+            out
+        }
+        let mut uniform = crate::sampling::hash::uniform_sequence(29);
+        let mut next = |zeros: bool| {
+            let u = uniform();
+            if zeros && u < 0.15 {
+                if u < 0.075 {
+                    0.0
+                } else {
+                    -0.0
+                }
+            } else {
+                2.0 * uniform() - 1.0
+            }
+        };
+        let mut moved_back = 0;
+        for _ in 0..50_000 {
+            let scale = [1e-30f32, 1e-3, 1.0, 1e4, 1e7][(next(false).abs() * 4.99) as usize];
+            let p = Vec3::new(next(true), next(true), next(true)) * scale;
+            let p_error = Vec3::new(next(false), next(false), next(false)).abs() * scale * 1e-6;
+            let n = Vec3::new(next(true), next(true), next(true));
+            let w = Vec3::new(next(false), next(false), next(false));
+            let back = Vec3::new(next(true), next(true), next(true));
+            let got = offset_origin(p, p_error, n, w, back);
+            let want = by_hand(p, p_error, n, w, back);
+            assert_eq!(
+                got.to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits),
+                "p {p:?} err {p_error:?} n {n:?} w {w:?} back {back:?}"
+            );
+            moved_back += (got != offset_ray_origin(p, p_error, n, w)) as u32;
+        }
+        assert!(
+            moved_back > 10_000,
+            "{moved_back} points took the step toward back"
+        );
     }
 
     /// FrontOrigins gives spawn_ray_with's rays bit for bit, for directions above the
