@@ -260,7 +260,7 @@ pub fn offset_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Ve
 /// Moves a finite `v` by `k` ulps, toward +∞ for k > 0 (crossing zero through the
 /// denormals), without branches: floats are mapped to integers in the same order.
 #[inline(always)]
-pub fn step_ulps(v: f32, k: i32) -> f32 {
+fn step_ulps(v: f32, k: i32) -> f32 {
     const MAG: u32 = 0x7fff_ffff;
     let bits = v.to_bits();
     let magnitude = (bits & MAG) as i32;

@@ -19,7 +19,7 @@ use glam::{BVec4A, Vec2, Vec3, Vec3A, Vec4};
 
 use super::{Context, Hemisphere, PathSettings, RayCounts, Strategy};
 use crate::accel::{Hit, Ray, PACKET};
-use crate::interaction::{gamma, step_ulps, SHADOW_EPSILON};
+use crate::interaction::{gamma, SHADOW_EPSILON};
 use crate::sampling::warps::square_to_cosine_hemisphere_x4;
 use crate::sampling::PixelSampler;
 
@@ -208,34 +208,40 @@ fn offset_origin(p: V3, err: V3, n: V3, w: V3, back: V3) -> V3 {
     let offset = n * d;
     let offset = V3::select(w.dot(n).cmplt(Vec4::ZERO), -offset, offset);
     let po = p + offset;
-    // Signs as ±1/0 in float lanes, the ulp counts as integers per lane.
-    let sign = |v: Vec4| {
-        Vec4::select(v.cmpgt(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
-            - Vec4::select(v.cmplt(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
-    };
-    let ulps = |o: Vec4, b: Vec4| {
-        let (so, sb) = (sign(o), sign(b));
-        let extra = so.cmpeq(Vec4::ZERO) | so.cmpeq(sb);
-        so + Vec4::select(extra, sb, Vec4::ZERO)
-    };
-    let (kx, ky, kz) = (
-        ulps(offset.x, back.x),
-        ulps(offset.y, back.y),
-        ulps(offset.z, back.z),
-    );
-    let step = |v: Vec4, k: Vec4| {
-        Vec4::new(
-            step_ulps(v.x, k.x as i32),
-            step_ulps(v.y, k.y as i32),
-            step_ulps(v.z, k.z as i32),
-            step_ulps(v.w, k.w as i32),
-        )
-    };
     V3 {
-        x: step(po.x, kx),
-        y: step(po.y, ky),
-        z: step(po.z, kz),
+        x: step_ulps4(po.x, offset.x, back.x),
+        y: step_ulps4(po.y, offset.y, back.y),
+        z: step_ulps4(po.z, offset.z, back.z),
     }
+}
+
+/// One coordinate of four lanes of `offset_origin`'s last step: `po` moved by the ulps that
+/// the offset `o` and the direction `back` call for, written over plain arrays, branch-free,
+/// for the compiler to put in integer lanes.
+#[inline(always)]
+fn step_ulps4(po: Vec4, o: Vec4, back: Vec4) -> Vec4 {
+    const MAG: u32 = 0x7fff_ffff;
+    let (po, o, back) = (po.to_array(), o.to_array(), back.to_array());
+    let sign = |v: f32| (v > 0.0) as i32 - (v < 0.0) as i32;
+    let mut out = [0f32; 4];
+    for i in 0..4 {
+        let (so, sb) = (sign(o[i]), sign(back[i]));
+        let k = so + if so == 0 || so == sb { sb } else { 0 };
+        let bits = po[i].to_bits();
+        let magnitude = (bits & MAG) as i32;
+        let ordered = if bits >> 31 == 1 {
+            -magnitude
+        } else {
+            magnitude
+        };
+        let moved = ordered + k;
+        out[i] = f32::from_bits(if moved < 0 {
+            (-moved) as u32 | !MAG
+        } else {
+            moved as u32
+        });
+    }
+    Vec4::from_array(out)
 }
 
 /// Four paths' state between bounces.
