@@ -18,7 +18,7 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 use glam::{BVec4A, Vec2, Vec3, Vec3A, Vec4};
 
 use super::{Context, Hemisphere, PathSettings, RayCounts, Strategy};
-use crate::accel::{Hit, Ray, PACKET};
+use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
 use crate::interaction::{gamma, SHADOW_EPSILON};
 use crate::sampling::warps::square_to_cosine_hemisphere_x4;
 use crate::sampling::PixelSampler;
@@ -261,6 +261,15 @@ struct Group {
     prev_pdf: Vec4,
     prev_p: V3,
     u_light: [Vec2; 4],
+    /// Lanes whose next-event estimate awaits its shadow ray's answer, and the estimates.
+    shade: BVec4A,
+    pending: V3,
+}
+
+/// The shadow rays of one bounce of the packet's paths, traced together.
+struct Shadows {
+    rays: [Ray; PACKET],
+    n: usize,
 }
 
 /// [`super::path::li`] for every camera hit of a packet (`rays[k]` with closest hit
@@ -302,15 +311,41 @@ pub fn li_lanes(
             prev_pdf: Vec4::ZERO,
             prev_p: V3::ZERO,
             u_light: [Vec2::ZERO; 4],
+            shade: BVec4A::FALSE,
+            pending: V3::ZERO,
         });
     }
     let mut depth = 0;
     loop {
         let mut any = false;
+        let mut shadow = Shadows {
+            rays: [Ray::new(Vec3::ZERO, Vec3::Z); PACKET],
+            n: 0,
+        };
         for group in groups.iter_mut().flatten() {
+            group.shade = BVec4A::FALSE;
             if group.live.any() {
-                bounce(ctx, group, depth, samplers, settings, counts);
+                bounce(ctx, group, depth, samplers, settings, counts, &mut shadow);
                 any |= group.live.any();
+            }
+        }
+        // The next-event estimates whose shadow rays are unoccluded, added after the
+        // emission their vertex found, as `path::li` adds them.
+        if shadow.n > 0 {
+            counts.shadow += shadow.n as u64;
+            let mut occluded = [false; OCCLUSION_PACKET];
+            ctx.accel
+                .occluded_packet(&shadow.rays[..shadow.n], &mut occluded);
+            let mut next = 0;
+            for group in groups.iter_mut().flatten() {
+                let mut visible = [false; 4];
+                for (i, visible) in visible.iter_mut().enumerate() {
+                    if test(group.shade, i) {
+                        *visible = !occluded[next];
+                        next += 1;
+                    }
+                }
+                group.l = V3::select(mask(visible), group.l + group.pending, group.l);
             }
         }
         if !any || depth == settings.max_depth {
@@ -326,8 +361,9 @@ pub fn li_lanes(
 }
 
 /// Shades the vertices the group's live paths reached (their `depth`-th bounce's hits): the
-/// emission found, and for `depth` < `max_depth` the next event and the next direction,
-/// whose hits it leaves in the group.
+/// emission found, and for `depth` < `max_depth` the next event (its shadow rays into
+/// `shadow`, its estimates left pending in the group) and the next direction, whose hits
+/// it leaves in the group.
 fn bounce(
     ctx: &Context,
     group: &mut Group,
@@ -335,6 +371,7 @@ fn bounce(
     samplers: &mut [PixelSampler],
     settings: &PathSettings,
     counts: &mut RayCounts,
+    shadow: &mut Shadows,
 ) {
     let (scene, lights, materials) = (ctx.scene, ctx.lights, ctx.materials);
     let live = group.live;
@@ -545,21 +582,19 @@ fn bounce(
         let back = V3::select(to.dot(ng).cmpgt(Vec4::ZERO), wo, V3::ZERO);
         let org = offset_origin(pos, p_error, ng, to, back);
         let sdir = p_light - org;
-        let contribution = group.beta * f * li * (w / pdf_light);
-        let mut visible = [false; 4];
-        for (i, visible) in visible.iter_mut().enumerate() {
+        group.pending = group.beta * f * li * (w / pdf_light);
+        group.shade = shade;
+        for i in 0..4 {
             if test(shade, i) {
-                counts.shadow += 1;
-                let ray = Ray {
+                shadow.rays[shadow.n] = Ray {
                     org: org.lane(i),
                     dir: sdir.lane(i),
                     t_min: 0.0,
                     t_max: 1.0 - SHADOW_EPSILON,
                 };
-                *visible = !ctx.accel.occluded(&ray);
+                shadow.n += 1;
             }
         }
-        group.l = V3::select(mask(visible), group.l + contribution, group.l);
     }
 
     // The BSDF direction: the cosine warp and the frame in lanes.
