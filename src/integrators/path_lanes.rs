@@ -530,8 +530,8 @@ fn bounce(
     let mut chosen = [false; 4];
     for (i, light) in light.iter().enumerate() {
         if let Some((t, pmf, u)) = light {
-            for j in 0..3 {
-                tv[j][i] = t.vertices[j];
+            for (tv, &v) in tv.iter_mut().zip(&t.vertices) {
+                tv[i] = v;
             }
             (tn[i], terr[i]) = (t.normal, t.point_error);
             (tarea[i], tpmf[i]) = (t.area, *pmf);
