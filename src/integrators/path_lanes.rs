@@ -530,9 +530,7 @@ fn bounce(
     let mut chosen = [false; 4];
     for (i, light) in light.iter().enumerate() {
         if let Some((t, pmf, u)) = light {
-            for (tv, &v) in tv.iter_mut().zip(&t.vertices) {
-                tv[i] = v;
-            }
+            [tv[0][i], tv[1][i], tv[2][i]] = t.vertices;
             (tn[i], terr[i]) = (t.normal, t.point_error);
             (tarea[i], tpmf[i]) = (t.area, *pmf);
             (ux[i], uy[i]) = (u.x, u.y);
