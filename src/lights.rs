@@ -425,6 +425,48 @@ impl LightSet {
         self.table.pmf(i as usize) * dist2 / (cos * area)
     }
 
+    /// True when every emitter is a triangle sampled by area and light sampling can choose
+    /// one: the case the lane-parallel path tracer handles
+    /// ([`crate::integrators::path_lanes`]).
+    pub fn only_area_triangles(&self) -> bool {
+        self.triangle_sampling == TriangleSampling::Area
+            && self.background.is_none()
+            && !self.table.is_empty()
+            && self
+                .emitters
+                .iter()
+                .all(|e| matches!(e, Emitter::Triangle(_)))
+    }
+
+    /// The emitter that light sampling chooses with `u.x`, its selection probability and `u`
+    /// with its first dimension remapped, as [`LightSet::sample`] chooses them; None when the
+    /// chosen emitter is not a triangle (or no emitter can be chosen).
+    #[inline]
+    pub fn choose_triangle(&self, u: Vec2) -> Option<(&TriangleLight, f32, Vec2)> {
+        if self.table.is_empty() {
+            return None;
+        }
+        let (i, pmf, ux) = self.table.sample_remapped(u.x);
+        match &self.emitters[i] {
+            Emitter::Triangle(t) => Some((t, pmf, Vec2::new(ux, u.y))),
+            _ => None,
+        }
+    }
+
+    /// The selection probability and area of emissive triangle `prim` ((0, 0) for a triangle
+    /// that is no light): what [`LightSet::triangle_pdf`] reads besides the geometry, with
+    /// area sampling.
+    #[inline]
+    pub fn triangle_pmf_area(&self, prim: u32) -> (f32, f32) {
+        match self.triangle_light.get(prim as usize) {
+            Some(&i) if i != u32::MAX => match &self.emitters[i as usize] {
+                Emitter::Triangle(t) => (self.table.pmf(i as usize), t.area),
+                _ => (0.0, 0.0),
+            },
+            _ => (0.0, 0.0),
+        }
+    }
+
     /// The solid angle of triangle (a, b, c) seen from `p` when it is sampled by solid angle
     /// from there; `None` when it is sampled by area (the option says so, or the solid angle
     /// is too small or too large for spherical sampling to be accurate in f32: pbrt-v4's

@@ -130,19 +130,31 @@ impl Materials {
     /// The interpolated TEXCOORD_0 at a surface point (zero when no material is textured).
     #[inline]
     pub fn uv(&self, scene: &Scene, si: &SurfaceInteraction) -> Vec2 {
+        self.uv_at(scene, si.prim, si.u, si.v)
+    }
+
+    /// [`Materials::uv`] at barycentrics (u, v) of triangle `prim`.
+    #[inline]
+    pub fn uv_at(&self, scene: &Scene, prim: u32, u: f32, v: f32) -> Vec2 {
         if !self.textured {
             return Vec2::ZERO;
         }
-        let [a, b, c] = scene.triangles[si.prim as usize];
-        (1.0 - si.u - si.v) * scene.uvs[a as usize]
-            + si.u * scene.uvs[b as usize]
-            + si.v * scene.uvs[c as usize]
+        let [a, b, c] = scene.triangles[prim as usize];
+        (1.0 - u - v) * scene.uvs[a as usize]
+            + u * scene.uvs[b as usize]
+            + v * scene.uvs[c as usize]
     }
 
     /// Diffuse reflectance ρ at the surface point.
     #[inline]
     pub fn albedo(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> Vec3 {
-        let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
+        self.albedo_of(scene, si.prim, uv)
+    }
+
+    /// [`Materials::albedo`] of triangle `prim`.
+    #[inline]
+    pub fn albedo_of(&self, scene: &Scene, prim: u32, uv: Vec2) -> Vec3 {
+        let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
         match &m.base_texture {
             Some(b) => m.base_color * self.lookup(b, uv).truncate(),
             None => m.base_color,
@@ -162,8 +174,14 @@ impl Materials {
     /// one-sided emitter).
     #[inline]
     pub fn emitted(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> Vec3 {
-        let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
-        if m.emissive.max_element() <= 0.0 || !(si.front_face || m.double_sided) {
+        self.emitted_by(scene, si.prim, si.front_face, uv)
+    }
+
+    /// [`Materials::emitted`] by triangle `prim`, seen from its front face or not.
+    #[inline]
+    pub fn emitted_by(&self, scene: &Scene, prim: u32, front_face: bool, uv: Vec2) -> Vec3 {
+        let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
+        if m.emissive.max_element() <= 0.0 || !(front_face || m.double_sided) {
             return Vec3::ZERO;
         }
         match &m.emissive_texture {

@@ -5,6 +5,7 @@
 
 pub mod ao;
 pub mod path;
+pub mod path_lanes;
 
 use glam::{Vec3, Vec3A};
 use std::fmt;
@@ -245,6 +246,11 @@ impl Integrator {
                 for (l, a) in l.iter_mut().zip(ao.iter()) {
                     *l = Vec3A::splat(*a);
                 }
+            }
+            Integrator::Direct(settings) | Integrator::Path(settings)
+                if path_lanes::supported(ctx, settings) =>
+            {
+                path_lanes::li_lanes(ctx, rays, hits, samplers, lanes, settings, counts, l);
             }
             _ => {
                 for k in 0..rays.len() {

@@ -124,25 +124,33 @@ pub fn square_to_cosine_hemisphere_lanes<const N: usize>(u: &[Vec2; N]) -> [Vec3
         let lane = |i: usize| u.get(i).copied().unwrap_or(Vec2::splat(0.5));
         let ux = Vec4::new(lane(0).x, lane(1).x, lane(2).x, lane(3).x);
         let uy = Vec4::new(lane(0).y, lane(1).y, lane(2).y, lane(3).y);
-        let ox = 2.0 * ux - Vec4::ONE;
-        let oy = 2.0 * uy - Vec4::ONE;
-        // The wedge: `major` is the coordinate the concentric map divides by.
-        let right = ox.abs().cmpgt(oy.abs());
-        let major = Vec4::select(right, ox, oy);
-        let minor = Vec4::select(right, oy, ox);
-        let (sin, cos) = sin_cos_quarter(FRAC_PI_4 * (minor / major));
-        // d = major·(cos, sin) in the right and left wedges, major·(sin, cos) in the top and
-        // bottom ones, and 0 at the centre (where the division gave NaN).
-        let centre = ox.cmpeq(Vec4::ZERO) & oy.cmpeq(Vec4::ZERO);
-        let dx = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, cos, sin));
-        let dy = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, sin, cos));
-        // max(0) keeps rounding from making the radicand negative; it is never NaN.
-        let z = (Vec4::ONE - (dx * dx + dy * dy)).max(Vec4::ZERO).sqrt();
+        let (dx, dy, z) = square_to_cosine_hemisphere_x4(ux, uy);
         for (i, out) in out.iter_mut().enumerate() {
             *out = Vec3::new(dx[i], dy[i], z[i]);
         }
     }
     out
+}
+
+/// [`square_to_cosine_hemisphere`] of four points given as their x and y lanes: the
+/// directions' x, y and z lanes, bit for bit those of the scalar warp.
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_x4(ux: Vec4, uy: Vec4) -> (Vec4, Vec4, Vec4) {
+    let ox = 2.0 * ux - Vec4::ONE;
+    let oy = 2.0 * uy - Vec4::ONE;
+    // The wedge: `major` is the coordinate the concentric map divides by.
+    let right = ox.abs().cmpgt(oy.abs());
+    let major = Vec4::select(right, ox, oy);
+    let minor = Vec4::select(right, oy, ox);
+    let (sin, cos) = sin_cos_quarter(FRAC_PI_4 * (minor / major));
+    // d = major·(cos, sin) in the right and left wedges, major·(sin, cos) in the top and
+    // bottom ones, and 0 at the centre (where the division gave NaN).
+    let centre = ox.cmpeq(Vec4::ZERO) & oy.cmpeq(Vec4::ZERO);
+    let dx = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, cos, sin));
+    let dy = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, sin, cos));
+    // max(0) keeps rounding from making the radicand negative; it is never NaN.
+    let z = (Vec4::ONE - (dx * dx + dy * dy)).max(Vec4::ZERO).sqrt();
+    (dx, dy, z)
 }
 
 #[inline]
