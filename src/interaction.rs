@@ -249,15 +249,19 @@ pub fn offset_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3, back: Vec3) -> Ve
     }
     let po = p + offset;
     let (po, offset, back) = (po.to_array(), offset.to_array(), back.to_array());
-    let mut out = [0.0f32; 3];
-    for i in 0..3 {
-        let (so, sb) = (sign(offset[i]), sign(back[i]));
-        // One ulp along the offset, and one toward `back` where the offset is zero or
-        // agrees with it.
-        let toward_back = (so == 0) | (so == sb);
-        out[i] = step_ulps(po[i], so + sb * toward_back as i32);
-    }
-    Vec3::from_array(out)
+    Vec3::from_array(std::array::from_fn(|i| {
+        step_axis(po[i], offset[i], back[i])
+    }))
+}
+
+/// The last step of [`offset_origin`] on one axis: `po` (the point already offset by
+/// `offset`) moved one ulp along the offset, and one toward `back` where the offset is zero
+/// or agrees with it. Branch-free, so that a loop of it over lanes becomes SIMD code.
+#[inline(always)]
+pub fn step_axis(po: f32, offset: f32, back: f32) -> f32 {
+    let (so, sb) = (sign(offset), sign(back));
+    let toward_back = (so == 0) | (so == sb);
+    step_ulps(po, so + sb * toward_back as i32)
 }
 
 /// −1, 0 or 1 (0 for ±0 and NaN).

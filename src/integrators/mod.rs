@@ -43,6 +43,10 @@ pub struct Context<'a> {
     /// camera ray that misses (the default; the image is the same either way, tested).
     /// False is for measuring the cost of strata's layers per traced ray.
     pub cull_blocks: bool,
+    /// Path-trace a camera packet's paths together in SIMD lanes ([`path_lanes`]) where the
+    /// scene and settings allow it: the default. The image is the same bit for bit (tested);
+    /// false shades them one path at a time, for measuring what the lanes gain.
+    pub path_lanes: bool,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -86,6 +90,7 @@ impl Prepared {
             ray_offset: true,
             camera_packets: true,
             cull_blocks: true,
+            path_lanes: true,
         }
     }
 }

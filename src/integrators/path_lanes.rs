@@ -29,15 +29,17 @@ use glam::{BVec4A, Vec2, Vec3, Vec3A, Vec4};
 
 use super::{Context, Hemisphere, PathSettings, RayCounts, Strategy};
 use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
-use crate::interaction::{gamma, SHADOW_EPSILON};
+use crate::interaction::{gamma, step_axis, SHADOW_EPSILON};
 use crate::sampling::warps::square_to_cosine_hemisphere_x4;
 use crate::sampling::PixelSampler;
 
-/// Whether [`li_lanes`] handles these settings and this scene's lights: MIS with
+/// Whether [`li_lanes`] shades this context's packets: the context asks for lanes
+/// ([`Context::path_lanes`]), and the settings and lights are the case it handles: MIS with
 /// cosine-weighted directions, paired and jointly stratified bounces, offset ray origins,
 /// and emissive triangles (sampled by area) as the only emitters.
 pub fn supported(ctx: &Context, settings: &PathSettings) -> bool {
-    settings.strategy == Strategy::Mis
+    ctx.path_lanes
+        && settings.strategy == Strategy::Mis
         && settings.hemisphere == Hemisphere::Cosine
         && settings.paired_bounces
         && settings.joint_bounces
@@ -225,33 +227,13 @@ fn offset_origin(p: V3, err: V3, n: V3, w: V3, back: V3) -> V3 {
     }
 }
 
-/// One coordinate of four lanes of `offset_origin`'s last step: `po` moved by the ulps that
-/// the offset `o` and the direction `back` call for, written over plain arrays, branch-free,
-/// for the compiler to put in integer lanes.
+/// One coordinate of four lanes of `offset_origin`'s last step
+/// ([`crate::interaction::step_axis`]), over plain arrays for the compiler to put in integer
+/// lanes.
 #[inline(always)]
 fn step_ulps4(po: Vec4, o: Vec4, back: Vec4) -> Vec4 {
-    const MAG: u32 = 0x7fff_ffff;
     let (po, o, back) = (po.to_array(), o.to_array(), back.to_array());
-    let sign = |v: f32| (v > 0.0) as i32 - (v < 0.0) as i32;
-    let mut out = [0f32; 4];
-    for i in 0..4 {
-        let (so, sb) = (sign(o[i]), sign(back[i]));
-        let k = so + if so == 0 || so == sb { sb } else { 0 };
-        let bits = po[i].to_bits();
-        let magnitude = (bits & MAG) as i32;
-        let ordered = if bits >> 31 == 1 {
-            -magnitude
-        } else {
-            magnitude
-        };
-        let moved = ordered + k;
-        out[i] = f32::from_bits(if moved < 0 {
-            (-moved) as u32 | !MAG
-        } else {
-            moved as u32
-        });
-    }
-    Vec4::from_array(out)
+    Vec4::from_array(std::array::from_fn(|i| step_axis(po[i], o[i], back[i])))
 }
 
 /// Four paths' state between bounces.
