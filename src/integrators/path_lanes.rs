@@ -12,15 +12,10 @@
 //! Only the common case is handled (see [`supported`]); the caller falls back to
 //! [`super::path::li`] otherwise.
 //!
-//! Measured on the Cornell box (path, one thread, 2-core VM shared with other work): 1 216 M
-//! instructions against 1 290 M for `path::li` (16 spp, 96×96, callgrind), and 0.92× the
-//! render time (128 spp, 160×160, medians of 7 alternating runs). Embree's share is
-//! unchanged (about 40% of the time); 68% of the lanes are live per group-bounce, and a group
-//! with none live still costs about 86 ns of vector work, so compacting the live paths could
-//! take at most about another 3–4% off. Tracing the extension rays of a packet as one Embree
-//! packet made the render 1.3× slower (incoherent rays); the shadow rays as one packet are
-//! time-neutral. Drawing the bounce's Sobol points for all lanes side by side, 8 wide, was
-//! slower (about 5 live lanes of 8 on average).
+//! On the Cornell box this takes 5% off the instructions and about 10% off the time on one
+//! thread (4% on two); Embree's share, about 40%, is untouched, and compacting the live paths
+//! across packets could take at most another 3.5% off. BENCHMARKS.md, "Path tracing in SIMD
+//! lanes", has the measurements and what was tried.
 
 use std::f32::consts::FRAC_1_PI;
 use std::ops::{Add, Div, Mul, Neg, Sub};
