@@ -142,6 +142,66 @@ impl EmitterView {
         Vec3A::from(rest) + self.estimate(ctx, camera, sampler, (x, y), packets, counts)
     }
 
+    /// [`EmitterView::li`] for the camera rays of a packet: `rays[k]`, with closest hit
+    /// `hits[k]`, through pixel `pixels[k]`, sampled by `samplers[lanes[k]]`, its estimate
+    /// into `l[k]`. The paths of the packet's split pixels, and those of its other pixels,
+    /// are each shaded as one packet ([`Integrator::li_packet_from_camera_hits`]: in SIMD
+    /// lanes where they apply); the estimates are those of [`EmitterView::li`], bit for bit,
+    /// since a split's emitter rays draw from a side stream that does not depend on where
+    /// the path's draws have got to.
+    #[allow(clippy::too_many_arguments)]
+    pub fn li_packet(
+        &self,
+        ctx: &Context,
+        integrator: &Integrator,
+        camera: &RayGenerator,
+        rays: &[Ray],
+        hits: &[Option<Hit>],
+        pixels: &[(u32, u32)],
+        samplers: &mut [PixelSampler],
+        lanes: &[usize],
+        counts: &mut RayCounts,
+        l: &mut [Vec3A],
+    ) {
+        let n = rays.len();
+        for split in [false, true] {
+            let mut which = [0usize; PACKET];
+            let mut m = 0;
+            for (k, &(x, y)) in pixels.iter().enumerate().take(n) {
+                if self.splits(x, y) == split {
+                    which[m] = k;
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                continue;
+            }
+            let sub_rays: [Ray; PACKET] = std::array::from_fn(|i| rays[which[i.min(m - 1)]]);
+            let sub_hits: [Option<Hit>; PACKET] =
+                std::array::from_fn(|i| hits[which[i.min(m - 1)]]);
+            let sub_lanes: [usize; PACKET] = std::array::from_fn(|i| lanes[which[i.min(m - 1)]]);
+            let mut sub_l = [Vec3A::ZERO; PACKET];
+            let paths = if split { &self.integrator } else { integrator };
+            paths.li_packet_from_camera_hits(
+                ctx,
+                &sub_rays[..m],
+                &sub_hits[..m],
+                samplers,
+                &sub_lanes[..m],
+                counts,
+                &mut sub_l[..m],
+            );
+            for (i, &k) in which[..m].iter().enumerate() {
+                l[k] = if split {
+                    let sampler = &samplers[lanes[k]];
+                    sub_l[i] + self.estimate(ctx, camera, sampler, pixels[k], true, counts)
+                } else {
+                    sub_l[i]
+                };
+            }
+        }
+    }
+
     /// Whether any pixel of the block [x0, x1) × [y0, y1) is split.
     #[inline]
     pub fn splits_any(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> bool {

@@ -483,25 +483,25 @@ fn render_tile(
                         &mut out.rays,
                         &mut l[..n],
                     ),
-                    // Where an emitter may be seen, each sample's estimate is split
-                    // ([`emitters`]), pixel by pixel as in the loop above.
+                    // Where an emitter may be seen, the samples of the pixels that may see
+                    // one are split ([`emitters`]).
                     Some(view) => {
-                        for k in 0..n {
-                            let lane = which[k];
-                            let (x, y, _, _) = lanes[lane];
-                            let lane = (&mut samplers[lane], (x, y));
-                            let (ray, hit) = (&rays[k], hits[k]);
-                            l[k] = view.li(
-                                ctx,
-                                integrator,
-                                &camera,
-                                ray,
-                                hit,
-                                lane,
-                                true,
-                                &mut out.rays,
-                            );
-                        }
+                        let pixels: [(u32, u32); PACKET] = std::array::from_fn(|k| {
+                            let (x, y, _, _) = lanes[which[k.min(n - 1)]];
+                            (x, y)
+                        });
+                        view.li_packet(
+                            ctx,
+                            integrator,
+                            &camera,
+                            &rays[..n],
+                            &hits[..n],
+                            &pixels[..n],
+                            &mut samplers,
+                            &which[..n],
+                            &mut out.rays,
+                            &mut l[..n],
+                        );
                     }
                 }
                 for (k, &l) in l[..n].iter().enumerate() {
