@@ -240,6 +240,9 @@ pub struct LightSet {
     /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
     triangle_light: Vec<u32>,
     background: Option<(usize, Vec3)>,
+    /// Every emitter is a triangle (no punctual light, no background), and light sampling
+    /// can choose one: made once by [`LightSet::build`], read per camera packet.
+    only_triangles: bool,
 }
 
 impl LightSet {
@@ -358,12 +361,15 @@ impl LightSet {
         } else {
             AliasTable::new(&weights)
         };
+        let only_triangles =
+            !table.is_empty() && emitters.iter().all(|e| matches!(e, Emitter::Triangle(_)));
         LightSet {
             triangle_sampling: TriangleSampling::default(),
             emitters,
             table,
             triangle_light,
             background: bg,
+            only_triangles,
         }
     }
 
@@ -397,45 +403,48 @@ impl LightSet {
     /// have produced the point `p` on emissive triangle `prim` (unit normal `n`).
     #[inline]
     pub fn triangle_pdf(&self, scene: &Scene, prim: u32, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
-        let Some(&i) = self.triangle_light.get(prim as usize) else {
+        let Some((pmf, light)) = self.light_of_triangle(prim) else {
             return 0.0;
         };
-        if i == u32::MAX {
-            return 0.0;
-        }
         if self.triangle_sampling == TriangleSampling::SolidAngle {
             let [a, b, c] = scene.triangle_positions(prim);
             if let Some(omega) = self.spherical_area(a, b, c, p_ref) {
-                return self.table.pmf(i as usize) / omega;
+                return pmf / omega;
             }
         }
-        let area = match &self.emitters[i as usize] {
-            Emitter::Triangle(t) => t.area,
-            _ => {
-                debug_assert!(false, "triangle_light indexes triangle emitters");
-                return 0.0;
-            }
-        };
+        let area = light.area;
         let d = p - p_ref;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
         if cos <= 0.0 || area <= 0.0 {
             return 0.0;
         }
-        self.table.pmf(i as usize) * dist2 / (cos * area)
+        pmf * dist2 / (cos * area)
+    }
+
+    /// The emitter of triangle `prim` and its selection probability; None for a triangle
+    /// that emits nothing.
+    #[inline]
+    fn light_of_triangle(&self, prim: u32) -> Option<(f32, &TriangleLight)> {
+        let &i = self.triangle_light.get(prim as usize)?;
+        if i == u32::MAX {
+            return None;
+        }
+        match &self.emitters[i as usize] {
+            Emitter::Triangle(t) => Some((self.table.pmf(i as usize), t)),
+            _ => {
+                debug_assert!(false, "triangle_light indexes triangle emitters");
+                None
+            }
+        }
     }
 
     /// True when every emitter is a triangle sampled by area and light sampling can choose
     /// one: the case the lane-parallel path tracer handles
     /// ([`crate::integrators::path_lanes`]).
+    #[inline]
     pub fn only_area_triangles(&self) -> bool {
-        self.triangle_sampling == TriangleSampling::Area
-            && self.background.is_none()
-            && !self.table.is_empty()
-            && self
-                .emitters
-                .iter()
-                .all(|e| matches!(e, Emitter::Triangle(_)))
+        self.triangle_sampling == TriangleSampling::Area && self.only_triangles
     }
 
     /// The emitter that light sampling chooses with `u.x`, its selection probability and `u`
@@ -443,14 +452,22 @@ impl LightSet {
     /// chosen emitter is not a triangle (or no emitter can be chosen).
     #[inline]
     pub fn choose_triangle(&self, u: Vec2) -> Option<(&TriangleLight, f32, Vec2)> {
+        match self.choose(u)? {
+            (Emitter::Triangle(t), pmf, u) => Some((t, pmf, u)),
+            _ => None,
+        }
+    }
+
+    /// The emitter chosen with `u.x`, its selection probability, and `u` with its first
+    /// dimension remapped for sampling the emitter ([`AliasTable::sample_remapped`]); None
+    /// when no emitter can be chosen.
+    #[inline]
+    fn choose(&self, u: Vec2) -> Option<(&Emitter, f32, Vec2)> {
         if self.table.is_empty() {
             return None;
         }
         let (i, pmf, ux) = self.table.sample_remapped(u.x);
-        match &self.emitters[i] {
-            Emitter::Triangle(t) => Some((t, pmf, Vec2::new(ux, u.y))),
-            _ => None,
-        }
+        Some((&self.emitters[i], pmf, Vec2::new(ux, u.y)))
     }
 
     /// The selection probability and area of emissive triangle `prim` ((0, 0) for a triangle
@@ -458,13 +475,8 @@ impl LightSet {
     /// area sampling.
     #[inline]
     pub fn triangle_pmf_area(&self, prim: u32) -> (f32, f32) {
-        match self.triangle_light.get(prim as usize) {
-            Some(&i) if i != u32::MAX => match &self.emitters[i as usize] {
-                Emitter::Triangle(t) => (self.table.pmf(i as usize), t.area),
-                _ => (0.0, 0.0),
-            },
-            _ => (0.0, 0.0),
-        }
+        self.light_of_triangle(prim)
+            .map_or((0.0, 0.0), |(pmf, t)| (pmf, t.area))
     }
 
     /// The solid angle of triangle (a, b, c) seen from `p` when it is sampled by solid angle
@@ -570,13 +582,9 @@ impl LightSet {
         si: &SurfaceInteraction,
         u: Vec2,
     ) -> Option<(LightSample, f32)> {
-        if self.table.is_empty() {
-            return None;
-        }
-        let (i, pmf, ux) = self.table.sample_remapped(u.x);
-        let u = Vec2::new(ux, u.y);
+        let (emitter, pmf, u) = self.choose(u)?;
         let p = si.p;
-        let s = match &self.emitters[i] {
+        let s = match emitter {
             &Emitter::Point {
                 position,
                 intensity,
