@@ -240,9 +240,6 @@ pub struct LightSet {
     /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
     triangle_light: Vec<u32>,
     background: Option<(usize, Vec3)>,
-    /// Every emitter is a triangle (no punctual light, no background), and light sampling
-    /// can choose one: made once by [`LightSet::build`], read per camera packet.
-    only_triangles: bool,
 }
 
 impl LightSet {
@@ -361,15 +358,12 @@ impl LightSet {
         } else {
             AliasTable::new(&weights)
         };
-        let only_triangles =
-            !table.is_empty() && emitters.iter().all(|e| matches!(e, Emitter::Triangle(_)));
         LightSet {
             triangle_sampling: TriangleSampling::default(),
             emitters,
             table,
             triangle_light,
             background: bg,
-            only_triangles,
         }
     }
 
@@ -439,25 +433,6 @@ impl LightSet {
         }
     }
 
-    /// True when every emitter is a triangle sampled by area and light sampling can choose
-    /// one: the case the lane-parallel path tracer handles
-    /// ([`crate::integrators::path_lanes`]).
-    #[inline]
-    pub fn only_area_triangles(&self) -> bool {
-        self.triangle_sampling == TriangleSampling::Area && self.only_triangles
-    }
-
-    /// The emitter that light sampling chooses with `u.x`, its selection probability and `u`
-    /// with its first dimension remapped, as [`LightSet::sample`] chooses them; None when the
-    /// chosen emitter is not a triangle (or no emitter can be chosen).
-    #[inline]
-    pub fn choose_triangle(&self, u: Vec2) -> Option<(&TriangleLight, f32, Vec2)> {
-        match self.choose(u)? {
-            (Emitter::Triangle(t), pmf, u) => Some((t, pmf, u)),
-            _ => None,
-        }
-    }
-
     /// The emitter chosen with `u.x`, its selection probability, and `u` with its first
     /// dimension remapped for sampling the emitter ([`AliasTable::sample_remapped`]); None
     /// when no emitter can be chosen.
@@ -468,15 +443,6 @@ impl LightSet {
         }
         let (i, pmf, ux) = self.table.sample_remapped(u.x);
         Some((&self.emitters[i], pmf, Vec2::new(ux, u.y)))
-    }
-
-    /// The selection probability and area of emissive triangle `prim` ((0, 0) for a triangle
-    /// that is no light): what [`LightSet::triangle_pdf`] reads besides the geometry, with
-    /// area sampling.
-    #[inline]
-    pub fn triangle_pmf_area(&self, prim: u32) -> (f32, f32) {
-        self.light_of_triangle(prim)
-            .map_or((0.0, 0.0), |(pmf, t)| (pmf, t.area))
     }
 
     /// The solid angle of triangle (a, b, c) seen from `p` when it is sampled by solid angle

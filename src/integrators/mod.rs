@@ -5,7 +5,6 @@
 
 pub mod ao;
 pub mod path;
-pub mod path_lanes;
 
 use glam::{Vec3, Vec3A};
 use std::fmt;
@@ -43,10 +42,6 @@ pub struct Context<'a> {
     /// camera ray that misses (the default; the image is the same either way, tested).
     /// False is for measuring the cost of strata's layers per traced ray.
     pub cull_blocks: bool,
-    /// Path-trace a camera packet's paths together in SIMD lanes ([`path_lanes`]) where the
-    /// scene and settings allow it: the default. The image is the same bit for bit (tested);
-    /// false shades them one path at a time, for measuring what the lanes gain.
-    pub path_lanes: bool,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -90,7 +85,6 @@ impl Prepared {
             ray_offset: true,
             camera_packets: true,
             cull_blocks: true,
-            path_lanes: true,
         }
     }
 }
@@ -251,11 +245,6 @@ impl Integrator {
                 for (l, a) in l.iter_mut().zip(ao.iter()) {
                     *l = Vec3A::splat(*a);
                 }
-            }
-            Integrator::Direct(settings) | Integrator::Path(settings)
-                if path_lanes::supported(ctx, settings) =>
-            {
-                path_lanes::li_lanes(ctx, rays, hits, samplers, lanes, settings, counts, l);
             }
             _ => {
                 for k in 0..rays.len() {

@@ -40,11 +40,6 @@
 //! "Bounces stratified jointly"). The film position's slot stays apart: joined to the
 //! bounces, it would push the first bounce off dimensions 0–1, the best-stratified pair.
 //! `PathSettings::joint_bounces` = false pads them, for comparisons.
-//!
-//! [`super::path_lanes`] repeats this estimator for the paths of a camera packet at once, in
-//! SIMD lanes, with the same float operations in the same order: a change to [`li`] must be
-//! made there too (or narrow `path_lanes::supported`); `tests/path_lanes.rs` fails on any
-//! difference between their images.
 
 use std::fmt;
 use std::str::FromStr;
