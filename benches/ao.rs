@@ -14,11 +14,11 @@ use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Ray};
 use strata::embree::RawRay;
 use strata::integrators::{AoSettings, Integrator, Prepared};
-use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderSettings};
 use strata::sampling::warps::square_to_cosine_hemisphere;
 use strata::sampling::{Onb, PixelSampler, SamplerKind};
 use strata::scene::{self, LoadOptions, Scene};
+use strata::shading::interaction::SurfaceInteraction;
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -55,7 +55,7 @@ fn ray_batches(scene: &Scene, accel: &Accel) -> (Vec<Ray>, Vec<Ray>) {
 }
 
 fn bench(c: &mut Criterion) {
-    strata::embree::enable_ftz_daz();
+    strata::accel::enable_ftz_daz();
     let (scene, accel) = load();
     let (camera_rays, ao_rays) = ray_batches(&scene, &accel);
 

@@ -25,11 +25,11 @@ use glam::Vec2;
 use rayon::prelude::*;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
 use strata::embree::RawRay;
-use strata::interaction::SurfaceInteraction;
 use strata::sampling::hash::{hash_words, unit_f32};
 use strata::sampling::warps::square_to_cosine_hemisphere;
 use strata::sampling::Onb;
 use strata::scene::{self, Camera, LoadOptions, Scene};
+use strata::shading::interaction::SurfaceInteraction;
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -121,7 +121,7 @@ fn block_ordered(coherent: &[Ray]) -> Vec<RawRay> {
 }
 
 fn bench(c: &mut Criterion) {
-    strata::embree::enable_ftz_daz();
+    strata::accel::enable_ftz_daz();
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let pool = strata::render::thread_pool(all).unwrap();
     for path in meshes() {
@@ -243,7 +243,7 @@ fn bench(c: &mut Criterion) {
 /// triangles, on the bundled scenes whose triangles pair (`quads/`): one thread, the same
 /// ray sets as `trace/`.
 fn bench_quads(c: &mut Criterion) {
-    strata::embree::enable_ftz_daz();
+    strata::accel::enable_ftz_daz();
     for file in ["cornell-box.gltf", "emissive-strength.gltf"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("scenes")

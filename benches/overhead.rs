@@ -53,11 +53,11 @@ use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Ray, SceneBox, OCCLUSION_PACKET, PACKET};
 use strata::embree::RawRay;
 use strata::integrators::{AoSettings, Integrator, Prepared};
-use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderSettings};
 use strata::sampling::warps::square_to_cosine_hemisphere;
 use strata::sampling::{Onb, PixelSampler, SamplerKind};
 use strata::scene::{self, Camera, LoadOptions, Scene};
+use strata::shading::interaction::SurfaceInteraction;
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -183,7 +183,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     // `cargo bench` passes --bench; `cargo test --benches` runs this once as a smoke test.
     let quick = !std::env::args().any(|a| a == "--bench");
-    strata::embree::enable_ftz_daz();
+    strata::accel::enable_ftz_daz();
     let spp: u32 = std::env::var("STRATA_OVERHEAD_SPP").map_or(8, |s| {
         s.parse()
             .ok()

@@ -13,15 +13,16 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use strata::accel::{Accel, AccelOptions, Backend, BuildQuality};
 use strata::integrators::{
-    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, Prepared, Strategy,
+    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, Prepared, ShadingOptions,
+    Strategy,
 };
-use strata::lights::TriangleSampling;
 use strata::render::adaptive::ErrorMetric;
 use strata::render::output::{self, Attr};
 use strata::render::{self, Checkpoint, Film, RenderSettings, RenderStats, Stopping};
 use strata::sampling::sampler::SOBOL_MAX_SPP;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, format_bytes, Camera, LoadOptions};
+use strata::shading::{DiffuseSampling, Environment, TriangleSampling};
 
 /// Render a glTF 2.0 scene to a linear float32 EXR (and an sRGB PNG preview).
 #[derive(Parser, Debug)]
@@ -534,7 +535,6 @@ fn run(cli: Cli) -> Result<Outcome> {
         max_depth: cli.max_depth,
         rr_depth: cli.rr_depth,
         strategy: cli.strategy,
-        hemisphere: cli.hemisphere,
         emitter_samples: cli.emitter_samples,
         camera_emission: true,
         paired_bounces: true,
@@ -555,9 +555,16 @@ fn run(cli: Cli) -> Result<Outcome> {
     };
     let t_prepare = Instant::now();
     let background = glam::Vec3::from_array(cli.background.unwrap_or([0.0; 3]));
-    let mut prepared =
-        Prepared::new(&scene, &cli.scene, &integrator, background).map_err(|e| anyhow!(e))?;
-    prepared.lights.triangle_sampling = cli.triangle_sampling;
+    let shading = ShadingOptions {
+        environment: Environment::Constant(background),
+        diffuse_sampling: match cli.hemisphere {
+            Hemisphere::Cosine => DiffuseSampling::Cosine,
+            Hemisphere::Uniform | Hemisphere::UniformUnweighted => DiffuseSampling::Uniform,
+        },
+        triangle_sampling: cli.triangle_sampling,
+    };
+    let prepared = Prepared::with_options(&scene, &cli.scene, &integrator, &shading)
+        .map_err(|e| anyhow!(e))?;
     if integrator.needs_lights() && prepared.lights.is_empty() {
         eprintln!(
             "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
@@ -659,7 +666,7 @@ fn run(cli: Cli) -> Result<Outcome> {
             attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
             attrs.push((
                 "strata:hemisphere".into(),
-                Attr::Text(p.hemisphere.to_string()),
+                Attr::Text(cli.hemisphere.to_string()),
             ));
             attrs.push((
                 "strata:triangle_sampling".into(),

@@ -9,10 +9,10 @@ use std::path::Path;
 use glam::Vec3;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{ao, AoSettings, Hemisphere, Integrator, Prepared, RayCounts};
-use strata::interaction::SurfaceInteraction;
 use strata::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
 use strata::sampling::{Onb, PixelSampler, SamplerKind};
 use strata::scene::{self, LoadOptions, Scene};
+use strata::shading::interaction::SurfaceInteraction;
 
 const SIZE: u32 = 48;
 const SPP: u32 = 2;

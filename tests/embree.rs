@@ -386,7 +386,7 @@ fn packet_queries_equal_single_ray_queries_on_camera_rays() {
 #[test]
 fn occlusion_packets_equal_single_ray_queries() {
     use strata::accel::OCCLUSION_PACKET as PACKET;
-    use strata::interaction::SurfaceInteraction;
+    use strata::shading::interaction::SurfaceInteraction;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/suzanne.gltf");
     let scene = strata::scene::load(&path, &Default::default()).unwrap();
     let camera = scene.cameras[0].ray_generator(40, 30);

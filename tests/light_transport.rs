@@ -14,10 +14,11 @@ use std::sync::atomic::AtomicBool;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Backend};
-use strata::integrators::{Hemisphere, Integrator, PathSettings, Prepared, Strategy};
+use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions, Strategy};
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{Camera, Light, Material, Projection, Scene};
+use strata::shading::{DiffuseSampling, Environment};
 
 fn scene_from(
     positions: Vec<Vec3>,
@@ -82,7 +83,8 @@ struct Setup {
     seed: u64,
     sampler: SamplerKind,
     background: Vec3,
-    triangle_sampling: strata::lights::TriangleSampling,
+    triangle_sampling: strata::shading::lights::TriangleSampling,
+    diffuse_sampling: DiffuseSampling,
     backend: Backend,
 }
 
@@ -95,6 +97,7 @@ impl Setup {
             sampler: SamplerKind::Random,
             background: Vec3::ZERO,
             triangle_sampling: Default::default(),
+            diffuse_sampling: Default::default(),
             backend: Backend::Embree,
         }
     }
@@ -115,9 +118,12 @@ fn render_film(
         },
     )
     .unwrap();
-    let mut prepared =
-        Prepared::new(scene, Path::new("test"), &integrator, setup.background).unwrap();
-    prepared.lights.triangle_sampling = setup.triangle_sampling;
+    let options = ShadingOptions {
+        environment: Environment::Constant(setup.background),
+        diffuse_sampling: setup.diffuse_sampling,
+        triangle_sampling: setup.triangle_sampling,
+    };
+    let prepared = Prepared::with_options(scene, Path::new("test"), &integrator, &options).unwrap();
     let ctx = prepared.context(scene, &accel);
     let settings = RenderSettings {
         camera,
@@ -604,21 +610,30 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
     let scene = two_lights_scene();
     let cam = camera(Vec3::new(0.0, 3.0, 4.0), Vec3::new(0.0, 0.0, 0.0), 0.9);
     let size = 32;
-    let direct = |strategy, hemisphere| {
+    let direct = |strategy| {
         Integrator::Direct(PathSettings {
             max_depth: 1,
             strategy,
-            hemisphere,
             ..Default::default()
         })
     };
-    let reference = render(
-        &scene,
-        cam.clone(),
-        direct(Strategy::Mis, Hemisphere::Cosine),
+    // Diffuse reflection sampled uniformly is its own BSDF variant, chosen by the material
+    // preparation: the integrator is the same.
+    let render_sampled = |integrator, size, spp, seed, diffuse_sampling| {
+        let setup = Setup {
+            diffuse_sampling,
+            ..Setup::new(size, spp, seed)
+        };
+        render_film(&scene, cam.clone(), integrator, setup)
+            .film
+            .pixels()
+    };
+    let reference = render_sampled(
+        direct(Strategy::Mis),
         size,
         4096,
         100,
+        DiffuseSampling::Cosine,
     );
     let mut rmse = Vec::new();
     for strategy in [Strategy::Bsdf, Strategy::Mis] {
@@ -631,16 +646,9 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
         } else {
             256
         };
-        for hemisphere in [Hemisphere::Cosine, Hemisphere::Uniform] {
-            let img = render(
-                &scene,
-                cam.clone(),
-                direct(strategy, hemisphere),
-                size,
-                spp,
-                7,
-            );
-            let name = format!("{strategy}, {hemisphere}");
+        for sampling in [DiffuseSampling::Cosine, DiffuseSampling::Uniform] {
+            let img = render_sampled(direct(strategy), size, spp, 7, sampling);
+            let name = format!("{strategy}, {sampling:?}");
             assert_agrees_in_blocks(&name, &img, &reference, size);
             rmse.push((name, rmse_of(&img, &reference)));
         }
@@ -654,12 +662,12 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
     let furnace = scene_from(p, t, diffuse(rho, le), vec![]);
     let cam = camera(Vec3::new(0.1, 0.05, 0.0), Vec3::new(1.0, 0.2, 0.3), 1.2);
     for bounces in [1, 3] {
-        let integrator = Integrator::Path(PathSettings {
-            max_depth: bounces,
-            hemisphere: Hemisphere::Uniform,
-            ..Default::default()
-        });
-        let (mean, sem) = mean_and_sem(&render(&furnace, cam.clone(), integrator, 16, 64, 5));
+        let setup = Setup {
+            diffuse_sampling: DiffuseSampling::Uniform,
+            ..Setup::new(16, 64, 5)
+        };
+        let film = render_film(&furnace, cam.clone(), path(bounces), setup);
+        let (mean, sem) = mean_and_sem(&film.film.pixels());
         let expected = (le * (1.0 - rho.powi(bounces as i32 + 1)) / (1.0 - rho)) as f64;
         assert!(
             (mean - expected).abs() < 5.0 * sem + 1e-4,
@@ -716,7 +724,7 @@ fn light_bsdf_and_mis_agree_and_mis_has_the_lowest_error() {
 /// angle, d²/(cos·A), varies most across the light.
 #[test]
 fn solid_angle_and_area_sampling_of_emitters_agree_and_solid_angle_wins_up_close() {
-    use strata::lights::TriangleSampling;
+    use strata::shading::lights::TriangleSampling;
     let scene = two_lights_scene();
     let cam = camera(Vec3::new(0.0, 3.0, 4.0), Vec3::new(0.0, 0.0, 0.0), 0.9);
     let size = 32;
@@ -825,7 +833,7 @@ fn light_points_keep_the_stratification_of_their_samples() {
     let prepared = Prepared::new(&scene, Path::new("test"), &direct(), Vec3::ZERO).unwrap();
     let down = strata::accel::Ray::new(Vec3::new(0.1, 0.5, 0.2), Vec3::NEG_Y);
     let hit = accel.intersect(&down).expect("the floor");
-    let si = strata::interaction::SurfaceInteraction::from_hit(&scene, &down, &hit);
+    let si = strata::shading::interaction::SurfaceInteraction::from_hit(&scene, &down, &hit);
 
     let side = 16;
     // Per triangle, the samples found again, counted in an 8×8 grid.

@@ -28,10 +28,10 @@ use rayon::prelude::*;
 use serde_json::Value;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
 use strata::integrators::{AoSettings, Hemisphere, Integrator, PathSettings, Prepared};
-use strata::interaction::SurfaceInteraction;
 use strata::render::{self, RenderResult, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, Camera, Light, LoadOptions, Material, Projection, Scene};
+use strata::shading::interaction::SurfaceInteraction;
 
 // ---------------------------------------------------------------------------------------------
 // Building scenes in code

@@ -574,11 +574,11 @@ fn edge_values_exhaustively() {
 }
 
 /// The grazing rim of the cosine warp (pdf 0, see `check_cosine_hemisphere`) never reaches
-/// an estimator: `Lambertian::sample` returns `None` there instead of a zero pdf.
+/// an estimator: the diffuse BSDF's `sample` returns `None` there instead of a zero pdf.
 #[test]
 fn lambertian_rejects_rim_samples() {
-    use strata::interaction::SurfaceInteraction;
-    use strata::material::Lambertian;
+    use strata::shading::interaction::SurfaceInteraction;
+    use strata::shading::{Bsdf, SurfaceBsdf};
     let edges = [0.0, 0.3, 0.5, BELOW_ONE, 1.0];
     for n in [Vec3::Z, Vec3::NEG_Z, Vec3::new(0.6, 0.0, 0.8)] {
         let si = SurfaceInteraction {
@@ -592,16 +592,22 @@ fn lambertian_rejects_rim_samples() {
             u: 0.0,
             v: 0.0,
         };
-        let bsdf = Lambertian::new(Vec3::splat(0.5), &si);
+        let bsdf = SurfaceBsdf::new(
+            Bsdf::Diffuse {
+                albedo: Vec3::splat(0.5),
+            },
+            &si,
+        );
         for &x in &edges {
             for &y in &edges {
                 let u = Vec2::new(x, y);
-                if let Some((wi, pdf)) = bsdf.sample(u) {
+                if let Some(s) = bsdf.sample(u) {
+                    let (wi, pdf) = (s.wi, s.pdf);
                     assert!(
                         pdf.is_finite() && pdf > 0.0 && wi.is_finite(),
                         "n {n}, u {u}: wi {wi}, pdf {pdf}"
                     );
-                    let w = bsdf.f_cos(wi) / pdf;
+                    let w = s.f_cos / pdf;
                     assert!(w.is_finite(), "n {n}, u {u}: weight {w}");
                 } else {
                     // Only rim samples (or those below the geometric surface) are dropped.

@@ -18,38 +18,10 @@ use std::str::FromStr;
 
 use crate::scene::Scene;
 
-pub use crate::embree::{OCCLUSION_PACKET, PACKET};
+pub use crate::embree::{enable_ftz_daz, ftz_daz_enabled};
+pub use crate::ray::{Hit, Ray, OCCLUSION_PACKET, PACKET};
 pub use embree_backend::EmbreeAccel;
 pub use obvhs_backend::ObvhsAccel;
-
-/// A ray segment `org + t·dir`, t in `[t_min, t_max]`.
-///
-/// The field order matches Embree's `RTCRay` in 16-byte groups (origin and t_min, then
-/// direction), so building an `RTCRay` from it is two whole-vector copies: Embree reads the
-/// ray with 16-byte loads, and a load that straddles several smaller stores stalls.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(16))]
-pub struct Ray {
-    pub org: Vec3,
-    pub t_min: f32,
-    pub dir: Vec3,
-    pub t_max: f32,
-}
-
-impl Ray {
-    pub fn new(org: Vec3, dir: Vec3) -> Ray {
-        Ray {
-            org,
-            dir,
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        }
-    }
-
-    pub fn at(&self, t: f32) -> Vec3 {
-        self.org + t * self.dir
-    }
-}
 
 /// A box around all of a scene's triangles, for telling cheaply that a ray cannot hit any
 /// of them: camera rays that miss the scene's bounds then need no traversal.
@@ -101,19 +73,6 @@ impl SceneBox {
     pub fn misses_all(&self, rays: &[Ray]) -> bool {
         rays.iter().all(|r| self.misses(r))
     }
-}
-
-/// The closest intersection of a ray with the scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    /// Index of the triangle in the scene.
-    pub prim: u32,
-    /// Barycentric coordinates of the hit point.
-    pub u: f32,
-    pub v: f32,
-    /// Unit geometric normal on the counter-clockwise (front) side.
-    pub ng: Vec3,
 }
 
 /// `n / |n|`, or zero for a zero (or non-finite) `n`. |n|² overflows f32 for a cross product

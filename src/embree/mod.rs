@@ -491,13 +491,10 @@ impl Drop for Scene {
     }
 }
 
-/// Rays per packet of [`Scene::intersect_packet`].
-pub const PACKET: usize = 8;
-
-/// The most rays per call of [`Scene::occluded_packet`]. Embree's 16-wide query traces the
-/// 16 AO rays of one point in 0.91× the time of two 8-wide ones (BENCHMARKS.md), which are
-/// themselves faster than single rays; camera rays gain nothing from 16 (measured).
-pub const OCCLUSION_PACKET: usize = 16;
+// The packet widths are the renderer's ([`crate::ray`]); the wrapper maps them onto
+// Embree's 8- and 16-wide queries.
+pub use crate::ray::{OCCLUSION_PACKET, PACKET};
+const _: () = assert!(PACKET == 8 && OCCLUSION_PACKET == 16);
 
 /// The closest hit of a ray, as Embree reports it.
 #[derive(Clone, Copy, Debug, PartialEq)]

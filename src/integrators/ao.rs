@@ -31,11 +31,11 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
 use crate::integrators::{Context, RayCounts};
-use crate::interaction::SurfaceInteraction;
 use crate::sampling::warps::{
     square_to_cosine_hemisphere, square_to_cosine_hemisphere_lanes, square_to_uniform_hemisphere,
 };
 use crate::sampling::{Onb, PixelSampler};
+use crate::shading::interaction::SurfaceInteraction;
 
 /// How AO directions are sampled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -11,10 +11,11 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::accel::{Accel, Hit, Ray, PACKET};
-use crate::lights::{BackgroundSampling, LightSet};
-use crate::material::{Materials, Need};
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
+use crate::shading::{
+    BackgroundSampling, DiffuseSampling, Environment, LightSet, Materials, Need, TriangleSampling,
+};
 
 pub use ao::{AoSettings, Hemisphere};
 pub use path::{PathSettings, Strategy};
@@ -44,6 +45,18 @@ pub struct Context<'a> {
     pub cull_blocks: bool,
 }
 
+/// How the scene is shaded, beyond what its file says: the choices a render makes for
+/// materials and lights.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadingOptions {
+    /// What rays that leave the scene see (`--background`).
+    pub environment: Environment,
+    /// How diffuse reflection draws directions (`--hemisphere`).
+    pub diffuse_sampling: DiffuseSampling,
+    /// How points on emissive triangles are sampled (`--triangle-sampling`).
+    pub triangle_sampling: TriangleSampling,
+}
+
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
 /// decoded textures and the light set for direct lighting and path tracing.
 #[derive(Clone, Debug, Default)]
@@ -54,24 +67,45 @@ pub struct Prepared {
 
 impl Prepared {
     /// Prepares what `integrator` reads of `scene` (loaded from `scene_path`, for messages),
-    /// with a constant `background` radiance.
+    /// with a constant `background` radiance and the other options at their defaults.
     pub fn new(
         scene: &Scene,
         scene_path: &std::path::Path,
         integrator: &Integrator,
         background: Vec3,
     ) -> Result<Prepared, String> {
-        let materials = Materials::prepare(scene, scene_path, integrator.material_need())?;
-        let lights = if integrator.needs_lights() {
+        let options = ShadingOptions {
+            environment: Environment::Constant(background),
+            ..Default::default()
+        };
+        Prepared::with_options(scene, scene_path, integrator, &options)
+    }
+
+    /// Prepares what `integrator` reads of `scene` (loaded from `scene_path`, for messages)
+    /// as `options` say.
+    pub fn with_options(
+        scene: &Scene,
+        scene_path: &std::path::Path,
+        integrator: &Integrator,
+        options: &ShadingOptions,
+    ) -> Result<Prepared, String> {
+        let materials = Materials::prepare(
+            scene,
+            scene_path,
+            integrator.material_need(),
+            options.diffuse_sampling,
+        )?;
+        let mut lights = if integrator.needs_lights() {
             LightSet::build(
                 scene,
                 &materials,
-                background,
-                integrator.background_sampling(),
+                options.environment.clone(),
+                integrator.background_sampling(&materials),
             )
         } else {
             LightSet::default()
         };
+        lights.triangle_sampling = options.triangle_sampling;
         Ok(Prepared { materials, lights })
     }
 
@@ -183,13 +217,15 @@ impl Integrator {
         }
     }
 
-    /// How light sampling treats the constant background: only `--strategy light` needs
-    /// light samples of it; otherwise BSDF samples find it at less cost (see [`crate::lights`]).
-    pub fn background_sampling(&self) -> BackgroundSampling {
+    /// How light sampling treats the environment: BSDF samples alone find a constant one at
+    /// less cost where every surface is diffuse (see [`crate::shading::lights`]); with
+    /// `--strategy light`, or glossy and specular surfaces, light samples must find it too.
+    pub fn background_sampling(&self, materials: &Materials) -> BackgroundSampling {
         match self {
             Integrator::Direct(s) | Integrator::Path(s) if s.strategy == Strategy::Light => {
                 BackgroundSampling::Lights
             }
+            _ if !materials.all_diffuse() => BackgroundSampling::Lights,
             _ => BackgroundSampling::BsdfOnly,
         }
     }
@@ -219,6 +255,31 @@ impl Integrator {
             return Vec3::ZERO;
         }
         self.li_from_camera_hit(ctx, ray, ctx.accel.intersect(ray), sampler, rays)
+    }
+
+    /// The same integrator leaving out the emission its camera ray meets, where the caller
+    /// estimates that term apart (the renderer's emitter rays); AO, which sees no emission,
+    /// is returned as it is.
+    pub fn without_camera_emission(&self) -> Integrator {
+        match *self {
+            Integrator::Direct(s) => Integrator::Direct(PathSettings {
+                camera_emission: false,
+                ..s
+            }),
+            Integrator::Path(s) => Integrator::Path(PathSettings {
+                camera_emission: false,
+                ..s
+            }),
+            ao @ Integrator::Ao(_) => ao,
+        }
+    }
+
+    /// The emission that camera ray `ray`, whose closest hit is `hit`, sees: the term the
+    /// light-transport integrators add first for a camera ray, and leave out
+    /// [`Integrator::without_camera_emission`].
+    #[inline]
+    pub fn camera_emission(ctx: &Context, ray: &Ray, hit: Option<Hit>) -> Vec3 {
+        path::camera_emission(ctx, ray, hit)
     }
 
     /// [`Integrator::li_from_camera_hit`] for the camera rays of a packet: `rays[k]`, with
@@ -257,17 +318,22 @@ impl Integrator {
         }
     }
 
-    /// The estimate of a camera ray that meets nothing. It is the same for every ray, since
-    /// misses see a constant (AO's 0, or the constant background), which lets the renderer
-    /// give it to samples it leaves untraced. Direct lighting and path tracing compute it as
+    /// The estimate of a camera ray that meets nothing, where it is the same for every ray
+    /// (AO's 0, or a constant environment): the renderer then gives it to samples it leaves
+    /// untraced. None where the environment varies with direction: such rays are traced. Direct lighting and path tracing compute it as
     /// they do for such a ray (`sampler` is drawn from as it would be); AO's is its
     /// documented 0, written out so that `ao::li` keeps its one caller in the render loop
     /// (a second one changed how it was inlined, and cost a 64-ray AO render 3–5%). The
     /// render tests compare culled and traced misses bit for bit. Only called when
     /// [`Integrator::traces_rays`].
-    pub fn camera_miss(&self, ctx: &Context, sampler: &mut PixelSampler) -> Vec3A {
-        match self {
+    pub fn camera_miss(&self, ctx: &Context, sampler: &mut PixelSampler) -> Option<Vec3A> {
+        Some(match self {
             Integrator::Ao(_) => Vec3A::ZERO,
+            Integrator::Direct(_) | Integrator::Path(_)
+                if ctx.lights.environment().constant().is_none() =>
+            {
+                return None
+            }
             Integrator::Direct(settings) | Integrator::Path(settings) => {
                 let ray = Ray::new(glam::Vec3::ZERO, glam::Vec3::NEG_Z);
                 path::li(
@@ -280,7 +346,7 @@ impl Integrator {
                 )
                 .into()
             }
-        }
+        })
     }
 
     /// [`Integrator::li`] given the camera ray's closest hit, found by the caller (for

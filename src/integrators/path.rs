@@ -4,7 +4,10 @@
 //! At every surface vertex one light is sampled (next-event estimation) and one direction is
 //! drawn from the BSDF; an emitter reached by the BSDF direction is weighted against the
 //! light-sampling pdf with the power heuristic (Veach 1995, §9.2), and delta lights are
-//! reached by light sampling only. Emitters seen directly by the camera count in full.
+//! reached by light sampling only, delta BSDF lobes by BSDF sampling only. Emitters seen
+//! directly by the camera count in full. Surfaces scatter through
+//! [`crate::shading::SurfaceBsdf`], lights and the environment come from
+//! [`crate::shading::LightSet`]: the estimator is the same whatever the BSDFs and emitters.
 //!
 //! | parameter   | default | meaning                                                           |
 //! |-------------|---------|-------------------------------------------------------------------|
@@ -12,8 +15,6 @@
 //! | `rr_depth`  | 5       | Russian roulette on the path throughput from this bounce on       |
 //! | `strategy`  | mis     | `mis`, `light` (NEE only) or `bsdf` (BSDF sampling only, delta     |
 //! |             |         | lights still by NEE): all three are unbiased; for comparisons     |
-//! | `hemisphere`| cosine  | BSDF directions cosine-weighted, or `uniform` (pdf 1/2π, in the   |
-//! |             |         | MIS weights too): unbiased as well; for comparisons               |
 //!
 //! Sample dimensions: the first surface vertex takes its light point from the film
 //! position's slot (dimensions 0–1 of the 4D point whose dimensions 2–3 placed the sample in
@@ -46,11 +47,10 @@ use std::str::FromStr;
 
 use glam::{Vec2, Vec3};
 
-use super::{Context, Hemisphere, RayCounts};
+use super::{Context, RayCounts};
 use crate::accel::{Hit, Ray};
-use crate::interaction::SurfaceInteraction;
-use crate::material::Lambertian;
 use crate::sampling::PixelSampler;
+use crate::shading::SurfaceInteraction;
 
 /// Which sampling techniques contribute direct light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -88,9 +88,6 @@ pub struct PathSettings {
     pub max_depth: u32,
     pub rr_depth: u32,
     pub strategy: Strategy,
-    /// How the BSDF samples directions: `Cosine` or `Uniform` (`UniformUnweighted`, an AO
-    /// negative control, is treated as `Uniform`).
-    pub hemisphere: Hemisphere,
     /// Camera rays per sample that estimate the emission the camera sees directly, in the
     /// pixel blocks where an emitter may be seen (the renderer traces them, see
     /// [`crate::render`]); 0: the path's own camera ray alone, as elsewhere.
@@ -116,7 +113,6 @@ impl Default for PathSettings {
             max_depth: 8,
             rr_depth: 5,
             strategy: Strategy::Mis,
-            hemisphere: Hemisphere::Cosine,
             emitter_samples: 16,
             camera_emission: true,
             paired_bounces: true,
@@ -150,8 +146,10 @@ pub fn li(
     let mut beta = Vec3::ONE;
     let mut ray = *ray;
     // The previous vertex's BSDF pdf and position, for MIS of emitters the path reaches; None
-    // for the camera vertex.
+    // for the camera vertex. After a delta lobe (`specular`), which light sampling cannot
+    // follow, an emitter reached counts in full, as one the camera sees.
     let mut prev: Option<(f32, Vec3)> = None;
+    let mut specular = false;
     let mut depth = 0;
     let mut next_hit = camera_hit;
     // The light point of the current vertex (when bounces are paired, drawn by the bounce
@@ -159,18 +157,19 @@ pub fn li(
     let mut u_light = Vec2::ZERO;
     loop {
         let Some(hit) = next_hit else {
-            // Possibly add the background, weighted against sampling it as a light.
-            let bg = lights.background();
-            if bg.max_element() > 0.0 {
+            // Possibly add the environment, weighted against sampling it as a light.
+            let le = lights.environment().radiance(ray.dir);
+            if le.max_element() > 0.0 {
                 let w = match prev {
                     None => 1.0,
+                    Some(_) if specular => 1.0,
                     Some((pdf_bsdf, _)) => match settings.strategy {
-                        Strategy::Mis => power_heuristic(pdf_bsdf, lights.background_pdf()),
+                        Strategy::Mis => power_heuristic(pdf_bsdf, lights.environment_pdf(ray.dir)),
                         Strategy::Bsdf => 1.0,
                         Strategy::Light => 0.0,
                     },
                 };
-                l += beta * bg * w;
+                l += beta * le * w;
             }
             break;
         };
@@ -183,6 +182,7 @@ pub fn li(
         if le.max_element() > 0.0 && (prev.is_some() || settings.camera_emission) {
             let w = match prev {
                 None => 1.0,
+                Some(_) if specular => 1.0,
                 Some((pdf_bsdf, p_prev)) => match settings.strategy {
                     Strategy::Mis => {
                         let pdf_light = lights.triangle_pdf(scene, si.prim, p_prev, si.p, hit.ng);
@@ -199,10 +199,7 @@ pub fn li(
         }
         depth += 1;
 
-        let mut bsdf = Lambertian::new(materials.albedo(scene, &si, uv), &si);
-        if settings.hemisphere != Hemisphere::Cosine {
-            bsdf = bsdf.with_uniform_sampling();
-        }
+        let bsdf = materials.bsdf(scene, &si, uv);
         // The slots of the bounce (see the module docs).
         let (u_bsdf, u_light_next) = if settings.paired_bounces {
             if depth == 1 {
@@ -222,10 +219,15 @@ pub fn li(
             1.0
         };
 
-        // Next-event estimation: sample a light, test visibility, weight against the BSDF.
-        if let Some((ls, pmf)) = lights.sample(scene, materials, &si, u_light) {
+        // Next-event estimation: sample a light, test visibility, weight against the BSDF
+        // (not through delta lobes, which no light sample can hit).
+        let light = match bsdf.flags().has_non_specular() {
+            true => lights.sample(scene, materials, &si, u_light),
+            false => None,
+        };
+        if let Some((ls, pmf)) = light {
             let use_it = ls.is_delta || settings.strategy != Strategy::Bsdf;
-            let f = bsdf.f_cos(ls.wi);
+            let f = bsdf.eval(ls.wi);
             if use_it && ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
                 let pdf_light = pmf * ls.pdf;
                 let w = if ls.is_delta || settings.strategy == Strategy::Light {
@@ -252,10 +254,10 @@ pub fn li(
         }
 
         // Sample the BSDF for the next direction.
-        let Some((wi, pdf)) = bsdf.sample(u_bsdf) else {
+        let Some(bs) = bsdf.sample(u_bsdf) else {
             break;
         };
-        beta *= bsdf.f_cos(wi) / pdf;
+        beta *= bs.f_cos / bs.pdf;
         if beta.max_element() <= 0.0 {
             break;
         }
@@ -267,9 +269,10 @@ pub fn li(
             }
             beta /= q;
         }
-        prev = Some((pdf, si.p));
+        specular = bs.flags.is_specular();
+        prev = Some((bs.pdf, si.p));
         u_light = u_light_next;
-        ray = si.spawn_ray_with(wi, f32::INFINITY, ctx.ray_offset);
+        ray = si.spawn_ray_with(bs.wi, f32::INFINITY, ctx.ray_offset);
         rays.extension += 1;
         next_hit = ctx.accel.intersect(&ray);
     }

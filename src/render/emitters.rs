@@ -30,10 +30,10 @@ use rayon::prelude::*;
 
 use super::culling::{BlockMask, BLOCK_H, BLOCK_W};
 use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
-use crate::integrators::{path, Context, Integrator, RayCounts};
-use crate::lights::Emitter;
+use crate::integrators::{Context, Integrator, RayCounts};
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
+use crate::shading::lights::Emitter;
 
 /// The side stream of [`PixelSampler::side_2d_set`] that places the emitter rays.
 const STREAM: u32 = 0x0e31;
@@ -93,17 +93,11 @@ impl EmitterView {
         if rays < 2 || fraction == 0.0 {
             return None;
         }
-        let mut rest = settings;
-        rest.camera_emission = false;
-        let integrator = match integrator {
-            Integrator::Direct(_) => Integrator::Direct(rest),
-            _ => Integrator::Path(rest),
-        };
         Some(EmitterView {
             split,
             width,
             corner_rays,
-            integrator,
+            integrator: integrator.without_camera_emission(),
             rays,
         })
     }
@@ -241,7 +235,7 @@ impl EmitterView {
 }
 
 /// The emission that the camera rays through the first `m` film positions of `(fx, fy)` see
-/// ([`path::camera_emission`]), traced as one packet or, with `packets` false, one by one
+/// ([`Integrator::camera_emission`]), traced as one packet or, with `packets` false, one by one
 /// (the hits are the same).
 #[inline]
 fn emission_through(
@@ -262,7 +256,7 @@ fn emission_through(
     }
     std::array::from_fn(|k| {
         if k < m {
-            path::camera_emission(ctx, &rays[k], hits[k])
+            Integrator::camera_emission(ctx, &rays[k], hits[k])
         } else {
             Vec3::ZERO
         }

@@ -150,7 +150,7 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, rayon::ThreadPoo
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("strata-worker-{i}"))
-        .start_handler(|_| crate::embree::enable_ftz_daz())
+        .start_handler(|_| crate::accel::enable_ftz_daz())
         .build()
 }
 
@@ -533,7 +533,8 @@ struct TileSetup {
     scene_box: SceneBox,
     /// The pixel blocks that can see the scene; None: every block is traced.
     mask: Option<BlockMask>,
-    /// The estimate of a camera ray that misses (`Integrator::camera_miss`).
+    /// The estimate of a camera ray that misses (`Integrator::camera_miss`): the same for
+    /// every ray wherever blocks are culled.
     miss: Vec3A,
     /// Where the camera may see emitters, whose samples are split ([`emitters`]).
     emitters: Option<EmitterView>,
@@ -547,7 +548,14 @@ impl TileSetup {
         let integrator = &settings.integrator;
         // Culling serves the packet loop only (camera packets on, rays traced at all).
         let packets = ctx.camera_packets && integrator.traces_rays(ctx);
-        let mask = (packets && ctx.cull_blocks)
+        let miss = if packets {
+            let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+            integrator.camera_miss(ctx, &mut sampler)
+        } else {
+            None
+        };
+        // Blocks are culled only where every miss has the one estimate `miss`.
+        let mask = (packets && ctx.cull_blocks && miss.is_some())
             .then(|| {
                 BlockMask::new(
                     &camera,
@@ -557,18 +565,12 @@ impl TileSetup {
                 )
             })
             .flatten();
-        let miss = if packets {
-            let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
-            integrator.camera_miss(ctx, &mut sampler)
-        } else {
-            Vec3A::ZERO
-        };
         let emitters = EmitterView::new(ctx, integrator, &camera, settings.width, settings.height);
         TileSetup {
             camera,
             scene_box: SceneBox::new(ctx.accel),
             mask,
-            miss,
+            miss: miss.unwrap_or(Vec3A::ZERO),
             emitters,
         }
     }

@@ -3,7 +3,7 @@
 
 use glam::{Mat4, Vec3};
 
-use crate::accel::Ray;
+use crate::ray::Ray;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {

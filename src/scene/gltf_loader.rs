@@ -585,6 +585,9 @@ impl Loader<'_> {
         let base_color_texture = pbr
             .base_color_texture()
             .map(|info| self.texture_ref(&info, &format!("{label} base colour texture")));
+        let metallic_roughness_texture = pbr
+            .metallic_roughness_texture()
+            .map(|info| self.texture_ref(&info, &format!("{label} metallic-roughness texture")));
         let emissive_texture = m
             .emissive_texture()
             .map(|info| self.texture_ref(&info, &format!("{label} emissive texture")));
@@ -596,6 +599,7 @@ impl Loader<'_> {
             emissive_texture,
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
+            metallic_roughness_texture,
             double_sided: m.double_sided(),
         })
     }

@@ -2,7 +2,7 @@
 //! which features the scene uses, so the renderer can skip work a scene does not need.
 //!
 //! Every mesh of the glTF file is flattened into one triangle list in world space; a
-//! triangle's index is its primitive id in [`crate::accel::Accel`] hits.
+//! triangle's index is its primitive id in the acceleration structure's hits.
 
 mod camera;
 mod gltf_loader;
@@ -59,6 +59,8 @@ pub struct Material {
     pub emissive_texture: Option<TextureRef>,
     pub metallic: f32,
     pub roughness: f32,
+    /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
+    pub metallic_roughness_texture: Option<TextureRef>,
     pub double_sided: bool,
 }
 
@@ -73,6 +75,7 @@ impl Default for Material {
             emissive_texture: None,
             metallic: 1.0,
             roughness: 1.0,
+            metallic_roughness_texture: None,
             double_sided: false,
         }
     }

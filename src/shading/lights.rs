@@ -7,36 +7,33 @@
 //! | directional    | `KHR_lights_punctual` directional      | delta: its direction; irradiance E |
 //! | triangle       | each triangle of an emissive material  | uniform area (default) or uniform  |
 //! |                |                                        | solid angle (Arvo 1995)            |
-//! | background     | `--background R,G,B` (constant)        | BSDF sampling only; uniform sphere |
+//! | environment    | [`Environment`] (`--background R,G,B`)  | BSDF sampling only; its own pdf    |
 //! |                |                                        | when light sampling must find it   |
 //!
 //! One emitter is chosen per sample in proportion to its power through an alias table
 //! (Walker 1977, Vose 1991). Punctual `range` is ignored (it is optional in the extension
 //! and has no physical counterpart).
 //!
-//! A constant background is left out of light selection unless only light sampling can
-//! reach it ([`BackgroundSampling`]). Cosine-weighted BSDF sampling of a diffuse surface
-//! already has a pdf proportional to the integrand cos θ·L for constant L, so light samples of
-//! the background (uniform over the sphere, half of them below the surface) add shadow rays
+//! A constant environment is left out of light selection unless only light sampling can
+//! reach it, or the scene's BSDFs are not all diffuse ([`BackgroundSampling`]).
+//! Cosine-weighted BSDF sampling of a diffuse surface already has a pdf proportional to the
+//! integrand cos θ·L for constant L, so light samples of the environment (uniform over the
+//! sphere, half of them below the surface) add shadow rays
 //! without lowering the variance; with them gone, a BSDF direction that escapes takes the
 //! full weight (its MIS partner's pdf is 0). pbrt-v4 does the same for its uniform infinite
 //! light ("allowIncompletePDF", Pharr et al. 2023, §13.4).
 
 use glam::{Vec2, Vec3};
 
-use crate::interaction::{gamma, SurfaceInteraction};
-use crate::material::Materials;
+use super::environment::Environment;
+use super::interaction::{gamma, SurfaceInteraction};
+use super::material::Materials;
 use crate::sampling::warps::{
-    spherical_triangle_area, square_to_spherical_triangle, square_to_uniform_sphere,
-    square_to_uniform_triangle,
+    spherical_triangle_area, square_to_spherical_triangle, square_to_uniform_triangle,
 };
 use crate::scene::{Light, Scene};
 
-/// Relative luminance of linear Rec.709 RGB.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+pub use super::environment::luminance;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Emitter {
@@ -57,9 +54,8 @@ pub enum Emitter {
         irradiance: Vec3,
     },
     Triangle(TriangleLight),
-    Background {
-        radiance: Vec3,
-    },
+    /// The light set's [`Environment`], where light sampling may choose it.
+    Environment,
 }
 
 impl Emitter {
@@ -104,7 +100,7 @@ pub fn spot_falloff(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
 pub struct LightSample {
     /// Unit direction from the surface toward the light.
     pub wi: Vec3,
-    /// Radiance (area lights, background) or the delta light's incident irradiance term
+    /// Radiance (area lights, environment) or the delta light's incident irradiance term
     /// (I/d² or E), to be multiplied by f·|cos| and divided by `pdf`.
     pub li: Vec3,
     /// Solid-angle pdf of `wi` (1 for delta lights), not including the selection pmf.
@@ -112,7 +108,7 @@ pub struct LightSample {
     pub is_delta: bool,
     /// The point on the light, offset off its surface (ignored when `infinite`).
     pub p_light: Vec3,
-    /// True for directions to infinity (directional light, background).
+    /// True for directions to infinity (directional light, environment).
     pub infinite: bool,
 }
 
@@ -219,15 +215,18 @@ impl std::fmt::Display for TriangleSampling {
     }
 }
 
-/// Whether next-event estimation samples the constant background.
+/// Whether next-event estimation samples the environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BackgroundSampling {
-    /// Only BSDF sampling reaches the background: it is never selected as a light, and its
-    /// light pdf is 0 in MIS weights. Right whenever BSDF samples count (MIS, BSDF only).
+    /// Only BSDF sampling reaches the environment: it is never selected as a light, and its
+    /// light pdf is 0 in MIS weights. Unbiased whenever BSDF samples count (MIS, BSDF only),
+    /// and the better choice for a constant environment over diffuse surfaces, whose
+    /// cosine-weighted directions already follow the integrand (see the module docs).
     #[default]
     BsdfOnly,
-    /// The background is selected like any emitter and sampled uniformly over the sphere:
-    /// needed when light samples alone must find it (`--strategy light`).
+    /// The environment is selected like any emitter and sampled by its own pdf: needed when
+    /// light samples alone must find it (`--strategy light`), and where BSDF sampling does
+    /// not follow the environment's light.
     Lights,
 }
 
@@ -239,16 +238,19 @@ pub struct LightSet {
     table: AliasTable,
     /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
     triangle_light: Vec<u32>,
-    background: Option<(usize, Vec3)>,
+    environment: Environment,
+    /// The environment's index in `emitters` (its selection probability, 0 when light
+    /// sampling leaves it to BSDF sampling); None for a black environment.
+    environment_light: Option<usize>,
 }
 
 impl LightSet {
-    /// Collects the scene's punctual lights, emissive triangles and the constant background;
-    /// `background_sampling` says whether light sampling selects the background.
+    /// Collects the scene's punctual lights, emissive triangles and the environment;
+    /// `background_sampling` says whether light sampling selects the environment.
     pub fn build(
         scene: &Scene,
         materials: &Materials,
-        background: Vec3,
+        environment: Environment,
         background_sampling: BackgroundSampling,
     ) -> LightSet {
         let (lo, hi) = scene.bounds;
@@ -336,20 +338,13 @@ impl LightSet {
                 }
             }
         }
-        let mut bg = None;
-        if background.max_element() > 0.0 {
-            bg = Some((emitters.len(), background));
-            emitters.push(Emitter::Background {
-                radiance: background,
-            });
+        let mut environment_light = None;
+        if !environment.is_black() {
+            environment_light = Some(emitters.len());
+            emitters.push(Emitter::Environment);
             // Weight 0: the alias table never draws it, and its pmf (so its MIS pdf) is 0.
             weights.push(match background_sampling {
-                BackgroundSampling::Lights => {
-                    4.0 * pi
-                        * pi
-                        * (radius.max(1e-3) as f64).powi(2)
-                        * luminance(background).max(1e-6) as f64
-                }
+                BackgroundSampling::Lights => environment.power(radius),
                 BackgroundSampling::BsdfOnly => 0.0,
             });
         }
@@ -363,7 +358,8 @@ impl LightSet {
             emitters,
             table,
             triangle_light,
-            background: bg,
+            environment,
+            environment_light,
         }
     }
 
@@ -371,26 +367,26 @@ impl LightSet {
         self.emitters.is_empty()
     }
 
-    /// True when some emitter can be reached by a ray (emissive triangles, background):
+    /// True when some emitter can be reached by a ray (emissive triangles, the environment):
     /// otherwise BSDF-sampled directions never find light and the last bounce's extension
     /// ray can be skipped.
     pub fn has_reachable_emitters(&self) -> bool {
-        !self.triangle_light.is_empty() || self.background.is_some()
+        !self.triangle_light.is_empty() || self.environment_light.is_some()
     }
 
-    /// The background radiance (black without one).
+    /// What rays that leave the scene see.
     #[inline]
-    pub fn background(&self) -> Vec3 {
-        self.background.map_or(Vec3::ZERO, |(_, l)| l)
+    pub fn environment(&self) -> &Environment {
+        &self.environment
     }
 
-    /// Selection probability × solid-angle pdf of reaching the background in a direction:
-    /// 0 when light sampling leaves the background to BSDF sampling.
+    /// Selection probability × solid-angle pdf with which light sampling would have drawn
+    /// direction `dir` toward the environment: 0 when light sampling leaves the environment
+    /// to BSDF sampling.
     #[inline]
-    pub fn background_pdf(&self) -> f32 {
-        self.background.map_or(0.0, |(i, _)| {
-            self.table.pmf(i) * 0.25 * std::f32::consts::FRAC_1_PI
-        })
+    pub fn environment_pdf(&self, dir: Vec3) -> f32 {
+        self.environment_light
+            .map_or(0.0, |i| self.table.pmf(i) * self.environment.pdf(dir))
     }
 
     /// Selection probability × solid-angle pdf with which light sampling from `p_ref` would
@@ -524,7 +520,7 @@ impl LightSet {
         let li = materials.emitted_at(scene, prim, bary, cos_l > 0.0);
         // Offset the light point off its triangle toward the receiver, past the triangle's
         // error bound.
-        let p_light = crate::interaction::offset_ray_origin(q, point_error, n, -wi);
+        let p_light = crate::shading::interaction::offset_ray_origin(q, point_error, n, -wi);
         Some(LightSample {
             wi,
             li,
@@ -597,14 +593,17 @@ impl LightSet {
                 p_light: Vec3::ZERO,
                 infinite: true,
             },
-            &Emitter::Background { radiance } => LightSample {
-                wi: square_to_uniform_sphere(u),
-                li: radiance,
-                pdf: 0.25 * std::f32::consts::FRAC_1_PI,
-                is_delta: false,
-                p_light: Vec3::ZERO,
-                infinite: true,
-            },
+            Emitter::Environment => {
+                let (wi, li, pdf) = self.environment.sample(u);
+                LightSample {
+                    wi,
+                    li,
+                    pdf,
+                    is_delta: false,
+                    p_light: Vec3::ZERO,
+                    infinite: true,
+                }
+            }
             Emitter::Triangle(triangle) => {
                 self.sample_triangle(scene, materials, triangle, p, u)?
             }

@@ -1,19 +1,28 @@
-//! Surface appearance at render time: the Lambertian BSDF (f = ρ/π) with base colour =
-//! baseColorFactor × baseColorTexture, and emission = emissiveFactor × emissiveTexture ×
-//! strength, from the front face only unless the material is double-sided.
+//! Materials at render time: each glTF material prepared into what its [`Bsdf`] and its
+//! emission need, and looked up per surface point.
 //!
-//! [`Materials::prepare`] decodes exactly the textures the chosen integrator reads: none for
-//! ambient occlusion, and for light transport only those of materials some triangle uses.
+//! | property   | from                                                    | used by          |
+//! |------------|---------------------------------------------------------|------------------|
+//! | base colour| baseColorFactor × baseColorTexture (sRGB-decoded)       | the BSDF (ρ)     |
+//! | metallic,  | metallicFactor, roughnessFactor, metallicRoughness-     | kept, not shaded |
+//! | roughness  | Texture (B = metallic, G = roughness; not decoded yet)  | yet (diffuse)    |
+//! | emission   | emissiveFactor × emissiveTexture × emissive strength;   | lights, paths    |
+//! |            | the front face only unless the material is double-sided|                  |
+//!
+//! Every material is shaded as Lambertian reflection (f = ρ/π) until the glTF
+//! metallic-roughness BSDF joins [`Bsdf`]; [`Materials::bsdf`] is the one place that chooses
+//! a surface point's BSDF. [`Materials::prepare`] decodes exactly the textures the chosen
+//! integrator reads: none for ambient occlusion, and for light transport only those of
+//! materials some triangle uses.
 
 use std::path::Path;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use crate::interaction::SurfaceInteraction;
-use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
-use crate::sampling::Onb;
+use super::bsdf::{Bsdf, SurfaceBsdf};
+use super::interaction::SurfaceInteraction;
+use super::texture::{transform_uv, Image};
 use crate::scene::{Scene, TextureRef};
-use crate::texture::{transform_uv, Image};
 
 /// What the integrator needs to read from materials.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,10 +40,29 @@ struct Binding {
     image: usize,
 }
 
+/// How diffuse reflection draws its directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DiffuseSampling {
+    /// Cosine-weighted: the pdf follows f·cos θ ([`Bsdf::Diffuse`]).
+    #[default]
+    Cosine,
+    /// Uniform over the hemisphere ([`Bsdf::DiffuseUniform`]), for comparisons.
+    Uniform,
+}
+
 #[derive(Clone, Debug)]
 struct Prepared {
     base_color: Vec3,
     base_texture: Option<Binding>,
+    /// The metallic-roughness model's factors and texture (B = metallic, G = roughness),
+    /// read from the file and kept for the glTF BSDF; not decoded while every material is
+    /// shaded as diffuse.
+    #[allow(dead_code)]
+    metallic: f32,
+    #[allow(dead_code)]
+    roughness: f32,
+    #[allow(dead_code)]
+    metallic_roughness_texture: Option<TextureRef>,
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
@@ -45,13 +73,20 @@ struct Prepared {
 pub struct Materials {
     materials: Vec<Prepared>,
     images: Vec<Image>,
+    diffuse_sampling: DiffuseSampling,
     /// True when any used material reads a texture (UVs must be interpolated).
     pub textured: bool,
 }
 
 impl Materials {
-    /// Prepares the scene's materials, decoding the textures that `need` requires.
-    pub fn prepare(scene: &Scene, scene_path: &Path, need: Need) -> Result<Materials, String> {
+    /// Prepares the scene's materials, decoding the textures that `need` requires; diffuse
+    /// reflection draws its directions as `diffuse_sampling` says.
+    pub fn prepare(
+        scene: &Scene,
+        scene_path: &Path,
+        need: Need,
+        diffuse_sampling: DiffuseSampling,
+    ) -> Result<Materials, String> {
         if need == Need::Nothing {
             return Ok(Materials::default());
         }
@@ -101,6 +136,9 @@ impl Materials {
             materials.push(Prepared {
                 base_color: m.base_color.truncate(),
                 base_texture,
+                metallic: m.metallic,
+                roughness: m.roughness,
+                metallic_roughness_texture: m.metallic_roughness_texture.clone(),
                 emissive: m.emissive,
                 emissive_texture,
                 double_sided: m.double_sided,
@@ -112,6 +150,7 @@ impl Materials {
         Ok(Materials {
             materials,
             images,
+            diffuse_sampling,
             textured,
         })
     }
@@ -130,30 +169,36 @@ impl Materials {
     /// The interpolated TEXCOORD_0 at a surface point (zero when no material is textured).
     #[inline]
     pub fn uv(&self, scene: &Scene, si: &SurfaceInteraction) -> Vec2 {
-        self.uv_at(scene, si.prim, si.u, si.v)
-    }
-
-    /// [`Materials::uv`] at barycentrics (u, v) of triangle `prim`.
-    #[inline]
-    pub fn uv_at(&self, scene: &Scene, prim: u32, u: f32, v: f32) -> Vec2 {
         if !self.textured {
             return Vec2::ZERO;
         }
-        let [a, b, c] = scene.triangles[prim as usize];
+        let (u, v) = (si.u, si.v);
+        let [a, b, c] = scene.triangles[si.prim as usize];
         (1.0 - u - v) * scene.uvs[a as usize]
             + u * scene.uvs[b as usize]
             + v * scene.uvs[c as usize]
     }
 
-    /// Diffuse reflectance ρ at the surface point.
+    /// The BSDF at the surface point (`uv`: its texture coordinates, [`Materials::uv`]).
     #[inline]
-    pub fn albedo(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> Vec3 {
-        self.albedo_of(scene, si.prim, uv)
+    pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
+        let albedo = self.base_color(scene, si.prim, uv);
+        let bsdf = match self.diffuse_sampling {
+            DiffuseSampling::Cosine => Bsdf::Diffuse { albedo },
+            DiffuseSampling::Uniform => Bsdf::DiffuseUniform { albedo },
+        };
+        SurfaceBsdf::new(bsdf, si)
     }
 
-    /// [`Materials::albedo`] of triangle `prim`.
+    /// True when every BSDF [`Materials::bsdf`] makes is diffuse (no glossy or specular
+    /// lobe): what leaving a constant environment to BSDF sampling relies on.
+    pub fn all_diffuse(&self) -> bool {
+        true
+    }
+
+    /// The base colour of triangle `prim` at texture coordinates `uv`.
     #[inline]
-    pub fn albedo_of(&self, scene: &Scene, prim: u32, uv: Vec2) -> Vec3 {
+    fn base_color(&self, scene: &Scene, prim: u32, uv: Vec2) -> Vec3 {
         let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
         match &m.base_texture {
             Some(b) => m.base_color * self.lookup(b, uv).truncate(),
@@ -174,14 +219,8 @@ impl Materials {
     /// one-sided emitter).
     #[inline]
     pub fn emitted(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> Vec3 {
-        self.emitted_by(scene, si.prim, si.front_face, uv)
-    }
-
-    /// [`Materials::emitted`] by triangle `prim`, seen from its front face or not.
-    #[inline]
-    pub fn emitted_by(&self, scene: &Scene, prim: u32, front_face: bool, uv: Vec2) -> Vec3 {
-        let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
-        if m.emissive.max_element() <= 0.0 || !(front_face || m.double_sided) {
+        let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
+        if m.emissive.max_element() <= 0.0 || !(si.front_face || m.double_sided) {
             return Vec3::ZERO;
         }
         match &m.emissive_texture {
@@ -219,75 +258,5 @@ impl Materials {
             None => Vec3::ONE,
         };
         (m.emissive * scale, m.double_sided)
-    }
-}
-
-/// The Lambertian BSDF at a surface point, in the frame of the shading normal. It samples
-/// directions by the cosine (the default, proportional to f·cos θ) or uniformly over the
-/// hemisphere (for comparisons).
-#[derive(Clone, Copy, Debug)]
-pub struct Lambertian {
-    pub albedo: Vec3,
-    frame: Onb,
-    ng: Vec3,
-    uniform: bool,
-}
-
-impl Lambertian {
-    #[inline]
-    pub fn new(albedo: Vec3, si: &SurfaceInteraction) -> Lambertian {
-        Lambertian {
-            albedo,
-            frame: Onb::from_normal(si.ns),
-            ng: si.ng,
-            uniform: false,
-        }
-    }
-
-    /// The same BSDF, sampling directions uniformly over the hemisphere (pdf 1/2π).
-    #[inline]
-    pub fn with_uniform_sampling(self) -> Lambertian {
-        Lambertian {
-            uniform: true,
-            ..self
-        }
-    }
-
-    /// f(wo, wi)·|cos θi| for a direction `wi` (reflection only: `wi` must leave on the side
-    /// of the geometric normal the ray came from).
-    #[inline]
-    pub fn f_cos(&self, wi: Vec3) -> Vec3 {
-        let cos = wi.dot(self.frame.n);
-        if cos <= 0.0 || wi.dot(self.ng) <= 0.0 {
-            return Vec3::ZERO;
-        }
-        self.albedo * (cos * std::f32::consts::FRAC_1_PI)
-    }
-
-    /// The solid-angle pdf of [`Lambertian::sample`] for `wi`.
-    #[inline]
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        let cos = wi.dot(self.frame.n);
-        if cos <= 0.0 || wi.dot(self.ng) <= 0.0 {
-            0.0
-        } else if self.uniform {
-            0.5 * std::f32::consts::FRAC_1_PI
-        } else {
-            cos * std::f32::consts::FRAC_1_PI
-        }
-    }
-
-    /// A direction around the shading normal (cosine-weighted, or uniform), with its pdf;
-    /// `None` when it falls below the geometric surface or on the horizon.
-    #[inline]
-    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
-        let local = if self.uniform {
-            square_to_uniform_hemisphere(u)
-        } else {
-            square_to_cosine_hemisphere(u)
-        };
-        let wi = self.frame.to_world(local);
-        let pdf = self.pdf(wi);
-        (pdf > 0.0).then_some((wi, pdf))
     }
 }

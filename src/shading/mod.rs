@@ -1,0 +1,26 @@
+//! Shading: what happens where a ray meets a surface or leaves the scene. It sits below the
+//! integrators and above the scene, and the integrators reach surfaces and light through it
+//! only.
+//!
+//! | module          | what it holds                                                        |
+//! |-----------------|----------------------------------------------------------------------|
+//! | [`interaction`] | the surface point a ray hits, and the one way secondary rays leave it |
+//! | [`bsdf`]        | [`Bsdf`]: the closed set of scattering models, in the shading frame   |
+//! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
+//! | [`texture`]     | decoded images and their lookups                                      |
+//! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
+//! |                 | sampled by power                                                      |
+//! | [`environment`] | the radiance rays that leave the scene see, by direction              |
+
+pub mod bsdf;
+pub mod environment;
+pub mod interaction;
+pub mod lights;
+pub mod material;
+pub mod texture;
+
+pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, SurfaceBsdf};
+pub use environment::Environment;
+pub use interaction::SurfaceInteraction;
+pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
+pub use material::{DiffuseSampling, Materials, Need};
