@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Turns the text output of `cargo bench --bench backends` into the Markdown tables of
-BENCHMARKS.md (medians: criterion's middle estimate).
+"""Turns the text output of `cargo bench --bench backends` into Markdown tables per mesh
+(medians: criterion's middle estimate): BENCHMARKS.md's "BVH backends per mesh" condenses
+them, and docs/journal/benchmarks-2026-11.md has them in full.
 
     cargo bench --bench backends 2>&1 | tee bench.log; python3 tools/bench/criterion_table.py bench.log
 """

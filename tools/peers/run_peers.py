@@ -195,7 +195,7 @@ def start(name, job, args, logdir):
     if name == "cycles":
         w, h = ref["resolution"]
         # Cycles' max_bounces counts bounces after the first hit: strata's B - 1 (0 = direct
-        # light only, which is what AO needs); checked against the references (RESULTS.md).
+        # light only, which is what AO needs); checked against the references (README.md).
         bounces = 0 if ref["integrator"] == "ao" else ref["max_depth"] - 1
         mode = "ao" if ref["integrator"] == "ao" else "shaded"
         argv = [args.blender, "-b", "--factory-startup", "-P", os.path.join(HERE, "cycles_worker.py"), "--",
