@@ -13,6 +13,7 @@ use std::str::FromStr;
 use crate::accel::{Accel, Hit, Ray, PACKET};
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
+use crate::shading::SurfaceInteraction;
 use crate::shading::{
     BackgroundSampling, DiffuseSampling, Environment, LightSet, Materials, Need, TriangleSampling,
 };
@@ -43,6 +44,9 @@ pub struct Context<'a> {
     /// camera ray that misses (the default; the image is the same either way, tested).
     /// False is for measuring the cost of strata's layers per traced ray.
     pub cull_blocks: bool,
+    /// Fill in each sample's first-hit [`Features`] (for feature layers and denoising);
+    /// false, the default, skips their cost.
+    pub features: bool,
 }
 
 /// How the scene is shaded, beyond what its file says: the choices a render makes for
@@ -119,6 +123,7 @@ impl Prepared {
             ray_offset: true,
             camera_packets: true,
             cull_blocks: true,
+            features: false,
         }
     }
 }
@@ -158,6 +163,30 @@ impl RayCounts {
         self.culled += other.culled;
         self.probe += other.probe;
     }
+}
+
+/// What one sample of a pixel estimates: the radiance along its camera ray and, when the
+/// render keeps feature layers ([`Context::features`]), what the ray's first hit looks like
+/// (pbrt-v4's `VisibleSurface`, Mitsuba's AOVs): one record through one entry point,
+/// [`Integrator::li_packet`], so that passes and a denoiser need no second path.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleRecord {
+    /// The radiance estimate (in 16-byte lanes: a value stored as three floats and loaded
+    /// as a pair and a float defeats store-to-load forwarding).
+    pub l: Vec3A,
+    /// The first hit's features; None for a ray that meets nothing, or when not asked for.
+    pub features: Option<Features>,
+}
+
+/// The first surface a camera ray meets, as feature layers describe it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Features {
+    /// The reflectance of its BSDF (ρ for diffuse reflection; 1 for AO).
+    pub albedo: Vec3,
+    /// The unit shading normal in world space, on the side the camera sees.
+    pub normal: Vec3,
+    /// The distance from the camera ray's origin to the hit.
+    pub depth: f32,
 }
 
 /// Which integrator renders the image.
@@ -242,21 +271,6 @@ impl Integrator {
         !(self.needs_lights() && ctx.lights.is_empty())
     }
 
-    /// One estimate of the radiance along the camera ray `ray`.
-    #[inline]
-    pub fn li(
-        &self,
-        ctx: &Context,
-        ray: &Ray,
-        sampler: &mut PixelSampler,
-        rays: &mut RayCounts,
-    ) -> Vec3 {
-        if !self.traces_rays(ctx) {
-            return Vec3::ZERO;
-        }
-        self.li_from_camera_hit(ctx, ray, ctx.accel.intersect(ray), sampler, rays)
-    }
-
     /// The same integrator leaving out the emission its camera ray meets, where the caller
     /// estimates that term apart (the renderer's emitter rays); AO, which sees no emission,
     /// is returned as it is.
@@ -282,12 +296,15 @@ impl Integrator {
         path::camera_emission(ctx, ray, hit)
     }
 
-    /// [`Integrator::li_from_camera_hit`] for the camera rays of a packet: `rays[k]`, with
-    /// closest hit `hits[k]`, sampled by `samplers[lanes[k]]`, its estimate into `l[k]`
-    /// (see [`ao::li_packet`]). The estimates are those of one ray at a time.
+    /// Estimates for the camera rays of a packet, the one way every sample reaches an
+    /// integrator: `rays[k]`, with closest hit `hits[k]` (traced by the caller, as a packet
+    /// or alone), drawn from `samplers[lanes[k]]`, its record into `out[k]`. Each estimate is
+    /// the one its ray would get alone (see [`ao::li_packet`]); the first hit's features are
+    /// filled in only where `ctx.features` asks for them. Only called when
+    /// [`Integrator::traces_rays`].
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub fn li_packet_from_camera_hits(
+    pub fn li_packet(
         &self,
         ctx: &Context,
         rays: &[Ray],
@@ -295,37 +312,59 @@ impl Integrator {
         samplers: &mut [PixelSampler],
         lanes: &[usize],
         counts: &mut RayCounts,
-        l: &mut [Vec3A],
+        out: &mut [SampleRecord],
     ) {
+        counts.camera += rays.len() as u64;
         match self {
             Integrator::Ao(settings) => {
-                counts.camera += rays.len() as u64;
                 let mut ao = [0f32; PACKET];
                 let ao = &mut ao[..rays.len()];
                 ao::li_packet(ctx, rays, hits, samplers, lanes, settings, counts, ao);
-                for (l, a) in l.iter_mut().zip(ao.iter()) {
-                    *l = Vec3A::splat(*a);
+                for (out, a) in out.iter_mut().zip(ao.iter()) {
+                    out.l = Vec3A::splat(*a);
                 }
             }
-            _ => {
+            Integrator::Direct(settings) | Integrator::Path(settings) => {
                 for k in 0..rays.len() {
                     let sampler = &mut samplers[lanes[k]];
-                    l[k] = self
-                        .li_from_camera_hit(ctx, &rays[k], hits[k], sampler, counts)
-                        .into();
+                    out[k].l = path::li(ctx, &rays[k], hits[k], sampler, settings, counts).into();
                 }
             }
+        }
+        if ctx.features {
+            for k in 0..rays.len() {
+                out[k].features = hits[k].map(|hit| self.features(ctx, &rays[k], &hit));
+            }
+        }
+    }
+
+    /// The features of a camera ray's first hit: the BSDF's albedo (white for AO, which
+    /// shades every surface so), the shading normal facing the camera, and the distance along
+    /// the ray.
+    fn features(&self, ctx: &Context, ray: &Ray, hit: &Hit) -> Features {
+        let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
+        let albedo = match self {
+            Integrator::Ao(_) => Vec3::ONE,
+            _ => {
+                let uv = ctx.materials.uv(ctx.scene, &si);
+                ctx.materials.bsdf(ctx.scene, &si, uv).bsdf.albedo()
+            }
+        };
+        Features {
+            albedo,
+            normal: si.ns,
+            depth: hit.t * ray.dir.length(),
         }
     }
 
     /// The estimate of a camera ray that meets nothing, where it is the same for every ray
     /// (AO's 0, or a constant environment): the renderer then gives it to samples it leaves
-    /// untraced. None where the environment varies with direction: such rays are traced. Direct lighting and path tracing compute it as
-    /// they do for such a ray (`sampler` is drawn from as it would be); AO's is its
-    /// documented 0, written out so that `ao::li` keeps its one caller in the render loop
-    /// (a second one changed how it was inlined, and cost a 64-ray AO render 3–5%). The
-    /// render tests compare culled and traced misses bit for bit. Only called when
-    /// [`Integrator::traces_rays`].
+    /// untraced. None where the environment varies with direction: such rays are traced.
+    /// Direct lighting and path tracing compute it as they do for such a ray (`sampler` is
+    /// drawn from as it would be); AO's is its documented 0, written out so that `ao::li`
+    /// keeps its one caller in the render loop (a second one changed how it was inlined, and
+    /// cost a 64-ray AO render 3–5%). The render tests compare culled and traced misses bit
+    /// for bit. Only called when [`Integrator::traces_rays`].
     pub fn camera_miss(&self, ctx: &Context, sampler: &mut PixelSampler) -> Option<Vec3A> {
         Some(match self {
             Integrator::Ao(_) => Vec3A::ZERO,
@@ -347,25 +386,5 @@ impl Integrator {
                 .into()
             }
         })
-    }
-
-    /// [`Integrator::li`] given the camera ray's closest hit, found by the caller (for
-    /// camera rays traced in packets). Only called when [`Integrator::traces_rays`].
-    #[inline]
-    pub fn li_from_camera_hit(
-        &self,
-        ctx: &Context,
-        ray: &Ray,
-        hit: Option<Hit>,
-        sampler: &mut PixelSampler,
-        rays: &mut RayCounts,
-    ) -> Vec3 {
-        rays.camera += 1;
-        match self {
-            Integrator::Ao(settings) => Vec3::splat(ao::li(ctx, hit, ray, sampler, settings, rays)),
-            Integrator::Direct(settings) | Integrator::Path(settings) => {
-                path::li(ctx, ray, hit, sampler, settings, rays)
-            }
-        }
     }
 }

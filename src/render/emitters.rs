@@ -30,7 +30,7 @@ use rayon::prelude::*;
 
 use super::culling::{BlockMask, BLOCK_H, BLOCK_W};
 use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
-use crate::integrators::{Context, Integrator, RayCounts};
+use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
 use crate::shading::lights::Emitter;
@@ -108,41 +108,16 @@ impl EmitterView {
         self.split[y as usize * self.width as usize + x as usize]
     }
 
-    /// The estimate of a sample of pixel (x, y) along camera ray `ray`, whose closest hit
-    /// is `hit`, drawn from `sampler`: split where the pixel may see an emitter, else
-    /// `integrator`'s own. The emitter rays go in packets, or one by one with `packets`
-    /// false (the hits, so the estimate, are the same).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub fn li(
-        &self,
-        ctx: &Context,
-        integrator: &Integrator,
-        camera: &RayGenerator,
-        ray: &Ray,
-        hit: Option<Hit>,
-        (sampler, (x, y)): (&mut PixelSampler, (u32, u32)),
-        packets: bool,
-        counts: &mut RayCounts,
-    ) -> Vec3A {
-        if !self.splits(x, y) {
-            return integrator
-                .li_from_camera_hit(ctx, ray, hit, sampler, counts)
-                .into();
-        }
-        let rest = self
-            .integrator
-            .li_from_camera_hit(ctx, ray, hit, sampler, counts);
-        Vec3A::from(rest) + self.estimate(ctx, camera, sampler, (x, y), packets, counts)
-    }
-
-    /// [`EmitterView::li`] for the camera rays of a packet: `rays[k]`, with closest hit
-    /// `hits[k]`, through pixel `pixels[k]`, sampled by `samplers[lanes[k]]`, its estimate
-    /// into `l[k]`. The paths of the packet's split pixels, and those of its other pixels,
-    /// are each shaded as one packet ([`Integrator::li_packet_from_camera_hits`]: in SIMD
-    /// lanes where they apply); the estimates are those of [`EmitterView::li`], bit for bit,
-    /// since a split's emitter rays draw from a side stream that does not depend on where
-    /// the path's draws have got to.
+    /// [`Integrator::li_packet`] where the camera may see emitters: the estimates for the
+    /// camera rays of a packet, `rays[k]`, with closest hit `hits[k]`, through pixel
+    /// `pixels[k]`, sampled by `samplers[lanes[k]]`, its record into `out[k]`. A split
+    /// pixel's estimate is its path's (without the emission its camera ray meets) plus that
+    /// of its emitter rays; the others' are `integrator`'s own. The paths of the packet's
+    /// split pixels, and those of its other pixels, are each estimated as one packet; the
+    /// estimates do not depend on how the packet is divided, since a split's emitter rays
+    /// draw from a side stream that does not depend on where the path's draws have got to.
+    /// The emitter rays are traced in packets where camera rays are (`ctx.camera_packets`),
+    /// else one by one (the hits, so the estimates, are the same).
     #[allow(clippy::too_many_arguments)]
     pub fn li_packet(
         &self,
@@ -155,7 +130,7 @@ impl EmitterView {
         samplers: &mut [PixelSampler],
         lanes: &[usize],
         counts: &mut RayCounts,
-        l: &mut [Vec3A],
+        out: &mut [SampleRecord],
     ) {
         let n = rays.len();
         for split in [false, true] {
@@ -174,24 +149,24 @@ impl EmitterView {
             let sub_hits: [Option<Hit>; PACKET] =
                 std::array::from_fn(|i| hits[which[i.min(m - 1)]]);
             let sub_lanes: [usize; PACKET] = std::array::from_fn(|i| lanes[which[i.min(m - 1)]]);
-            let mut sub_l = [Vec3A::ZERO; PACKET];
+            let mut sub_out = [SampleRecord::default(); PACKET];
             let paths = if split { &self.integrator } else { integrator };
-            paths.li_packet_from_camera_hits(
+            paths.li_packet(
                 ctx,
                 &sub_rays[..m],
                 &sub_hits[..m],
                 samplers,
                 &sub_lanes[..m],
                 counts,
-                &mut sub_l[..m],
+                &mut sub_out[..m],
             );
             for (i, &k) in which[..m].iter().enumerate() {
-                l[k] = if split {
+                out[k] = sub_out[i];
+                if split {
                     let sampler = &samplers[lanes[k]];
-                    sub_l[i] + self.estimate(ctx, camera, sampler, pixels[k], true, counts)
-                } else {
-                    sub_l[i]
-                };
+                    let packets = ctx.camera_packets;
+                    out[k].l += self.estimate(ctx, camera, sampler, pixels[k], packets, counts);
+                }
             }
         }
     }

@@ -28,6 +28,39 @@ pub struct Film {
     /// [`Film::halves_variance_of_mean`] compares the first and second halves of its first p
     /// samples.
     halves: Option<Vec<Halves>>,
+    /// For feature layers ([`Film::keep_features`]): per pixel, the sums of its samples'
+    /// first-hit features.
+    features: Option<Vec<FeatureTotals>>,
+}
+
+/// A pixel's sums of its samples' first-hit features: albedo (0–2), shading normal (3–5)
+/// and depth (6) over the samples whose camera ray met a surface, and their number (7).
+/// Albedo and normal are averaged over all of the pixel's samples (a miss adds zero), depth
+/// over the samples that hit.
+pub type FeatureTotals = [f64; 8];
+
+/// A pixel's mean first-hit features ([`Film::features`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelFeatures {
+    pub albedo: Vec3,
+    pub normal: Vec3,
+    /// The mean distance to the surfaces its samples met; infinite where none met one.
+    pub depth: f32,
+    /// The fraction of its samples whose camera ray met a surface.
+    pub coverage: f32,
+}
+
+/// Adds a sample's first-hit features (None: its ray met nothing) to a pixel's totals.
+#[inline]
+pub fn add_features(totals: &mut FeatureTotals, features: Option<crate::integrators::Features>) {
+    if let Some(f) = features {
+        let values = [
+            f.albedo.x, f.albedo.y, f.albedo.z, f.normal.x, f.normal.y, f.normal.z, f.depth, 1.0,
+        ];
+        for (t, v) in totals.iter_mut().zip(values) {
+            *t += v as f64;
+        }
+    }
 }
 
 /// The largest power of two at most `n` (> 0).
@@ -78,6 +111,7 @@ pub struct FilmRows<'a> {
     sq_sums: &'a mut [[f64; 3]],
     counts: &'a mut [u32],
     halves: Option<&'a mut [Halves]>,
+    features: Option<&'a mut [FeatureTotals]>,
 }
 
 impl FilmRows<'_> {
@@ -92,6 +126,15 @@ impl FilmRows<'_> {
         self.sums[i] = sum;
         self.sq_sums[i] = sq_sum;
         self.counts[i] = count;
+    }
+
+    /// Replaces pixel (x, y)'s feature totals, where the film keeps them.
+    #[inline]
+    pub fn set_features(&mut self, x: u32, y: u32, totals: &FeatureTotals) {
+        let i = (y - self.y0) as usize * self.width as usize + x as usize;
+        if let Some(f) = self.features.as_deref_mut() {
+            f[i] = *totals;
+        }
     }
 }
 
@@ -134,7 +177,51 @@ impl Film {
             sq_sums: zeroed_by_writing(n),
             counts: zeroed_by_writing(n),
             halves: None,
+            features: None,
         }
+    }
+
+    /// The memory [`Film::keep_features`] adds, per pixel.
+    pub const FEATURES_BYTES_PER_PIXEL: u64 = 64;
+
+    /// Keeps, from now on, each pixel's first-hit feature totals ([`Film::features`]). Call
+    /// on a new film.
+    pub fn keep_features(&mut self) {
+        self.features = Some(zeroed_by_writing(self.counts.len()));
+    }
+
+    /// True when the film keeps feature totals.
+    pub fn keeps_features(&self) -> bool {
+        self.features.is_some()
+    }
+
+    /// Pixel (x, y)'s feature totals (zero where the film keeps none).
+    #[inline]
+    pub fn feature_totals(&self, x: u32, y: u32) -> FeatureTotals {
+        self.features
+            .as_ref()
+            .map_or([0.0; 8], |f| f[self.index(x, y)])
+    }
+
+    /// Pixel (x, y)'s mean first-hit features; None where the film keeps none or the pixel
+    /// has no samples.
+    pub fn features(&self, x: u32, y: u32) -> Option<PixelFeatures> {
+        let f = self.features.as_ref()?[self.index(x, y)];
+        let n = self.counts[self.index(x, y)] as f64;
+        if n == 0.0 {
+            return None;
+        }
+        let v = |i: usize| (f[i] / n) as f32;
+        Some(PixelFeatures {
+            albedo: Vec3::new(v(0), v(1), v(2)),
+            normal: Vec3::new(v(3), v(4), v(5)),
+            depth: if f[7] > 0.0 {
+                (f[6] / f[7]) as f32
+            } else {
+                f32::INFINITY
+            },
+            coverage: (f[7] / n) as f32,
+        })
     }
 
     /// Keeps, from now on, each pixel's sums at its last two power-of-two counts, for
@@ -156,6 +243,7 @@ impl Film {
             &mut self.counts[..],
         );
         let mut halves = self.halves.as_deref_mut();
+        let mut features = self.features.as_deref_mut();
         let mut at = 0u32;
         let mut out = Vec::with_capacity(ranges.len());
         for &(y0, y1) in ranges {
@@ -173,6 +261,11 @@ impl Film {
                 halves = Some(rest);
                 h
             });
+            let f = features.take().map(|all| {
+                let (f, rest) = all[skip..].split_at_mut(take);
+                features = Some(rest);
+                f
+            });
             out.push(FilmRows {
                 y0,
                 width: self.width,
@@ -180,6 +273,7 @@ impl Film {
                 sq_sums: q,
                 counts: c,
                 halves: h,
+                features: f,
             });
             at = y1;
         }

@@ -35,12 +35,13 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 use crate::accel::{SceneBox, PACKET};
-use crate::integrators::{Context, Integrator, RayCounts};
+use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::{Camera, RayGenerator};
 use culling::BlockMask;
 use emitters::EmitterView;
-pub use film::{BadSample, Film, FilmRows, PixelTotals};
+use film::add_features;
+pub use film::{BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals};
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
 /// few percent each for sweeping the image again.
@@ -285,37 +286,63 @@ impl Round<'_> {
 /// in the first round.
 struct TileSums {
     data: Vec<PixelTotals>,
+    /// The same pixels' [`FeatureTotals`], where the film keeps them; empty otherwise.
+    features: Vec<FeatureTotals>,
     /// Tile i's sums are `data[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<usize>,
 }
 
+/// A tile's part of [`TileSums`]: its pixels' totals, and their feature totals (empty when
+/// the film keeps none).
+type TileTotals<'a> = (&'a mut [PixelTotals], &'a mut [FeatureTotals]);
+
 impl TileSums {
-    fn new(tiles: &[Tile]) -> TileSums {
+    fn new(tiles: &[Tile], features: bool) -> TileSums {
         let mut offsets = Vec::with_capacity(tiles.len() + 1);
         offsets.push(0);
         for t in tiles {
             let n = t.pixels();
             offsets.push(offsets.last().copied().unwrap_or(0) + n);
         }
+        let n = offsets[tiles.len()];
         TileSums {
-            data: vec![([0f64; 3], [0f64; 3], 0); offsets[tiles.len()]],
+            data: vec![([0f64; 3], [0f64; 3], 0); n],
+            features: if features {
+                vec![[0f64; 8]; n]
+            } else {
+                Vec::new()
+            },
             offsets,
         }
     }
 
-    fn get(&self, tile: usize) -> &[PixelTotals] {
-        &self.data[self.offsets[tile]..self.offsets[tile + 1]]
+    fn get(&self, tile: usize) -> (&[PixelTotals], &[FeatureTotals]) {
+        let range = self.offsets[tile]..self.offsets[tile + 1];
+        let features = match self.features.is_empty() {
+            true => &[][..],
+            false => &self.features[range.clone()],
+        };
+        (&self.data[range], features)
     }
 
-    /// The sums of tiles `range`, one mutable slice per tile.
-    fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<&mut [PixelTotals]> {
-        let mut rest = &mut self.data[self.offsets[range.start]..self.offsets[range.end]];
+    /// The sums of tiles `range`, one mutable pair of slices per tile.
+    fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<TileTotals<'_>> {
+        let all = self.offsets[range.start]..self.offsets[range.end];
+        let keep = !self.features.is_empty();
+        let mut rest = &mut self.data[all.clone()];
+        let mut rest_f = match keep {
+            true => &mut self.features[all],
+            false => &mut [][..],
+        };
         let mut out = Vec::with_capacity(range.len());
         for i in range {
-            let (tile, tail) =
-                std::mem::take(&mut rest).split_at_mut(self.offsets[i + 1] - self.offsets[i]);
-            out.push(tile);
+            let n = self.offsets[i + 1] - self.offsets[i];
+            let (tile, tail) = std::mem::take(&mut rest).split_at_mut(n);
             rest = tail;
+            let (features, tail) =
+                std::mem::take(&mut rest_f).split_at_mut(if keep { n } else { 0 });
+            rest_f = tail;
+            out.push((tile, features));
         }
         out
     }
@@ -338,7 +365,7 @@ fn render_tile(
     setup: &TileSetup,
     tile: Tile,
     round: &Round,
-    sums: &mut [PixelTotals],
+    (sums, features): TileTotals,
 ) -> TileResult {
     let TileSetup {
         camera,
@@ -349,6 +376,8 @@ fn render_tile(
     } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
+    // Feature totals, where the film keeps them (`features` is empty otherwise).
+    let keep_features = !features.is_empty();
     let mut out = TileResult {
         rays: RayCounts::default(),
         bad: 0,
@@ -359,37 +388,56 @@ fn render_tile(
     // Pixel (x, y)'s entry in `sums`.
     let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
     if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
-        let mut sampler = new_sampler();
+        // One camera ray at a time (or none, where nothing can be lit): each a packet of one.
+        let traces = integrator.traces_rays(ctx);
+        let mut sampler = [new_sampler()];
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let samples = round.samples(x, y);
                 let pixel = &mut sums[at(x, y)];
                 *pixel = round.film.totals(x, y);
+                let mut pixel_features = round.film.feature_totals(x, y);
                 for index in samples.0..samples.1 {
-                    sampler.start(x, y, index);
+                    sampler[0].start(x, y, index);
                     // The first slot places the sample on the film.
-                    let film_uv = sampler.next_film();
-                    let ray = camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y);
-                    let l = match emitters {
-                        Some(view) => {
-                            let hit = ctx.accel.intersect(&ray);
-                            let lane = (&mut sampler, (x, y));
-                            view.li(
+                    let film_uv = sampler[0].next_film();
+                    let ray = [camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y)];
+                    let mut record = [SampleRecord::default()];
+                    if traces {
+                        let hit = [ctx.accel.intersect(&ray[0])];
+                        let counts = &mut out.rays;
+                        match emitters {
+                            Some(view) => view.li_packet(
                                 ctx,
                                 integrator,
                                 &camera,
                                 &ray,
-                                hit,
-                                lane,
-                                false,
-                                &mut out.rays,
-                            )
+                                &hit,
+                                &[(x, y)],
+                                &mut sampler,
+                                &[0],
+                                counts,
+                                &mut record,
+                            ),
+                            None => integrator.li_packet(
+                                ctx,
+                                &ray,
+                                &hit,
+                                &mut sampler,
+                                &[0],
+                                counts,
+                                &mut record,
+                            ),
                         }
-                        None => integrator.li(ctx, &ray, &mut sampler, &mut out.rays).into(),
-                    };
+                    }
+                    let l = record[0].l;
                     accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
+                    add_features(&mut pixel_features, record[0].features);
                 }
                 pixel.2 += samples.1 - samples.0;
+                if keep_features {
+                    features[at(x, y)] = pixel_features;
+                }
             }
         }
         return out;
@@ -429,6 +477,11 @@ fn render_tile(
                         round.film.totals(x, y)
                     })
             });
+            let mut feature_acc: [FeatureTotals; PACKET] =
+                std::array::from_fn(|i| match lanes.get(i) {
+                    Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
+                    _ => [0.0; 8],
+                });
             // A block that cannot see the scene (`mask`) takes the estimate of a miss for
             // each of its samples, untraced and unsampled: the sums a traced miss would have
             // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, never −0).
@@ -469,19 +522,16 @@ fn render_tile(
                 } else {
                     ctx.accel.intersect_packet(&rays[..n], &mut hits);
                 }
-                // In 16-byte lanes: a value stored as three floats and loaded as a pair and
-                // a float defeats store-to-load forwarding, a stall of each sample that perf
-                // put at 5% of a mostly-missing AO render.
-                let mut l = [Vec3A::ZERO; PACKET];
+                let mut records = [SampleRecord::default(); PACKET];
                 match emitters.as_ref().filter(|e| e.splits_any(bx, by, bx1, by1)) {
-                    None => integrator.li_packet_from_camera_hits(
+                    None => integrator.li_packet(
                         ctx,
                         &rays[..n],
                         &hits[..n],
                         &mut samplers,
                         &which[..n],
                         &mut out.rays,
-                        &mut l[..n],
+                        &mut records[..n],
                     ),
                     // Where an emitter may be seen, the samples of the pixels that may see
                     // one are split ([`emitters`]).
@@ -500,12 +550,12 @@ fn render_tile(
                             &mut samplers,
                             &which[..n],
                             &mut out.rays,
-                            &mut l[..n],
+                            &mut records[..n],
                         );
                     }
                 }
-                for (k, &l) in l[..n].iter().enumerate() {
-                    let lane = which[k];
+                for (k, record) in records[..n].iter().enumerate() {
+                    let (l, lane) = (record.l, which[k]);
                     let (x, y, a, _) = lanes[lane];
                     accumulate(
                         &mut acc[lane],
@@ -514,11 +564,17 @@ fn render_tile(
                         &mut out.bad,
                         &mut out.first_bad,
                     );
+                    if keep_features {
+                        add_features(&mut feature_acc[lane], record.features);
+                    }
                 }
             }
-            for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
+            for (lane, (acc, &(x, y, a, b))) in acc.iter_mut().zip(lanes).enumerate() {
                 acc.2 += b - a;
                 sums[at(x, y)] = *acc;
+                if keep_features {
+                    features[at(x, y)] = feature_acc[lane];
+                }
             }
         }
     }
@@ -657,7 +713,7 @@ pub fn render_with_checkpoints(
     let tiles = tiles(window, settings.tile_size);
     // On the pool: its workers' floating-point mode is the one the tiles trace with.
     let setup = pool.install(|| TileSetup::new(ctx, settings));
-    let mut tile_sums = TileSums::new(&tiles);
+    let mut tile_sums = TileSums::new(&tiles, ctx.features);
     let stopping = settings.stopping;
     let spp = settings.spp;
     // Each round takes every pixel from its count to the next pass end: in a progressive
@@ -688,6 +744,9 @@ pub fn render_with_checkpoints(
     let time_is_up =
         |first_round: bool| !first_round && deadline.is_some_and(|d| Instant::now() >= d);
     let mut film = Film::new(settings.width, settings.height);
+    if ctx.features {
+        film.keep_features();
+    }
     if stopping.target_error.is_some() && stopping.halves {
         film.keep_halves();
     }
@@ -938,17 +997,26 @@ fn merge_round(
 }
 
 /// Writes a tile's round into the film (for a checkpoint's snapshot: one tile at a time).
-fn merge_tile(film: &mut Film, tile: &Tile, sums: &[PixelTotals]) {
+fn merge_tile(film: &mut Film, tile: &Tile, sums: (&[PixelTotals], &[FeatureTotals])) {
     let mut rows = film.rows_mut(&[(tile.y0, tile.y1)]);
     write_tile(&mut rows[0], tile, sums);
 }
 
-/// Writes a tile's totals after the round into the film rows that hold it.
-fn write_tile(rows: &mut FilmRows, tile: &Tile, sums: &[PixelTotals]) {
+/// Writes a tile's totals (and feature totals, where kept) after the round into the film
+/// rows that hold it.
+fn write_tile(
+    rows: &mut FilmRows,
+    tile: &Tile,
+    (sums, features): (&[PixelTotals], &[FeatureTotals]),
+) {
     let mut pixel = sums.iter();
+    let mut pixel_features = features.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             rows.set(x, y, *pixel.next().expect("one sum per tile pixel"));
+            if let Some(f) = pixel_features.next() {
+                rows.set_features(x, y, f);
+            }
         }
     }
 }
