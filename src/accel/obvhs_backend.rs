@@ -109,7 +109,8 @@ impl ObvhsAccel {
     }
 
     // Out of line: inlined into `Accel`'s dispatch, the traversal stack would make every
-    // Embree query pay for a large stack frame (BENCHMARKS.md, "Cost of our layer").
+    // Embree query pay for a large stack frame (BENCHMARKS.md, "The cost of strata's own
+    // layers").
     #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let r = Self::ray(ray);

@@ -278,7 +278,7 @@ pub fn li(
     };
     // The rays leave one point, so they share the first nodes of their traversal: Embree's
     // packet queries pay for packets of up to 16 (8-wide 1.1x faster than single rays on 64
-    // rays per hit, 16-wide another 1.1x; BENCHMARKS.md).
+    // rays per hit, 16-wide another 1.1x; docs/journal/benchmarks-2026-11.md).
     let flush = |packet: &[Ray], weights: &[f32], rays: &mut RayCounts| {
         let mut occluded = [false; OCCLUSION_PACKET];
         accel.occluded_packet(packet, &mut occluded);
