@@ -50,6 +50,12 @@ impl BsdfFlags {
         self.0 & other.0 == other.0
     }
 
+    /// True when any flag of `other` is set.
+    #[inline]
+    pub const fn intersects(self, other: BsdfFlags) -> bool {
+        self.0 & other.0 != 0
+    }
+
     /// True when some lobe is not a delta: light sampling can find light through it.
     #[inline]
     pub const fn has_non_specular(self) -> bool {

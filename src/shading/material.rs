@@ -19,7 +19,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::bsdf::{Bsdf, SurfaceBsdf};
+use super::bsdf::{Bsdf, BsdfFlags, SurfaceBsdf};
 use super::interaction::SurfaceInteraction;
 use super::texture::{transform_uv, Image};
 use crate::scene::{Scene, TextureRef};
@@ -183,17 +183,27 @@ impl Materials {
     #[inline]
     pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
         let albedo = self.base_color(scene, si.prim, uv);
-        let bsdf = match self.diffuse_sampling {
+        SurfaceBsdf::new(self.bsdf_with(albedo), si)
+    }
+
+    /// The BSDF of a material whose base colour is `albedo`: the one place that chooses a
+    /// variant.
+    #[inline]
+    fn bsdf_with(&self, albedo: Vec3) -> Bsdf {
+        match self.diffuse_sampling {
             DiffuseSampling::Cosine => Bsdf::Diffuse { albedo },
             DiffuseSampling::Uniform => Bsdf::DiffuseUniform { albedo },
-        };
-        SurfaceBsdf::new(bsdf, si)
+        }
     }
 
     /// True when every BSDF [`Materials::bsdf`] makes is diffuse (no glossy or specular
     /// lobe): what leaving a constant environment to BSDF sampling relies on.
     pub fn all_diffuse(&self) -> bool {
-        true
+        let glossy_or_specular = BsdfFlags::GLOSSY.union(BsdfFlags::SPECULAR);
+        self.materials.iter().all(|m| {
+            let flags = self.bsdf_with(m.base_color).flags();
+            !flags.intersects(glossy_or_specular)
+        })
     }
 
     /// The base colour of triangle `prim` at texture coordinates `uv`.
