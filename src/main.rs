@@ -35,11 +35,21 @@ struct Cli {
     output: Option<PathBuf>,
 
     /// Ray tracing backend: Embree, or the pure-Rust CWBVH of the obvhs crate.
-    #[arg(long, default_value = "embree", value_name = "embree|obvhs")]
+    #[arg(
+        long,
+        default_value = "embree",
+        value_name = "embree|obvhs",
+        hide_possible_values = true
+    )]
     backend: Backend,
 
     /// Light transport algorithm: ambient occlusion, direct lighting, or path tracing.
-    #[arg(long, default_value = "ao", value_name = "ao|direct|path")]
+    #[arg(
+        long,
+        default_value = "ao",
+        value_name = "ao|direct|path",
+        hide_possible_values = true
+    )]
     integrator: IntegratorKind,
 
     /// Path tracing: the most bounces (1 = direct lighting; Mitsuba's max_depth is this + 1).
@@ -47,7 +57,12 @@ struct Cli {
     max_depth: u32,
 
     /// Direct and path: how direct light is sampled: MIS of light and BSDF sampling, or one alone.
-    #[arg(long, default_value = "mis", value_name = "mis|light|bsdf")]
+    #[arg(
+        long,
+        default_value = "mis",
+        value_name = "mis|light|bsdf",
+        hide_possible_values = true
+    )]
     strategy: Strategy,
 
     /// Path tracing: Russian roulette from this bounce on.
@@ -55,7 +70,12 @@ struct Cli {
     rr_depth: u32,
 
     /// Direct and path: how points on emissive triangles are sampled.
-    #[arg(long, default_value = "area", value_name = "area|solid-angle")]
+    #[arg(
+        long,
+        default_value = "area",
+        value_name = "area|solid-angle",
+        hide_possible_values = true
+    )]
     triangle_sampling: TriangleSampling,
 
     /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixels where an emitter's outline may be seen (antialiases lights' outlines); fewer where outlines cover much of the image (at most one per sample on average); 0: none.
@@ -71,7 +91,12 @@ struct Cli {
     pixel: Option<(u32, u32)>,
 
     /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
-    #[arg(long, default_value = "sobol", value_name = "random|stratified|sobol")]
+    #[arg(
+        long,
+        default_value = "sobol",
+        value_name = "random|stratified|sobol",
+        hide_possible_values = true
+    )]
     sampler: SamplerKind,
 
     /// Samples per pixel; with --target-error or --time-limit, the most a pixel takes
@@ -95,6 +120,7 @@ struct Cli {
         long,
         default_value = "relative",
         value_name = "relative|absolute",
+        hide_possible_values = true,
         requires = "target_error"
     )]
     error_metric: ErrorMetric,
@@ -127,7 +153,12 @@ struct Cli {
 
     /// Hemisphere sampling of AO rays and of the path tracer's diffuse BSDF: cosine-weighted,
     /// or uniform (weighted by cos θ / pdf), for comparisons.
-    #[arg(long, default_value = "cosine", value_name = "cosine|uniform")]
+    #[arg(
+        long,
+        default_value = "cosine",
+        value_name = "cosine|uniform",
+        hide_possible_values = true
+    )]
     hemisphere: Hemisphere,
 
     /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
@@ -135,7 +166,12 @@ struct Cli {
     ao_samples: u32,
 
     /// BVH build quality.
-    #[arg(long, default_value = "medium", value_name = "low|medium|high")]
+    #[arg(
+        long,
+        default_value = "medium",
+        value_name = "low|medium|high",
+        hide_possible_values = true
+    )]
     bvh_quality: BuildQuality,
 
     /// Adaptive sampling: estimate each pixel's error from its samples' variance alone, not

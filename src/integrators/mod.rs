@@ -8,8 +8,6 @@ pub mod path;
 pub mod path_lanes;
 
 use glam::{Vec3, Vec3A};
-use std::fmt;
-use std::str::FromStr;
 
 use crate::accel::{Accel, Hit, Ray, PACKET};
 use crate::lights::{BackgroundSampling, LightSet};
@@ -133,7 +131,7 @@ impl RayCounts {
 }
 
 /// Which integrator renders the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum IntegratorKind {
     #[default]
     Ao,
@@ -141,27 +139,7 @@ pub enum IntegratorKind {
     Path,
 }
 
-impl FromStr for IntegratorKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "ao" => Ok(IntegratorKind::Ao),
-            "direct" => Ok(IntegratorKind::Direct),
-            "path" => Ok(IntegratorKind::Path),
-            other => Err(format!("unknown integrator '{other}' (ao, direct, path)")),
-        }
-    }
-}
-
-impl fmt::Display for IntegratorKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            IntegratorKind::Ao => "ao",
-            IntegratorKind::Direct => "direct",
-            IntegratorKind::Path => "path",
-        })
-    }
-}
+crate::display_as_value_name!(IntegratorKind);
 
 /// An integrator with its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]

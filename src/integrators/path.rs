@@ -46,9 +46,6 @@
 //! made there too (or narrow `path_lanes::supported`); `tests/path_lanes.rs` fails on any
 //! difference between their images.
 
-use std::fmt;
-use std::str::FromStr;
-
 use glam::{Vec2, Vec3};
 
 use super::{Context, Hemisphere, RayCounts};
@@ -58,7 +55,7 @@ use crate::material::Lambertian;
 use crate::sampling::PixelSampler;
 
 /// Which sampling techniques contribute direct light.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Strategy {
     #[default]
     Mis,
@@ -66,27 +63,7 @@ pub enum Strategy {
     Bsdf,
 }
 
-impl FromStr for Strategy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "mis" => Ok(Strategy::Mis),
-            "light" => Ok(Strategy::Light),
-            "bsdf" => Ok(Strategy::Bsdf),
-            other => Err(format!("unknown strategy '{other}' (mis, light, bsdf)")),
-        }
-    }
-}
-
-impl fmt::Display for Strategy {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Strategy::Mis => "mis",
-            Strategy::Light => "light",
-            Strategy::Bsdf => "bsdf",
-        })
-    }
-}
+crate::display_as_value_name!(Strategy);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
