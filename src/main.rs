@@ -211,11 +211,6 @@ struct Cli {
     #[arg(long)]
     no_camera_packets: bool,
 
-    /// Path-trace a packet's paths one at a time instead of together in SIMD lanes (the
-    /// image is the same; for measuring what the lanes gain)
-    #[arg(long, hide = true)]
-    no_path_lanes: bool,
-
     /// Print the time of each phase and the rays by kind.
     #[arg(long)]
     stats: bool,
@@ -615,7 +610,6 @@ fn run(cli: Cli) -> Result<Outcome> {
     // Render.
     let ctx = strata::integrators::Context {
         camera_packets: !cli.no_camera_packets,
-        path_lanes: !cli.no_path_lanes,
         ..prepared.context(&scene, &accel)
     };
     let settings = RenderSettings {
