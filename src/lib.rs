@@ -23,10 +23,12 @@ macro_rules! display_as_value_name {
 pub(crate) use display_as_value_name;
 
 pub mod accel;
+pub mod cli;
 pub mod convergence;
 pub mod embree;
 pub mod integrators;
 pub mod interaction;
+pub mod job;
 pub mod lights;
 pub mod material;
 pub mod render;
