@@ -14,7 +14,6 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use strata::accel::Accel;
 use strata::cli::Args;
-use strata::integrators::Integrator;
 use strata::integrators::Prepared;
 use strata::job::Job;
 use strata::render::output::{self, Attr};
@@ -129,106 +128,26 @@ fn run(args: Args) -> Result<Outcome> {
     };
     let settings = job.render_settings(&view);
     let progress = progress_bar(&job);
-    // What the header and the report read.
-    let (width, height) = (view.width, view.height);
-    let (spp, min_spp, background, integrator) =
-        (job.spp, job.min_spp, job.background, job.integrator);
-    let output = job.output.clone();
-    let scene_memory = scene.memory_estimate.bytes();
-    let memory_needed = scene_memory.saturating_add(job.image_memory(width, height));
-    // The header attributes that do not change during the render.
-    let mut attrs = vec![
-        (
-            "strata:scene".to_string(),
-            Attr::Text(job.scene.display().to_string()),
-        ),
-        (
-            "strata:integrator".into(),
-            Attr::Text(integrator.kind().to_string()),
-        ),
-        ("strata:sampler".into(), Attr::Text(job.sampler.to_string())),
-        ("strata:spp".into(), Attr::Int(spp as i32)),
-        ("strata:seed".into(), Attr::Text(job.seed.to_string())),
-        ("strata:backend".into(), Attr::Text(accel.describe())),
-    ];
-    if let Some(e) = job.target_error {
-        attrs.push(("strata:target_error".into(), Attr::Float(e)));
-        attrs.push(("strata:min_spp".into(), Attr::Int(min_spp as i32)));
-        attrs.push((
-            "strata:error_metric".into(),
-            Attr::Text(job.error_metric.to_string()),
-        ));
-    }
-    if let Some(t) = job.time_limit {
-        attrs.push(("strata:time_limit".into(), Attr::Float(t as f32)));
-    }
-    match integrator {
-        Integrator::Ao(ao) => {
-            attrs.push((
-                "strata:hemisphere".into(),
-                Attr::Text(ao.hemisphere.to_string()),
-            ));
-            attrs.push(("strata:ao_distance".into(), Attr::Float(ao.max_distance)));
-            attrs.push(("strata:ao_samples".into(), Attr::Int(ao.samples as i32)));
-        }
-        Integrator::Direct(p) | Integrator::Path(p) => {
-            attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
-            attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
-            attrs.push((
-                "strata:emitter_samples".into(),
-                Attr::Int(p.emitter_samples as i32),
-            ));
-            attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
-            attrs.push((
-                "strata:hemisphere".into(),
-                Attr::Text(p.hemisphere.to_string()),
-            ));
-            attrs.push((
-                "strata:triangle_sampling".into(),
-                Attr::Text(job.triangle_sampling.to_string()),
-            ));
-            attrs.push((
-                "strata:background".into(),
-                Attr::Text(format!(
-                    "{},{},{}",
-                    background.x, background.y, background.z
-                )),
-            ));
-        }
-    }
-    // Plus the ones that do: samples per pixel so far, time, and how the image ended.
-    let header = |film: &Film, seconds: f64, interrupted: bool, checkpoint: bool| {
-        let (spp_min, spp_max) = film.count_range();
-        let mut all = attrs.clone();
-        all.extend([
-            ("strata:spp_min".to_string(), Attr::Int(spp_min as i32)),
-            ("strata:spp_max".into(), Attr::Int(spp_max as i32)),
-            (
-                "strata:spp_mean".into(),
-                Attr::Float(film.count_mean() as f32),
-            ),
-            ("strata:render_seconds".into(), Attr::Float(seconds as f32)),
-            ("strata:interrupted".into(), Attr::Int(interrupted as i32)),
-            ("strata:checkpoint".into(), Attr::Int(checkpoint as i32)),
-        ]);
-        all
-    };
-    let write_images = |film: &Film, attrs: &[(String, Attr)]| -> Result<()> {
-        output::write_exr(&output, film, attrs)?;
+    let header = output::header_attributes(&job, &accel.describe());
+    let write_images = |film: &Film, state: Vec<(String, Attr)>| -> Result<()> {
+        let attrs = [header.clone(), state].concat();
+        output::write_exr(&job.output, film, &attrs)?;
         if let Some(v) = &job.variance {
-            output::write_rgb_exr(v, film.width, film.height, &film.variances(), attrs)?;
+            output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
         }
         if let Some(p) = &job.spp_image {
-            output::write_rgb_exr(p, film.width, film.height, &film.count_image(), attrs)?;
+            output::write_rgb_exr(p, film.width, film.height, &film.count_image(), &attrs)?;
         }
         Ok(())
     };
-
     let mut checkpoints = 0u32;
     let mut checkpoint_seconds = 0.0;
     let mut save_checkpoint = |film: &Film, stats: &RenderStats| {
         let t = Instant::now();
-        match write_images(film, &header(film, stats.seconds, false, true)) {
+        match write_images(
+            film,
+            output::film_attributes(film, stats.seconds, false, true),
+        ) {
             Ok(()) => checkpoints += 1,
             Err(e) => eprintln!("warning: checkpoint not written: {e:#}"),
         }
@@ -244,30 +163,17 @@ fn run(args: Args) -> Result<Outcome> {
 
     // Write.
     let t_write = Instant::now();
-    let (spp_min, spp_max) = result.film.count_range();
-    let mut final_attrs = header(
-        &result.film,
-        result.stats.seconds,
-        result.interrupted,
-        false,
-    );
-    if job.time_limit.is_some() {
-        final_attrs.push((
-            "strata:time_limit_reached".into(),
-            Attr::Int(result.time_limit_reached as i32),
-        ));
-    }
-    if let Some(u) = result.unconverged_pixels {
-        final_attrs.push((
-            "strata:unconverged_pixels".into(),
-            Attr::Int(u.min(i32::MAX as u64) as i32),
-        ));
-    }
-    write_images(&result.film, &final_attrs)?;
+    write_images(&result.film, output::result_attributes(&job, &result))?;
     if job.png {
-        output::write_png(&output.with_extension("png"), &result.film)?;
+        output::write_png(&job.output.with_extension("png"), &result.film)?;
     }
     let write_time = t_write.elapsed();
+
+    // What the report reads.
+    let (width, height, spp, output) = (view.width, view.height, job.spp, &job.output);
+    let (spp_min, spp_max) = result.film.count_range();
+    let scene_memory = scene.memory_estimate.bytes();
+    let memory_needed = scene_memory.saturating_add(job.image_memory(width, height));
 
     // Report.
     let stats = &result.stats;
