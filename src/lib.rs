@@ -32,6 +32,7 @@ pub mod job;
 pub mod lights;
 pub mod material;
 pub mod render;
+pub mod report;
 pub mod sampling;
 pub mod scene;
 pub mod texture;

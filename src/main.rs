@@ -18,7 +18,8 @@ use strata::integrators::Prepared;
 use strata::job::Job;
 use strata::render::output::{self, Attr};
 use strata::render::{self, Checkpoint, Film, RenderStats};
-use strata::scene::{self, format_bytes};
+use strata::report::{self, Phases, Run};
+use strata::scene;
 
 /// How a successful run ended.
 enum Outcome {
@@ -169,140 +170,34 @@ fn run(args: Args) -> Result<Outcome> {
     }
     let write_time = t_write.elapsed();
 
-    // What the report reads.
-    let (width, height, spp, output) = (view.width, view.height, job.spp, &job.output);
-    let (spp_min, spp_max) = result.film.count_range();
-    let scene_memory = scene.memory_estimate.bytes();
-    let memory_needed = scene_memory.saturating_add(job.image_memory(width, height));
-
     // Report.
-    let stats = &result.stats;
-    if stats.bad_samples > 0 {
-        eprintln!(
-            "warning: {} sample(s) were NaN or infinite and left out of the image; first:",
-            stats.bad_samples
-        );
-        for b in &stats.first_bad {
-            eprintln!("  pixel ({}, {}) sample {}: {}", b.x, b.y, b.index, b.value);
-        }
-    }
-    // Rays that went to the BVH: camera rays culled as unable to meet the scene are not.
-    let rays = stats.rays.traced();
-    let rays_per_s = rays as f64 / stats.seconds.max(1e-9);
-    println!(
-        "{}: {width}x{height}, {} spp, {:.2} s, {:.2} Mrays, {:.2} Mrays/s{}",
-        output.display(),
-        if spp_min == spp_max {
-            spp_max.to_string()
-        } else {
-            format!("{spp_min}-{spp_max} (mean {:.1})", result.film.count_mean())
+    eprint!("{}", report::bad_samples(&result.stats));
+    let run = Run {
+        job: &job,
+        view: &view,
+        scene: &scene,
+        accel: &accel,
+        prepared: &prepared,
+        threads,
+        result: &result,
+        phases: Phases {
+            load: load_time,
+            build: build_time,
+            prepare: prepare_time,
+            write: write_time,
         },
-        stats.seconds,
-        rays as f64 * 1e-6,
-        rays_per_s * 1e-6,
-        if result.interrupted {
-            " (interrupted)"
-        } else if result.time_limit_reached {
-            " (time limit reached)"
-        } else {
-            ""
-        }
-    );
-    if let (Some(e), Some(u)) = (job.target_error, result.unconverged_pixels) {
-        let (x0, y0, x1, y1) = settings.crop.unwrap_or((0, 0, width, height));
-        let rendered = (x1 - x0) as u64 * (y1 - y0) as u64;
-        let reached = rendered.saturating_sub(u);
-        let why = if result.time_limit_reached || result.interrupted {
-            "stopped early".to_string()
-        } else {
-            format!("took the most, {spp} spp (--spp)")
-        };
-        println!(
-            "adaptive: {reached} of {rendered} pixels reached the {} target error {e} ({:.1}%){}",
-            job.error_metric,
-            100.0 * reached as f64 / rendered.max(1) as f64,
-            if u > 0 {
-                format!("; {u} {why}")
-            } else {
-                String::new()
-            }
-        );
-    }
+        checkpoints,
+        checkpoint_seconds,
+    };
+    print!("{}", report::summary(&run));
     if job.stats {
-        let s = &scene.summary;
-        println!(
-            "scene: {} triangles, {} vertices, {} materials, {} textures, {} emissive triangles, {} lights, {} cameras",
-            s.triangles,
-            s.vertices,
-            scene.materials.len(),
-            s.textures,
-            s.emissive_triangles,
-            s.punctual_lights,
-            s.cameras
-        );
-        println!("backend: {}, {threads} threads", accel.describe());
-        let mem = accel.memory();
-        let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
-        println!(
-            "memory: BVH {:.1} MiB ({:.1} bytes/triangle), backend geometry {:.1} MiB{}",
-            mib(mem.bvh),
-            mem.bvh as f64 / s.triangles.max(1) as f64,
-            mib(mem.geometry),
-            mem.build_peak
-                .map(|p| format!(", build peak {:.1} MiB", mib(p)))
-                .unwrap_or_default()
-        );
-        println!(
-            "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.6} s ({} passes), write {:.3} s",
-            load_time.as_secs_f64(),
-            build_time.as_secs_f64(),
-            prepare_time.as_secs_f64(),
-            stats.seconds,
-            stats.passes,
-            write_time.as_secs_f64()
-        );
-        println!(
-            "memory estimate: {} (scene and BVH {}, image {}), limit {}",
-            format_bytes(memory_needed),
-            format_bytes(scene_memory),
-            format_bytes(job.image_memory(width, height)),
-            job.memory_limit.map_or("none".to_string(), format_bytes)
-        );
-        if job.checkpoint.is_some() {
-            println!(
-                "checkpoints: {checkpoints} written, {checkpoint_seconds:.3} s (within the render time)"
-            );
-        }
-        println!(
-            "shading: {} textures decoded, {} emitters",
-            prepared.materials.decoded_images(),
-            prepared.lights.emitters.len()
-        );
-        println!(
-            "rays: {} camera, {} extension, {} shadow, {} total, {} traced ({} camera rays \
-             culled: they could not meet the scene; {} through pixel corners, to find \
-             emitters' interiors), {:.3} Mrays/s traced",
-            stats.rays.camera,
-            stats.rays.extension,
-            stats.rays.shadow,
-            stats.rays.total(),
-            rays,
-            stats.rays.culled,
-            stats.rays.probe,
-            rays_per_s * 1e-6
-        );
+        print!("{}", report::stats(&run));
     }
     if let Some((x, y)) = job.pixel {
-        let v = result.film.pixel(x, y);
-        println!(
-            "pixel ({x}, {y}): {} {} {} ({} samples)",
-            v.x,
-            v.y,
-            v.z,
-            result.film.count(x, y)
-        );
+        print!("{}", report::pixel(&run, x, y));
     }
     Ok(if result.interrupted {
+        let (spp_min, spp_max) = result.film.count_range();
         eprintln!("saved the image rendered so far ({spp_min}-{spp_max} samples per pixel)");
         Outcome::Interrupted
     } else {
