@@ -5,12 +5,32 @@
 //! [`render::render`] (tiles on rayon, [`integrators`], [`sampling`]) → [`render::Film`] →
 //! [`render::output`].
 
+/// `Display` for an option enum that derives `clap::ValueEnum`: a value prints as the name
+/// the command line takes for it (`TriangleSampling::SolidAngle` as `solid-angle`), so the
+/// EXR headers, the reports and the tools name settings the way the command line spells them.
+macro_rules! display_as_value_name {
+    ($t:ty) => {
+        impl std::fmt::Display for $t {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                match clap::ValueEnum::to_possible_value(self) {
+                    Some(value) => f.write_str(value.get_name()),
+                    None => write!(f, "{self:?}"),
+                }
+            }
+        }
+    };
+}
+pub(crate) use display_as_value_name;
+
 pub mod accel;
+pub mod cli;
 pub mod convergence;
 pub mod embree;
 pub mod integrators;
+pub mod job;
 pub mod ray;
 pub mod render;
+pub mod report;
 pub mod sampling;
 pub mod scene;
 pub mod shading;

@@ -119,7 +119,11 @@ fn a_floor_seen_from_above_has_its_colour_normal_and_distance() {
         for y in 0..film.height {
             for x in 0..film.width {
                 let f = film.features(x, y).expect("features kept, pixel sampled");
-                let albedo = if name == "ao" { Vec3::ONE } else { FLOOR_COLOUR };
+                let albedo = if name == "ao" {
+                    Vec3::ONE
+                } else {
+                    FLOOR_COLOUR
+                };
                 assert_eq!(f.albedo, albedo, "{name} ({x}, {y})");
                 assert_eq!(f.normal, Vec3::Y, "{name} ({x}, {y})");
                 assert_eq!(f.coverage, 1.0, "{name} ({x}, {y})");
@@ -156,7 +160,12 @@ fn pixels_that_see_the_sky_have_no_surface() {
 #[test]
 fn keeping_features_changes_no_pixel_and_costs_nothing_when_off() {
     let scene = floor_scene();
-    let cam = camera(Vec3::new(0.0, 1.0, 9.0), Vec3::new(0.0, -0.3, -1.0), Vec3::Y, 0.7);
+    let cam = camera(
+        Vec3::new(0.0, 1.0, 9.0),
+        Vec3::new(0.0, -0.3, -1.0),
+        Vec3::Y,
+        0.7,
+    );
     for (name, integrator) in integrators() {
         let with = render_film(&scene, cam.clone(), integrator, true);
         let without = render_film(&scene, cam.clone(), integrator, false);

@@ -13,8 +13,6 @@ mod embree_backend;
 mod obvhs_backend;
 
 use glam::{Vec3, Vec3A};
-use std::fmt;
-use std::str::FromStr;
 
 use crate::scene::Scene;
 
@@ -91,37 +89,17 @@ pub(crate) fn unit_normal(n: Vec3) -> Vec3 {
 }
 
 /// Which BVH library traces the rays.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Backend {
     Embree,
     /// The pure-Rust CWBVH of the `obvhs` crate.
     Obvhs,
 }
 
-impl FromStr for Backend {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "embree" => Ok(Backend::Embree),
-            "obvhs" => Ok(Backend::Obvhs),
-            other => Err(format!(
-                "unknown backend '{other}' (available: embree, obvhs)"
-            )),
-        }
-    }
-}
-
-impl fmt::Display for Backend {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Backend::Embree => "embree",
-            Backend::Obvhs => "obvhs",
-        })
-    }
-}
+crate::display_as_value_name!(Backend);
 
 /// BVH build quality, shared by every backend.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum BuildQuality {
     Low,
     #[default]
@@ -129,17 +107,7 @@ pub enum BuildQuality {
     High,
 }
 
-impl FromStr for BuildQuality {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "low" => Ok(BuildQuality::Low),
-            "medium" => Ok(BuildQuality::Medium),
-            "high" => Ok(BuildQuality::High),
-            other => Err(format!("unknown BVH quality '{other}' (low, medium, high)")),
-        }
-    }
-}
+crate::display_as_value_name!(BuildQuality);
 
 /// Options for building an [`Accel`].
 #[derive(Clone, Copy, Debug)]

@@ -24,9 +24,6 @@
 //! leaving the surface as [`SurfaceInteraction::spawn_ray`] sends it (with several rays per
 //! hit, from the origins of [`SurfaceInteraction::front_origins`], computed once per hit).
 
-use std::fmt;
-use std::str::FromStr;
-
 use glam::{Vec2, Vec3};
 
 use crate::accel::{Hit, Ray, OCCLUSION_PACKET, PACKET};
@@ -38,7 +35,7 @@ use crate::sampling::{Onb, PixelSampler};
 use crate::shading::interaction::SurfaceInteraction;
 
 /// How AO directions are sampled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Hemisphere {
     #[default]
     Cosine,
@@ -46,32 +43,11 @@ pub enum Hemisphere {
     /// Uniform directions WITHOUT the cos θ/pdf weight: a deliberately wrong estimator (it
     /// computes unweighted visibility), kept so reference tests can show they catch it.
     /// Not listed in the CLI's help.
+    #[value(hide = true)]
     UniformUnweighted,
 }
 
-impl FromStr for Hemisphere {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "cosine" => Ok(Hemisphere::Cosine),
-            "uniform" => Ok(Hemisphere::Uniform),
-            "uniform-unweighted" => Ok(Hemisphere::UniformUnweighted),
-            other => Err(format!(
-                "unknown hemisphere sampling '{other}' (cosine, uniform)"
-            )),
-        }
-    }
-}
-
-impl fmt::Display for Hemisphere {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Hemisphere::Cosine => "cosine",
-            Hemisphere::Uniform => "uniform",
-            Hemisphere::UniformUnweighted => "uniform-unweighted",
-        })
-    }
-}
+crate::display_as_value_name!(Hemisphere);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AoSettings {

@@ -7,8 +7,6 @@ pub mod ao;
 pub mod path;
 
 use glam::{Vec3, Vec3A};
-use std::fmt;
-use std::str::FromStr;
 
 use crate::accel::{Accel, Hit, Ray, PACKET};
 use crate::sampling::PixelSampler;
@@ -190,7 +188,7 @@ pub struct Features {
 }
 
 /// Which integrator renders the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum IntegratorKind {
     #[default]
     Ao,
@@ -198,27 +196,7 @@ pub enum IntegratorKind {
     Path,
 }
 
-impl FromStr for IntegratorKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "ao" => Ok(IntegratorKind::Ao),
-            "direct" => Ok(IntegratorKind::Direct),
-            "path" => Ok(IntegratorKind::Path),
-            other => Err(format!("unknown integrator '{other}' (ao, direct, path)")),
-        }
-    }
-}
-
-impl fmt::Display for IntegratorKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            IntegratorKind::Ao => "ao",
-            IntegratorKind::Direct => "direct",
-            IntegratorKind::Path => "path",
-        })
-    }
-}
+crate::display_as_value_name!(IntegratorKind);
 
 /// An integrator with its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -42,9 +42,6 @@
 //! bounces, it would push the first bounce off dimensions 0–1, the best-stratified pair.
 //! `PathSettings::joint_bounces` = false pads them, for comparisons.
 
-use std::fmt;
-use std::str::FromStr;
-
 use glam::{Vec2, Vec3};
 
 use super::{Context, RayCounts};
@@ -53,7 +50,7 @@ use crate::sampling::PixelSampler;
 use crate::shading::SurfaceInteraction;
 
 /// Which sampling techniques contribute direct light.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Strategy {
     #[default]
     Mis,
@@ -61,27 +58,7 @@ pub enum Strategy {
     Bsdf,
 }
 
-impl FromStr for Strategy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "mis" => Ok(Strategy::Mis),
-            "light" => Ok(Strategy::Light),
-            "bsdf" => Ok(Strategy::Bsdf),
-            other => Err(format!("unknown strategy '{other}' (mis, light, bsdf)")),
-        }
-    }
-}
-
-impl fmt::Display for Strategy {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Strategy::Mis => "mis",
-            Strategy::Light => "light",
-            Strategy::Bsdf => "bsdf",
-        })
-    }
-}
+crate::display_as_value_name!(Strategy);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {

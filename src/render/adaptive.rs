@@ -52,13 +52,10 @@
 
 use rayon::prelude::*;
 
-use std::fmt;
-use std::str::FromStr;
-
 use super::film::Film;
 
 /// What a pixel's error is measured against (module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum ErrorMetric {
     /// The standard error relative to the pixel's value (with a floor): the noise one sees
     /// once the image is tone-mapped; dark regions get their share of samples.
@@ -69,25 +66,7 @@ pub enum ErrorMetric {
     Absolute,
 }
 
-impl FromStr for ErrorMetric {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "relative" => Ok(ErrorMetric::Relative),
-            "absolute" => Ok(ErrorMetric::Absolute),
-            _ => Err(format!("'{s}': expected relative or absolute")),
-        }
-    }
-}
-
-impl fmt::Display for ErrorMetric {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ErrorMetric::Relative => "relative",
-            ErrorMetric::Absolute => "absolute",
-        })
-    }
-}
+crate::display_as_value_name!(ErrorMetric);
 
 /// How far below the sample variance over n the two-halves estimate may put a pixel's
 /// variance ([`pixel_error`]): a sixteenth (a quarter of the error).

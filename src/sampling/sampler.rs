@@ -18,8 +18,6 @@
 //! |              | scramble and index shuffle (Burley's padding); at most 65 536 spp.       |
 
 use glam::Vec2;
-use std::fmt;
-use std::str::FromStr;
 
 use super::hash::{hash_words, mix64, permute, u32_to_unit_f32, unit_f32};
 use super::sobol;
@@ -27,7 +25,7 @@ use super::sobol;
 /// The most samples per pixel the `sobol` sampler supports (16-bit indices).
 pub const SOBOL_MAX_SPP: u32 = sobol::MAX_INDEX;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum SamplerKind {
     Random,
     #[default]
@@ -35,29 +33,7 @@ pub enum SamplerKind {
     Sobol,
 }
 
-impl FromStr for SamplerKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "random" => Ok(SamplerKind::Random),
-            "stratified" => Ok(SamplerKind::Stratified),
-            "sobol" => Ok(SamplerKind::Sobol),
-            other => Err(format!(
-                "unknown sampler '{other}' (random, stratified, sobol)"
-            )),
-        }
-    }
-}
-
-impl fmt::Display for SamplerKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            SamplerKind::Random => "random",
-            SamplerKind::Stratified => "stratified",
-            SamplerKind::Sobol => "sobol",
-        })
-    }
-}
+crate::display_as_value_name!(SamplerKind);
 
 /// The sample generator of one thread; cheap to create and to restart per pixel sample.
 #[derive(Clone, Debug)]

@@ -183,7 +183,7 @@ impl AliasTable {
 /// sampling halves the RMSE at equal spp; on the Cornell box it lowers RMSE by about 1% but
 /// makes the render 57% slower (spherical trigonometry per light sample and per MIS pdf).
 /// Area sampling is the default; choose solid angle for scenes lit by large, near emitters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum TriangleSampling {
     /// Uniform over the triangle's area (pdf converted to solid angle: d²/(cos·A)).
     #[default]
@@ -193,27 +193,7 @@ pub enum TriangleSampling {
     SolidAngle,
 }
 
-impl std::str::FromStr for TriangleSampling {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "area" => Ok(TriangleSampling::Area),
-            "solid-angle" => Ok(TriangleSampling::SolidAngle),
-            other => Err(format!(
-                "unknown triangle sampling '{other}' (area, solid-angle)"
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for TriangleSampling {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            TriangleSampling::Area => "area",
-            TriangleSampling::SolidAngle => "solid-angle",
-        })
-    }
-}
+crate::display_as_value_name!(TriangleSampling);
 
 /// Whether next-event estimation samples the environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -1,0 +1,332 @@
+//! The `render` command line's options, as clap parses them: each option's syntax, its
+//! help text and the checks of a value on its own. What the options mean together is
+//! [`crate::job::Job`]'s.
+
+use std::path::PathBuf;
+
+use crate::accel::{Backend, BuildQuality};
+use crate::integrators::{Hemisphere, IntegratorKind, Strategy};
+use crate::render::adaptive::ErrorMetric;
+use crate::render::DEFAULT_MIN_PASS_SECONDS;
+use crate::sampling::SamplerKind;
+use crate::shading::lights::TriangleSampling;
+
+/// The options of `render`, one field each; a field's doc comment is its `--help` text, and
+/// `--help` opens with the package's description.
+#[derive(clap::Parser, Debug)]
+#[command(name = "render", version, about, long_about = None)]
+pub struct Args {
+    /// The scene: a .gltf (embedded or external buffers) or .glb file.
+    pub scene: PathBuf,
+
+    /// Output EXR file [default: the scene's name with .exr, in the current directory].
+    #[arg(short, long, value_name = "FILE.exr")]
+    pub output: Option<PathBuf>,
+
+    /// Ray tracing backend: Embree, or the pure-Rust CWBVH of the obvhs crate.
+    #[arg(
+        long,
+        default_value = "embree",
+        value_name = "embree|obvhs",
+        hide_possible_values = true
+    )]
+    pub backend: Backend,
+
+    /// Light transport algorithm: ambient occlusion, direct lighting, or path tracing.
+    #[arg(
+        long,
+        default_value = "ao",
+        value_name = "ao|direct|path",
+        hide_possible_values = true
+    )]
+    pub integrator: IntegratorKind,
+
+    /// Path tracing: the most bounces (1 = direct lighting; Mitsuba's max_depth is this + 1).
+    #[arg(long, default_value_t = 8, value_name = "BOUNCES")]
+    pub max_depth: u32,
+
+    /// Direct and path: how direct light is sampled: MIS of light and BSDF sampling, or one alone.
+    #[arg(
+        long,
+        default_value = "mis",
+        value_name = "mis|light|bsdf",
+        hide_possible_values = true
+    )]
+    pub strategy: Strategy,
+
+    /// Path tracing: Russian roulette from this bounce on.
+    #[arg(long, default_value_t = 5, value_name = "BOUNCES")]
+    pub rr_depth: u32,
+
+    /// Direct and path: how points on emissive triangles are sampled.
+    #[arg(
+        long,
+        default_value = "area",
+        value_name = "area|solid-angle",
+        hide_possible_values = true
+    )]
+    pub triangle_sampling: TriangleSampling,
+
+    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixels where an emitter's outline may be seen (antialiases lights' outlines); fewer where outlines cover much of the image (at most one per sample on average); 0: none.
+    #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
+    pub emitter_samples: u32,
+
+    /// Constant environment radiance, linear RGB [default: black].
+    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
+    pub background: Option<[f32; 3]>,
+
+    /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pub pixel: Option<(u32, u32)>,
+
+    /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
+    #[arg(
+        long,
+        default_value = "sobol",
+        value_name = "random|stratified|sobol",
+        hide_possible_values = true
+    )]
+    pub sampler: SamplerKind,
+
+    /// Samples per pixel; with --target-error or --time-limit, the most a pixel takes
+    /// [default: 64; with --target-error or --time-limit, 65536].
+    #[arg(long)]
+    pub spp: Option<u32>,
+
+    /// Adaptive sampling: stop sampling a pixel once the estimated relative standard error of
+    /// its value (and of its eight neighbours') is at most this, e.g. 0.01 for 1%.
+    #[arg(long, value_name = "E", value_parser = parse_target_error)]
+    pub target_error: Option<f32>,
+
+    /// Adaptive sampling: the samples every pixel takes before its error is judged.
+    #[arg(long, value_name = "N", requires = "target_error")]
+    pub min_spp: Option<u32>,
+
+    /// Adaptive sampling: --target-error is relative to the pixel's value (what a tone-mapped
+    /// image shows), or absolute, in radiance units (what RMSE measures). With --time-limit it
+    /// also decides where the samples go: where they lower this error most.
+    #[arg(
+        long,
+        default_value = "relative",
+        value_name = "relative|absolute",
+        hide_possible_values = true,
+        requires = "target_error"
+    )]
+    pub error_metric: ErrorMetric,
+
+    /// Stop the render after this many seconds of rendering (loading and the BVH build not
+    /// counted), keeping every sample taken so far; exits with success. The image then
+    /// depends on the machine's speed.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    pub time_limit: Option<f64>,
+
+    /// Random seed; the same seed, scene and settings give the same image on any thread count.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+
+    /// Image size [default: 640 wide, height from the camera's aspect ratio, else 640x480].
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+
+    /// Which camera of the file, in the order the default scene lists them.
+    #[arg(long, value_name = "N")]
+    pub camera: Option<usize>,
+
+    /// AO: occluders farther than this distance are ignored [default: unlimited].
+    #[arg(long, value_name = "DISTANCE")]
+    pub ao_distance: Option<f32>,
+
+    /// Hemisphere sampling of AO rays and of the path tracer's diffuse BSDF: cosine-weighted,
+    /// or uniform (weighted by cos θ / pdf), for comparisons.
+    #[arg(
+        long,
+        default_value = "cosine",
+        value_name = "cosine|uniform",
+        hide_possible_values = true
+    )]
+    pub hemisphere: Hemisphere,
+
+    /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub ao_samples: u32,
+
+    /// BVH build quality.
+    #[arg(
+        long,
+        default_value = "medium",
+        value_name = "low|medium|high",
+        hide_possible_values = true
+    )]
+    pub bvh_quality: BuildQuality,
+
+    /// Adaptive sampling: estimate each pixel's error from its samples' variance alone, not
+    /// from the two halves of its samples; for measurements only.
+    #[arg(long, hide = true)]
+    pub sample_variance_error: bool,
+
+    /// Path tracing: draw each bounce's sample point from a Sobol sequence of its own
+    /// (padding) instead of stratifying the bounces jointly; for measurements only.
+    #[arg(long, hide = true)]
+    pub padded_bounces: bool,
+
+    /// Turn off Embree's watertight (robust) traversal, for measurements only.
+    #[arg(long, hide = true)]
+    pub no_robust: bool,
+
+    /// Trace every triangle as a triangle, never pairs of them as quads (Embree), for
+    /// measurements only.
+    #[arg(long, hide = true)]
+    pub no_quads: bool,
+
+    /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
+    /// an RGB EXR, for statistical comparisons.
+    #[arg(long, value_name = "FILE.exr")]
+    pub variance: Option<PathBuf>,
+
+    /// Also write each pixel's number of samples as a grey EXR (useful with --target-error).
+    #[arg(long, value_name = "FILE.exr")]
+    pub spp_image: Option<PathBuf>,
+
+    /// Do not write the PNG preview beside the EXR.
+    #[arg(long)]
+    pub no_png: bool,
+
+    /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
+    /// same; for measuring what packets gain)
+    #[arg(long)]
+    pub no_camera_packets: bool,
+
+    /// Print the time of each phase and the rays by kind.
+    #[arg(long)]
+    pub stats: bool,
+
+    /// Refuse a scene whose estimated memory (geometry, BVH and image, from the file's
+    /// declared counts, before loading) exceeds this: bytes, or with a suffix K, M, G, T
+    /// (powers of 1024), e.g. 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical
+    /// memory].
+    #[arg(long, value_name = "BYTES", value_parser = parse_memory)]
+    pub max_memory: Option<MemoryLimit>,
+
+    /// Write the running image (and the variance image) to the output path(s) at most every
+    /// SECONDS during the render, atomically, so a crash or kill loses at most that much.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    pub checkpoint: Option<f64>,
+
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = 16, hide = true)]
+    pub tile_size: u32,
+
+    /// Least length of a pass, in seconds, at the rate measured so far (by a probe of a few
+    /// tiles, for the first pass; 0: no probe, and passes of 1, 1, 2, 4, … samples per pixel,
+    /// for measuring what passes cost).
+    #[arg(long, default_value_t = DEFAULT_MIN_PASS_SECONDS, hide = true,
+          value_parser = parse_seconds_or_zero)]
+    pub min_pass_seconds: f64,
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=65536).contains(&n))
+    };
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!(
+            "'{s}': width and height must be integers in 1..=65536"
+        )),
+    }
+}
+
+fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}': expected R,G,B"))?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
+        [c] if c.is_finite() && c >= 0.0 => Ok([c, c, c]),
+        _ => Err(format!("'{s}': expected three non-negative numbers R,G,B")),
+    }
+}
+
+/// `--max-memory`: a number of bytes, or no limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryLimit(pub Option<u64>);
+
+fn parse_memory(s: &str) -> Result<MemoryLimit, String> {
+    let t = s.trim().to_ascii_lowercase();
+    if t == "unlimited" || t == "none" {
+        return Ok(MemoryLimit(None));
+    }
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, suffix) = t.split_at(split);
+    let unit: u64 = match suffix.trim() {
+        "" | "b" => 1,
+        "k" | "kb" | "kib" => 1 << 10,
+        "m" | "mb" | "mib" => 1 << 20,
+        "g" | "gb" | "gib" => 1 << 30,
+        "t" | "tb" | "tib" => 1 << 40,
+        _ => {
+            return Err(format!(
+                "'{s}': expected bytes with an optional suffix K, M, G or T (e.g. 512M, 4G), or 'unlimited'"
+            ))
+        }
+    };
+    let n: f64 = number
+        .parse()
+        .map_err(|_| format!("'{s}': expected a number of bytes, e.g. 512M, 4G, or 'unlimited'"))?;
+    let bytes = n * unit as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!(
+            "'{s}': must be at least 1 byte (or 'unlimited' for no limit)"
+        ));
+    }
+    Ok(MemoryLimit(Some(bytes as u64)))
+}
+
+fn parse_target_error(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!(
+            "'{s}': expected a positive relative error, e.g. 0.01 for 1%"
+        )),
+    }
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() && v < 1e9 => Ok(v),
+        _ => Err(format!("'{s}': expected a positive number of seconds")),
+    }
+}
+
+/// [`parse_seconds`], but 0 is allowed.
+fn parse_seconds_or_zero(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(0.0) => Ok(0.0),
+        _ => parse_seconds(s)
+            .map_err(|_| format!("'{s}': expected 0 or a positive number of seconds")),
+    }
+}
+
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let (x, y) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}': expected X,Y"))?;
+    match (x.trim().parse(), y.trim().parse()) {
+        (Ok(x), Ok(y)) => Ok((x, y)),
+        _ => Err(format!("'{s}': expected two pixel coordinates X,Y")),
+    }
+}

@@ -1,0 +1,612 @@
+//! A render job: the command line's options ([`Args`]) checked together and resolved into
+//! the settings the renderer takes, with the defaults that depend on other options filled in
+//! (the output path, the samples per pixel, the memory limit).
+//!
+//! [`Job::from_args`] is the one place where options become settings, and makes every check
+//! the options allow before anything is loaded. [`Job::view`] makes the checks that need
+//! the scene: the camera, the image size and the memory estimate.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use glam::Vec3;
+
+use crate::accel::{AccelOptions, Backend, BuildQuality};
+use crate::cli::{Args, MemoryLimit};
+use crate::integrators::{
+    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions,
+};
+use crate::render::adaptive::ErrorMetric;
+use crate::render::output::{self, OutputError};
+use crate::render::{Film, RenderSettings, Stopping};
+use crate::sampling::sampler::SOBOL_MAX_SPP;
+use crate::sampling::SamplerKind;
+use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
+use crate::shading::{DiffuseSampling, Environment};
+
+/// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
+/// has, so the target error or the time limit is what stops it.
+pub const PROGRESSIVE_MAX_SPP: u32 = SOBOL_MAX_SPP;
+
+/// The default `--spp` of a render that takes every pixel's samples.
+pub const DEFAULT_SPP: u32 = 64;
+
+/// Options that cannot be rendered together, or a scene they do not fit; the message names
+/// the option.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct JobError(pub String);
+
+impl From<OutputError> for JobError {
+    fn from(e: OutputError) -> JobError {
+        JobError(e.to_string())
+    }
+}
+
+/// Returns early with a [`JobError`] made of `format!`'s arguments.
+macro_rules! refuse {
+    ($($arg:tt)*) => {
+        return Err(JobError(format!($($arg)*)))
+    };
+}
+
+/// A checked render job.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// The EXR; the PNG preview goes beside it, with `.png`.
+    pub output: PathBuf,
+    /// Write the PNG preview.
+    pub png: bool,
+    /// Also write each pixel's variance of the mean here.
+    pub variance: Option<PathBuf>,
+    /// Also write each pixel's sample count here.
+    pub spp_image: Option<PathBuf>,
+
+    /// Worker threads (0: all cores).
+    pub threads: usize,
+    pub backend: Backend,
+    pub bvh_quality: BuildQuality,
+    /// Embree's watertight traversal (false only for measurements).
+    pub robust: bool,
+    /// Embree's quads, pairs of triangles traced as one (false only for measurements).
+    pub quads: bool,
+
+    pub integrator: Integrator,
+    /// How materials and lights are shaded: the environment (`--background`), diffuse
+    /// sampling (`--hemisphere`) and emissive triangles' sampling.
+    pub shading: ShadingOptions,
+    /// `--hemisphere`, as given (AO's estimator and the diffuse BSDF's sampling).
+    pub hemisphere: Hemisphere,
+    /// Trace camera rays in packets (false only for measurements).
+    pub camera_packets: bool,
+
+    /// The camera's index in the file; `None`: the first camera, or a framing of the scene.
+    pub camera: Option<usize>,
+    /// The image size; `None`: from the camera's aspect ratio.
+    pub resolution: Option<(u32, u32)>,
+    /// Render only this pixel.
+    pub pixel: Option<(u32, u32)>,
+
+    pub spp: u32,
+    pub seed: u64,
+    pub sampler: SamplerKind,
+    pub target_error: Option<f32>,
+    pub min_spp: u32,
+    pub error_metric: ErrorMetric,
+    /// The time limit in seconds, as given.
+    pub time_limit: Option<f64>,
+    /// Estimate a pixel's error from the two halves of its samples (false only for
+    /// measurements: from their variance alone).
+    pub halves: bool,
+    pub tile_size: u32,
+    pub min_pass_seconds: f64,
+
+    /// Refuse a scene whose estimated memory exceeds this many bytes; `None`: no limit.
+    pub memory_limit: Option<u64>,
+    /// Write the running image at most every this many seconds.
+    pub checkpoint: Option<f64>,
+    /// Print the `--stats` report.
+    pub stats: bool,
+    /// What the options let through but the user should hear about, one line each.
+    pub warnings: Vec<String>,
+}
+
+/// What [`Job::view`] makes of the job and the scene: the camera and the image size.
+#[derive(Clone, Debug)]
+pub struct View {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    /// The file has no camera: `camera` frames the scene's bounding box.
+    pub framed: bool,
+}
+
+impl Job {
+    /// Checks the options together and resolves them into a job; the error names the
+    /// option at fault.
+    pub fn from_args(args: &Args) -> Result<Job, JobError> {
+        let output = args
+            .output
+            .clone()
+            .unwrap_or_else(|| default_output(&args.scene));
+        output::check_output_path(&output)?;
+        for extra in [&args.variance, &args.spp_image].into_iter().flatten() {
+            output::check_output_path(extra)?;
+        }
+        let mut warnings = Vec::new();
+
+        let progressive = args.target_error.is_some() || args.time_limit.is_some();
+        let spp = args.spp.unwrap_or(if progressive {
+            PROGRESSIVE_MAX_SPP
+        } else {
+            DEFAULT_SPP
+        });
+        if spp == 0 {
+            refuse!("--spp must be at least 1");
+        }
+        if args.sampler == SamplerKind::Sobol && spp > SOBOL_MAX_SPP {
+            refuse!(
+                "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {spp})"
+            );
+        }
+        if progressive && args.sampler == SamplerKind::Stratified {
+            warnings.push(format!(
+                "--sampler stratified lays its strata out for all --spp {spp} samples; a render that stops early (--target-error, --time-limit) keeps little of its stratification. --sampler sobol (the default) is progressive: any prefix of its samples is well spread"
+            ));
+        }
+        let min_spp = args.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
+        if min_spp == 0 || min_spp > spp {
+            refuse!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
+        }
+        if args.target_error.is_some() && spp < 2 {
+            refuse!("--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp {spp})");
+        }
+        if args.target_error.is_some() && min_spp < 2 {
+            refuse!(
+                "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance"
+            );
+        }
+
+        if args.ao_samples == 0 {
+            refuse!("--ao-samples must be at least 1");
+        }
+        let ao_distance = match args.ao_distance {
+            None => f32::INFINITY,
+            Some(d) if d > 0.0 => d,
+            Some(d) => refuse!("--ao-distance must be positive (got {d})"),
+        };
+        if args.hemisphere == Hemisphere::UniformUnweighted && args.integrator != IntegratorKind::Ao
+        {
+            refuse!("--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform");
+        }
+        let path_settings = PathSettings {
+            max_depth: args.max_depth,
+            rr_depth: args.rr_depth,
+            strategy: args.strategy,
+            emitter_samples: args.emitter_samples,
+            camera_emission: true,
+            paired_bounces: true,
+            joint_bounces: !args.padded_bounces,
+        };
+        let integrator = match args.integrator {
+            IntegratorKind::Ao => Integrator::Ao(AoSettings {
+                max_distance: ao_distance,
+                hemisphere: args.hemisphere,
+                samples: args.ao_samples,
+                film_paired: true,
+            }),
+            IntegratorKind::Direct => Integrator::Direct(PathSettings {
+                max_depth: 1,
+                ..path_settings
+            }),
+            IntegratorKind::Path => Integrator::Path(path_settings),
+        };
+
+        let memory_limit = match args.max_memory {
+            Some(MemoryLimit(limit)) => limit,
+            None => match default_memory_limit() {
+                Ok(limit) => Some(limit),
+                Err(e) => {
+                    warnings.push(format!("{e}; no memory limit (set one with --max-memory)"));
+                    None
+                }
+            },
+        };
+
+        Ok(Job {
+            scene: args.scene.clone(),
+            output,
+            png: !args.no_png,
+            variance: args.variance.clone(),
+            spp_image: args.spp_image.clone(),
+            threads: args.threads,
+            backend: args.backend,
+            bvh_quality: args.bvh_quality,
+            robust: !args.no_robust,
+            quads: !args.no_quads,
+            integrator,
+            shading: ShadingOptions {
+                environment: Environment::Constant(Vec3::from_array(
+                    args.background.unwrap_or([0.0; 3]),
+                )),
+                diffuse_sampling: match args.hemisphere {
+                    Hemisphere::Cosine => DiffuseSampling::Cosine,
+                    Hemisphere::Uniform | Hemisphere::UniformUnweighted => DiffuseSampling::Uniform,
+                },
+                triangle_sampling: args.triangle_sampling,
+            },
+            hemisphere: args.hemisphere,
+            camera_packets: !args.no_camera_packets,
+            camera: args.camera,
+            resolution: args.resolution,
+            pixel: args.pixel,
+            spp,
+            seed: args.seed,
+            sampler: args.sampler,
+            target_error: args.target_error,
+            min_spp,
+            error_metric: args.error_metric,
+            time_limit: args.time_limit,
+            halves: !args.sample_variance_error,
+            tile_size: args.tile_size,
+            min_pass_seconds: args.min_pass_seconds,
+            memory_limit,
+            checkpoint: args.checkpoint,
+            stats: args.stats,
+            warnings,
+        })
+    }
+
+    /// The temporary files the job's writes go through (removed if it is killed mid-write).
+    pub fn temporaries(&self) -> Vec<PathBuf> {
+        let mut temporaries = vec![
+            output::temp_path(&self.output),
+            output::temp_path(&self.output.with_extension("png")),
+        ];
+        temporaries.extend(self.variance.as_deref().map(output::temp_path));
+        temporaries.extend(self.spp_image.as_deref().map(output::temp_path));
+        temporaries
+    }
+
+    /// The memory a `width`×`height` image needs: the film, what adaptive sampling and
+    /// checkpoints add to it, and the extra images (float32 RGB) written.
+    pub fn image_memory(&self, width: u32, height: u32) -> u64 {
+        let mut extra = 12 * (self.variance.is_some() as u64 + self.spp_image.is_some() as u64);
+        if self.target_error.is_some() {
+            extra += Film::ADAPTIVE_BYTES_PER_PIXEL;
+        }
+        if self.checkpoint.is_some() {
+            extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
+            if self.target_error.is_some() && self.halves {
+                // The snapshot copies the film's halves too.
+                extra += Film::HALVES_BYTES_PER_PIXEL;
+            }
+        }
+        Film::memory_estimate(width, height) + width as u64 * height as u64 * extra
+    }
+
+    /// How to load the scene: within the memory limit, less the image's share when its size
+    /// is known before the scene is.
+    pub fn load_options(&self) -> LoadOptions {
+        LoadOptions {
+            memory_limit: self.memory_limit,
+            other_memory: self.resolution.map_or(0, |(w, h)| self.image_memory(w, h)),
+        }
+    }
+
+    /// The camera and the image size for `scene`, after checking the camera index, the
+    /// memory the render needs against the limit, and `--pixel` against the image.
+    pub fn view(&self, scene: &Scene) -> Result<View, JobError> {
+        let chosen = match self.camera {
+            Some(i) => Some(scene.cameras.get(i).ok_or_else(|| {
+                JobError(format!(
+                    "{}: --camera {i}, but the file has {} camera(s)",
+                    self.scene.display(),
+                    scene.cameras.len()
+                ))
+            })?),
+            None => scene.cameras.first(),
+        };
+        let (width, height) =
+            self.resolution
+                .unwrap_or_else(|| match chosen.and_then(|c| c.aspect_ratio) {
+                    Some(a) => (640, ((640.0 / a).round() as u32).clamp(1, 65536)),
+                    None => (640, 480),
+                });
+        let scene_memory = scene.memory_estimate.bytes();
+        let image_memory = self.image_memory(width, height);
+        let needed = scene_memory.saturating_add(image_memory);
+        if let Some(limit) = self.memory_limit.filter(|&l| needed > l) {
+            refuse!(
+                "{}: rendering needs an estimated {} of memory (scene and BVH {}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
+                self.scene.display(),
+                format_bytes(needed),
+                format_bytes(scene_memory),
+                format_bytes(image_memory),
+                format_bytes(limit)
+            );
+        }
+        if let Some((x, y)) = self.pixel {
+            if x >= width || y >= height {
+                refuse!("--pixel {x},{y} lies outside the {width}x{height} image");
+            }
+        }
+        let (camera, framed) = match chosen {
+            Some(c) => (c.clone(), false),
+            None => {
+                let aspect = width as f32 / height as f32;
+                (
+                    Camera::framing(scene.bounds.0, scene.bounds.1, aspect),
+                    true,
+                )
+            }
+        };
+        Ok(View {
+            camera,
+            width,
+            height,
+            framed,
+        })
+    }
+
+    /// The BVH build's options, for a pool of `threads` worker threads.
+    pub fn accel_options(&self, threads: usize) -> AccelOptions {
+        AccelOptions {
+            backend: self.backend,
+            quality: self.bvh_quality,
+            threads,
+            robust: self.robust,
+            quads: self.quads,
+        }
+    }
+
+    /// When the render stops.
+    pub fn stopping(&self) -> Stopping {
+        Stopping {
+            target_error: self.target_error,
+            min_spp: self.min_spp,
+            metric: self.error_metric,
+            time_limit: self.time_limit.map(Duration::from_secs_f64),
+            halves: self.halves,
+        }
+    }
+
+    /// The renderer's settings for the image of `view`.
+    pub fn render_settings(&self, view: &View) -> RenderSettings {
+        RenderSettings {
+            camera: view.camera.clone(),
+            crop: self.pixel.map(|(x, y)| (x, y, x + 1, y + 1)),
+            width: view.width,
+            height: view.height,
+            spp: self.spp,
+            seed: self.seed,
+            sampler: self.sampler,
+            integrator: self.integrator,
+            tile_size: self.tile_size,
+            min_pass_seconds: self.min_pass_seconds,
+            stopping: self.stopping(),
+        }
+    }
+}
+
+/// The default output: the scene's name with `.exr`, in the current directory.
+fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    PathBuf::from(format!("{stem}.exr"))
+}
+
+/// The default `--max-memory`: 3/4 of physical memory (`MemTotal` in /proc/meminfo, or the
+/// cgroup v2 `memory.max` of a container when that is lower).
+pub fn default_memory_limit() -> Result<u64, String> {
+    let text = std::fs::read_to_string("/proc/meminfo")
+        .map_err(|e| format!("cannot read /proc/meminfo: {e}"))?;
+    let kib = text
+        .lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().strip_suffix("kB"))
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .ok_or("no MemTotal line in /proc/meminfo")?;
+    let mut total = kib.saturating_mul(1024);
+    if let Ok(max) = std::fs::read_to_string("/sys/fs/cgroup/memory.max") {
+        if let Ok(m) = max.trim().parse::<u64>() {
+            total = total.min(m);
+        }
+    }
+    Ok(total / 4 * 3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shading::TriangleSampling;
+    use clap::Parser;
+
+    fn ao_wall() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ao-wall.gltf")
+    }
+
+    /// `render ao-wall.gltf -o <dir>/out.exr` and `extra`, parsed.
+    fn args(dir: &Path, extra: &[&str]) -> Args {
+        let scene = ao_wall();
+        let out = dir.join("out.exr");
+        let mut all = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        all.extend_from_slice(extra);
+        Args::try_parse_from(all).unwrap()
+    }
+
+    fn job(extra: &[&str]) -> Result<Job, JobError> {
+        let dir = tempfile::tempdir().unwrap();
+        Job::from_args(&args(dir.path(), extra))
+    }
+
+    #[test]
+    fn defaults_depend_on_the_stopping_rule() {
+        let fixed = job(&[]).unwrap();
+        assert_eq!(
+            (fixed.spp, fixed.min_spp),
+            (DEFAULT_SPP, Stopping::DEFAULT_MIN_SPP)
+        );
+        assert_eq!(fixed.integrator.kind(), IntegratorKind::Ao);
+        assert!(fixed.png && fixed.robust && fixed.quads && fixed.camera_packets && fixed.halves);
+        assert!(fixed.warnings.iter().all(|w| !w.contains("--sampler")));
+
+        let adaptive = job(&["--target-error", "0.01"]).unwrap();
+        assert_eq!(adaptive.spp, PROGRESSIVE_MAX_SPP);
+        let timed = job(&["--time-limit", "2", "--spp", "8"]).unwrap();
+        assert_eq!((timed.spp, timed.min_spp), (8, 8));
+        assert_eq!(timed.stopping().time_limit, Some(Duration::from_secs(2)));
+    }
+
+    #[test]
+    fn options_become_settings() {
+        let j = job(&[
+            "--integrator",
+            "direct",
+            "--max-depth",
+            "5",
+            "--strategy",
+            "light",
+            "--triangle-sampling",
+            "solid-angle",
+            "--padded-bounces",
+            "--no-robust",
+            "--no-quads",
+            "--no-camera-packets",
+            "--sample-variance-error",
+            "--background",
+            "0.5",
+        ])
+        .unwrap();
+        let Integrator::Direct(p) = j.integrator else {
+            panic!("not direct: {:?}", j.integrator)
+        };
+        assert_eq!(p.max_depth, 1, "direct lighting is one bounce");
+        assert_eq!(p.strategy, crate::integrators::Strategy::Light);
+        assert!(!p.joint_bounces);
+        assert_eq!(j.shading.triangle_sampling, TriangleSampling::SolidAngle);
+        assert!(!j.robust && !j.quads && !j.camera_packets && !j.halves);
+        assert_eq!(
+            j.shading.environment,
+            Environment::Constant(Vec3::splat(0.5))
+        );
+        let options = j.accel_options(3);
+        assert_eq!(
+            (options.threads, options.robust, options.quads),
+            (3, false, false)
+        );
+
+        let ao = job(&["--ao-distance", "2.5", "--ao-samples", "4"]).unwrap();
+        let Integrator::Ao(a) = ao.integrator else {
+            panic!("not AO")
+        };
+        assert_eq!((a.max_distance, a.samples), (2.5, 4));
+    }
+
+    #[test]
+    fn bad_combinations_are_refused_naming_the_option() {
+        let cases: &[(&[&str], &str)] = &[
+            (&["--spp", "0"], "--spp must be at least 1"),
+            (
+                &["--spp", "70000"],
+                "--sampler sobol supports at most 65536 samples per pixel (asked for 70000)",
+            ),
+            (
+                &["--target-error", "0.1", "--min-spp", "0"],
+                "--min-spp must be between 1 and --spp (65536), got 0",
+            ),
+            (
+                &["--target-error", "0.1", "--min-spp", "1"],
+                "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance",
+            ),
+            (
+                &["--target-error", "0.1", "--spp", "1"],
+                "--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp 1)",
+            ),
+            (&["--ao-samples", "0"], "--ao-samples must be at least 1"),
+            (&["--ao-distance=-1"], "--ao-distance must be positive (got -1)"),
+            (
+                &["--integrator", "path", "--hemisphere", "uniform-unweighted"],
+                "--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform",
+            ),
+        ];
+        for (extra, message) in cases {
+            match job(extra) {
+                Ok(_) => panic!("{extra:?} was accepted"),
+                Err(e) => assert_eq!(e.to_string(), *message, "{extra:?}"),
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = args(dir.path(), &[]);
+        a.output = Some(dir.path().join("out.png"));
+        let e = Job::from_args(&a).unwrap_err().to_string();
+        assert!(e.contains("out.png") && e.contains(".exr"), "{e}");
+    }
+
+    #[test]
+    fn early_stopping_with_stratified_samples_is_a_warning() {
+        let j = job(&["--sampler", "stratified", "--time-limit", "1"]).unwrap();
+        assert!(
+            j.warnings[0].starts_with("--sampler stratified lays its strata out"),
+            "{:?}",
+            j.warnings
+        );
+    }
+
+    #[test]
+    fn the_view_checks_the_options_against_the_scene() {
+        let scene = crate::scene::load(&ao_wall(), &LoadOptions::default()).unwrap();
+        let view = job(&["--resolution", "40x30"])
+            .unwrap()
+            .view(&scene)
+            .unwrap();
+        assert_eq!((view.width, view.height, view.framed), (40, 30, false));
+
+        let e = job(&["--camera", "7"]).unwrap().view(&scene).unwrap_err();
+        assert!(e.to_string().ends_with(&format!(
+            ": --camera 7, but the file has {} camera(s)",
+            scene.cameras.len()
+        )));
+        let e = job(&["--resolution", "10x10", "--pixel", "10,2"]);
+        assert_eq!(
+            e.unwrap().view(&scene).unwrap_err().to_string(),
+            "--pixel 10,2 lies outside the 10x10 image"
+        );
+        let e = job(&["--max-memory", "1K"])
+            .unwrap()
+            .view(&scene)
+            .unwrap_err();
+        assert!(e
+            .to_string()
+            .contains("more than the limit of 1.0 KiB (--max-memory)"));
+    }
+
+    #[test]
+    fn adaptive_sampling_and_checkpoints_cost_image_memory() {
+        let plain = job(&[]).unwrap().image_memory(100, 100);
+        let extra = job(&[
+            "--target-error",
+            "0.1",
+            "--checkpoint",
+            "5",
+            "--variance",
+            "v.exr",
+        ])
+        .unwrap()
+        .image_memory(100, 100);
+        let per_pixel = 12
+            + Film::ADAPTIVE_BYTES_PER_PIXEL
+            + Film::CHECKPOINT_BYTES_PER_PIXEL
+            + Film::HALVES_BYTES_PER_PIXEL;
+        assert_eq!(extra - plain, 100 * 100 * per_pixel);
+    }
+}
