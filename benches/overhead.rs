@@ -23,7 +23,7 @@
 //!   scene (outside the images of its cluster boxes) take a miss's estimate untraced, and
 //!   packets whose rays all miss the scene's box are not handed to the BVH;
 //! - **render, no block culling**: the same with every block's camera rays made and tested
-//!   against the box (`Context::cull_blocks` off): the per-ray cost of strata's layers,
+//!   against the box (`Experiments::cull_blocks` off): the per-ray cost of strata's layers,
 //!   which the first render's ratio hides where much of the image sees nothing.
 //!
 //! `STRATA_OVERHEAD_SPP=N` renders N samples per pixel instead of 8 (the rays are held in
@@ -284,7 +284,10 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
     // The render as it runs, and with every pixel block's camera rays generated and tested
     // against the box (no block culling): the per-ray cost of strata's layers.
     let ctx_all_blocks = strata::integrators::Context {
-        cull_blocks: false,
+        experiments: strata::experiments::Experiments {
+            cull_blocks: false,
+            ..ctx.experiments
+        },
         ..ctx
     };
     let render_with = |ctx| {

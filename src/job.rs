@@ -13,6 +13,7 @@ use glam::Vec3;
 
 use crate::accel::{AccelOptions, Backend, BuildQuality};
 use crate::cli::{Args, MemoryLimit};
+use crate::experiments::Experiments;
 use crate::integrators::{
     AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions,
 };
@@ -79,8 +80,9 @@ pub struct Job {
     pub shading: ShadingOptions,
     /// `--hemisphere`, as given (AO's estimator and the diffuse BSDF's sampling).
     pub hemisphere: Hemisphere,
-    /// Trace camera rays in packets (false only for measurements).
-    pub camera_packets: bool,
+    /// Switches for measurements (`--no-camera-packets`, `--padded-bounces`,
+    /// `--sample-variance-error`); the defaults otherwise.
+    pub experiments: Experiments,
 
     /// The camera's index in the file; `None`: the first camera, or a framing of the scene.
     pub camera: Option<usize>,
@@ -97,9 +99,6 @@ pub struct Job {
     pub error_metric: ErrorMetric,
     /// The time limit in seconds, as given.
     pub time_limit: Option<f64>,
-    /// Estimate a pixel's error from the two halves of its samples (false only for
-    /// measurements: from their variance alone).
-    pub halves: bool,
     pub tile_size: u32,
     pub min_pass_seconds: f64,
 
@@ -187,15 +186,12 @@ impl Job {
             strategy: args.strategy,
             emitter_samples: args.emitter_samples,
             camera_emission: true,
-            paired_bounces: true,
-            joint_bounces: !args.padded_bounces,
         };
         let integrator = match args.integrator {
             IntegratorKind::Ao => Integrator::Ao(AoSettings {
                 max_distance: ao_distance,
                 hemisphere: args.hemisphere,
                 samples: args.ao_samples,
-                film_paired: true,
             }),
             IntegratorKind::Direct => Integrator::Direct(PathSettings {
                 max_depth: 1,
@@ -238,7 +234,12 @@ impl Job {
                 triangle_sampling: args.triangle_sampling,
             },
             hemisphere: args.hemisphere,
-            camera_packets: !args.no_camera_packets,
+            experiments: Experiments {
+                camera_packets: !args.no_camera_packets,
+                joint_bounces: !args.padded_bounces,
+                error_halves: !args.sample_variance_error,
+                ..Experiments::default()
+            },
             camera: args.camera,
             resolution: args.resolution,
             pixel: args.pixel,
@@ -249,7 +250,6 @@ impl Job {
             min_spp,
             error_metric: args.error_metric,
             time_limit: args.time_limit,
-            halves: !args.sample_variance_error,
             tile_size: args.tile_size,
             min_pass_seconds: args.min_pass_seconds,
             memory_limit,
@@ -279,7 +279,7 @@ impl Job {
         }
         if self.checkpoint.is_some() {
             extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
-            if self.target_error.is_some() && self.halves {
+            if self.target_error.is_some() && self.experiments.error_halves {
                 // The snapshot copies the film's halves too.
                 extra += Film::HALVES_BYTES_PER_PIXEL;
             }
@@ -369,7 +369,6 @@ impl Job {
             min_spp: self.min_spp,
             metric: self.error_metric,
             time_limit: self.time_limit.map(Duration::from_secs_f64),
-            halves: self.halves,
         }
     }
 
@@ -457,7 +456,8 @@ mod tests {
             (DEFAULT_SPP, Stopping::DEFAULT_MIN_SPP)
         );
         assert_eq!(fixed.integrator.kind(), IntegratorKind::Ao);
-        assert!(fixed.png && fixed.robust && fixed.quads && fixed.camera_packets && fixed.halves);
+        assert!(fixed.png && fixed.robust && fixed.quads);
+        assert_eq!(fixed.experiments, Experiments::default());
         assert!(fixed.warnings.iter().all(|w| !w.contains("--sampler")));
 
         let adaptive = job(&["--target-error", "0.01"]).unwrap();
@@ -492,9 +492,10 @@ mod tests {
         };
         assert_eq!(p.max_depth, 1, "direct lighting is one bounce");
         assert_eq!(p.strategy, crate::integrators::Strategy::Light);
-        assert!(!p.joint_bounces);
+        assert!(!j.experiments.joint_bounces);
         assert_eq!(j.shading.triangle_sampling, TriangleSampling::SolidAngle);
-        assert!(!j.robust && !j.quads && !j.camera_packets && !j.halves);
+        assert!(!j.robust && !j.quads);
+        assert!(!j.experiments.camera_packets && !j.experiments.error_halves);
         assert_eq!(
             j.shading.environment,
             Environment::Constant(Vec3::splat(0.5))

@@ -26,6 +26,7 @@ pub mod accel;
 pub mod cli;
 pub mod convergence;
 pub mod embree;
+pub mod experiments;
 pub mod integrators;
 pub mod job;
 pub mod ray;

@@ -123,7 +123,7 @@ fn run(args: Args) -> Result<Outcome> {
 
     // Render, writing checkpoints on the way when asked to.
     let ctx = strata::integrators::Context {
-        camera_packets: job.camera_packets,
+        experiments: job.experiments,
         ..prepared.context(&scene, &accel)
     };
     let settings = job.render_settings(&view);

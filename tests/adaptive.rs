@@ -72,8 +72,11 @@ fn render_scene_with(
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
     let prepared = Prepared::new(&scene, &path, &integrator, background).unwrap();
     let ctx = strata::integrators::Context {
-        camera_packets: camera_rays != CameraRays::Single,
-        cull_blocks: camera_rays == CameraRays::Packets,
+        experiments: strata::experiments::Experiments {
+            camera_packets: camera_rays != CameraRays::Single,
+            cull_blocks: camera_rays == CameraRays::Packets,
+            ..Default::default()
+        },
         ..prepared.context(&scene, &accel)
     };
     let settings = RenderSettings {
@@ -104,7 +107,6 @@ fn ao() -> Integrator {
         max_distance: f32::INFINITY,
         hemisphere: Default::default(),
         samples: 1,
-        film_paired: true,
     })
 }
 

@@ -63,7 +63,6 @@ fn render_ao_film(
             max_distance: f32::INFINITY,
             hemisphere,
             samples: ao_samples,
-            film_paired: true,
         }),
         tile_size: 16,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,

@@ -143,7 +143,7 @@ fn each_ao_ray_of_a_hit_is_counted_once_with_its_own_answer() {
 fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
     use strata::accel::PACKET;
     let (scene, accel, prepared) = helmet();
-    let ctx = prepared.context(&scene, &accel);
+    let default_ctx = prepared.context(&scene, &accel);
     let camera = &scene.cameras[0];
     let (w, h) = (SIZE - 2, SIZE - 3);
     let (mut failures, mut partial, mut packets) = (Vec::new(), 0, 0);
@@ -159,8 +159,14 @@ fn packets_of_neighbouring_hits_keep_each_pixels_answer() {
                 let settings = AoSettings {
                     hemisphere,
                     samples: n,
-                    film_paired,
                     ..AoSettings::default()
+                };
+                let ctx = strata::integrators::Context {
+                    experiments: strata::experiments::Experiments {
+                        ao_film_paired: film_paired,
+                        ..Default::default()
+                    },
+                    ..default_ctx
                 };
                 let mut samplers: [PixelSampler; PACKET] =
                     std::array::from_fn(|_| PixelSampler::new(sampler_kind, SPP, 5));

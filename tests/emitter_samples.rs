@@ -72,7 +72,10 @@ fn cornell(setup: Setup) -> RenderResult {
     });
     let prepared = Prepared::new(&scene, &path, &integrator, Vec3::ZERO).unwrap();
     let ctx = strata::integrators::Context {
-        camera_packets: packets,
+        experiments: strata::experiments::Experiments {
+            camera_packets: packets,
+            ..Default::default()
+        },
         ..prepared.context(&scene, &accel)
     };
     let settings = RenderSettings {

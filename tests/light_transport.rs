@@ -14,6 +14,7 @@ use std::sync::atomic::AtomicBool;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Backend};
+use strata::experiments::Experiments;
 use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions, Strategy};
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
@@ -85,6 +86,7 @@ struct Setup {
     background: Vec3,
     triangle_sampling: strata::shading::lights::TriangleSampling,
     diffuse_sampling: DiffuseSampling,
+    experiments: Experiments,
     backend: Backend,
 }
 
@@ -98,6 +100,7 @@ impl Setup {
             background: Vec3::ZERO,
             triangle_sampling: Default::default(),
             diffuse_sampling: Default::default(),
+            experiments: Default::default(),
             backend: Backend::Embree,
         }
     }
@@ -124,7 +127,8 @@ fn render_film(
         triangle_sampling: setup.triangle_sampling,
     };
     let prepared = Prepared::with_options(scene, Path::new("test"), &integrator, &options).unwrap();
-    let ctx = prepared.context(scene, &accel);
+    let mut ctx = prepared.context(scene, &accel);
+    ctx.experiments = setup.experiments;
     let settings = RenderSettings {
         camera,
         crop: None,
@@ -916,7 +920,7 @@ fn horizontal_quads(quads: &[HorizontalQuad], materials: Vec<Material>) -> Scene
 fn variance_over_seeds(
     scene: &Scene,
     cam: &Camera,
-    integrator: Integrator,
+    (integrator, experiments): (Integrator, Experiments),
     size: u32,
     spp: u32,
     seeds: u64,
@@ -925,6 +929,7 @@ fn variance_over_seeds(
         .map(|seed| {
             let setup = Setup {
                 sampler: SamplerKind::Sobol,
+                experiments,
                 ..Setup::new(size, spp, seed)
             };
             render_film(scene, cam.clone(), integrator, setup)
@@ -950,7 +955,7 @@ fn variance_over_seeds(
 fn assert_pairing_lowers_the_variance(
     scene: &Scene,
     cam: &Camera,
-    integrator: impl Fn(bool) -> Integrator,
+    integrator: impl Fn(bool) -> (Integrator, Experiments),
     size: u32,
     ratio: f64,
 ) {
@@ -988,29 +993,33 @@ fn floor_lit_through_the_ceiling() -> (Scene, Camera) {
 /// light sampling alone, a floor pixel is then one-bounce indirect light, a function of the
 /// floor's BSDF direction (where on the ceiling it lands) and of the light point sampled from
 /// there, which matters because the strip's near part outshines the rest. Drawing the two as
-/// one 4D Sobol point (`paired_bounces`, the default) stratifies them jointly. Drawing each
+/// one 4D Sobol point (`Experiments::paired_bounces`, the default) stratifies them jointly. Drawing each
 /// vertex's direction with its own light point instead pairs the direction with a point that
 /// the floor cannot use, leaving the pair that matters unstratified: the pixels' variance over
 /// seeds is higher (0.78× paired against apart when written, at 256 spp). Both arms pad
-/// their bounces apart (`joint_bounces` off): drawn from one Sobol sequence, the first
+/// their bounces apart (`Experiments::joint_bounces` off): drawn from one Sobol sequence, the first
 /// bounce's direction and the second bounce's own light point are stratified jointly too,
 /// and the two layouts then have the same variance here (2.41e-5 and 2.33e-5).
 #[test]
 fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
     let (scene, cam) = floor_lit_through_the_ceiling();
     let integrator = |paired_bounces| {
-        Integrator::Path(PathSettings {
+        let path = Integrator::Path(PathSettings {
             max_depth: 2,
             strategy: Strategy::Light,
+            ..Default::default()
+        });
+        let experiments = Experiments {
             paired_bounces,
             joint_bounces: false,
             ..Default::default()
-        })
+        };
+        (path, experiments)
     };
     assert_pairing_lowers_the_variance(&scene, &cam, integrator, 32, 0.9);
 }
 
-/// The path tracer draws its bounces' points jointly (`joint_bounces`, the default) or
+/// The path tracer draws its bounces' points jointly (`Experiments::joint_bounces`, the default) or
 /// padded: the first bounce's point is the same either way, so direct lighting
 /// (`max_depth` 1) gives the same image bit for bit, while deeper paths take other points
 /// for their later bounces (different pixels) that estimate the same light (the same
@@ -1022,11 +1031,14 @@ fn later_bounces_take_jointly_stratified_points() {
     let render = |max_depth, joint_bounces| {
         let setup = Setup {
             sampler: SamplerKind::Sobol,
+            experiments: Experiments {
+                joint_bounces,
+                ..Default::default()
+            },
             ..Setup::new(16, 256, 3)
         };
         let integrator = Integrator::Path(PathSettings {
             max_depth,
-            joint_bounces,
             ..Default::default()
         });
         render_film(&scene, cam.clone(), integrator, setup)
@@ -1090,12 +1102,16 @@ fn the_first_light_point_is_stratified_with_the_film_position() {
     );
     let cam = camera(Vec3::new(0.0, 0.4, 0.0), Vec3::ZERO, 0.5);
     let integrator = |paired_bounces| {
-        Integrator::Direct(PathSettings {
+        let direct = Integrator::Direct(PathSettings {
             max_depth: 1,
             strategy: Strategy::Light,
+            ..Default::default()
+        });
+        let experiments = Experiments {
             paired_bounces,
             ..Default::default()
-        })
+        };
+        (direct, experiments)
     };
     assert_pairing_lowers_the_variance(&scene, &cam, integrator, 16, 0.5);
 }
@@ -1117,11 +1133,12 @@ fn ao_directions_are_stratified_with_the_film_position() {
     }
     let scene = horizontal_quads(&quads, vec![Material::default(), diffuse(0.5, 0.0)]);
     let cam = camera(Vec3::new(0.0, 0.4, 0.0), Vec3::ZERO, 0.5);
-    let integrator = |film_paired| {
-        Integrator::Ao(AoSettings {
-            film_paired,
+    let integrator = |ao_film_paired| {
+        let experiments = Experiments {
+            ao_film_paired,
             ..Default::default()
-        })
+        };
+        (Integrator::Ao(AoSettings::default()), experiments)
     };
     assert_pairing_lowers_the_variance(&scene, &cam, integrator, 16, 0.8);
 }

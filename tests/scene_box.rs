@@ -496,7 +496,10 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
         };
         let [on, off] = [true, false].map(|cull_blocks| {
             let ctx = strata::integrators::Context {
-                cull_blocks,
+                experiments: strata::experiments::Experiments {
+                    cull_blocks,
+                    ..Default::default()
+                },
                 ..prepared.context(&scene, &accel)
             };
             let settings = RenderSettings {

@@ -332,7 +332,6 @@ fn render_all(scene: &Scene) {
         max_distance: f32::INFINITY,
         hemisphere: Hemisphere::Cosine,
         samples: 1,
-        film_paired: true,
     });
     let path = Integrator::Path(PathSettings::default());
     for (name, integrator, background) in [

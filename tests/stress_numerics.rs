@@ -3,7 +3,7 @@
 //! in code and rendered through the library (`render::render`), as the CLI would.
 //!
 //! Each check is shown able to fail:
-//! - acne: the same checks with `Context::ray_offset = false` (rays spawned from the hit point
+//! - acne: the same checks with `Experiments::ray_offset = false` (rays spawned from the hit point
 //!   itself) must fail, and are asserted to fail, for each analytic scene at some
 //!   scale/translation, and for the grazing floor;
 //! - watertightness: a sphere with one triangle removed must count the escapes through the
@@ -291,7 +291,7 @@ fn render_raw(scene: &Scene, cam: &Camera, integrator: Integrator, o: Opts) -> R
     let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
     let prepared = Prepared::new(scene, Path::new("test"), &integrator, o.background).unwrap();
     let mut ctx = prepared.context(scene, &accel);
-    ctx.ray_offset = o.ray_offset;
+    ctx.experiments.ray_offset = o.ray_offset;
     let settings = RenderSettings {
         camera: cam.clone(),
         crop: None,
@@ -329,7 +329,6 @@ fn ao() -> Integrator {
         max_distance: f32::INFINITY,
         hemisphere: Hemisphere::Cosine,
         samples: 1,
-        film_paired: true,
     })
 }
 

@@ -55,10 +55,6 @@ pub struct AoSettings {
     pub hemisphere: Hemisphere,
     /// AO rays per camera hit (at least 1).
     pub samples: u32,
-    /// True (the default): with one ray per hit, its direction is paired with the film
-    /// position (see the module docs). False: it comes from a slot of its own, the layout
-    /// before; for comparisons.
-    pub film_paired: bool,
 }
 
 impl Default for AoSettings {
@@ -67,7 +63,6 @@ impl Default for AoSettings {
             max_distance: f32::INFINITY,
             hemisphere: Hemisphere::Cosine,
             samples: 1,
-            film_paired: true,
         }
     }
 }
@@ -118,7 +113,7 @@ pub fn li_packet(
     // Each direction is paired with its film position (see `one_ray`). Points past `n_hits`
     // are not used.
     let mut u = [Vec2::splat(0.5); PACKET];
-    if settings.film_paired {
+    if ctx.experiments.ao_film_paired {
         for (u, &lane) in u.iter_mut().zip(&hit_lanes[..n_hits]) {
             *u = samplers[lane].paired_with_film();
         }
@@ -142,7 +137,7 @@ pub fn li_packet(
         // if it can: whether it can is a coin toss where shading normals bend, which a
         // branch would mispredict.
         ao_rays[m] = Ray {
-            org: si.front_origin(wi, ctx.ray_offset),
+            org: si.front_origin(wi, ctx.experiments.ray_offset),
             dir: wi,
             t_min: 0.0,
             t_max: settings.max_distance,
@@ -206,7 +201,7 @@ fn one_ray(
     let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
     // The direction is paired with the film position (stratified with it, for pixels that
     // hold an edge).
-    let u = if settings.film_paired {
+    let u = if ctx.experiments.ao_film_paired {
         sampler.paired_with_film()
     } else {
         sampler.next_2d_set(1).get(0)
@@ -216,7 +211,7 @@ fn one_ray(
     let wi = world_direction(&si, &onb, local, weight)?;
     // Its one origin, where [`SurfaceInteraction::front_origins`] prepares both kinds for
     // many rays.
-    let ray = si.spawn_ray_with(wi, settings.max_distance, ctx.ray_offset);
+    let ray = si.spawn_ray_with(wi, settings.max_distance, ctx.experiments.ray_offset);
     Some((ray, weight))
 }
 
@@ -247,7 +242,7 @@ pub fn li(
     let onb = Onb::from_normal(si.ns);
     // The n directions of this camera sample are one stratified set (one dimension slot).
     let set = sampler.next_2d_set(n);
-    let origins = si.front_origins(ctx.ray_offset);
+    let origins = si.front_origins(ctx.experiments.ray_offset);
     let toward = |local: Vec3, weight: f32| {
         let wi = world_direction(&si, &onb, local, weight)?;
         Some((origins.ray(wi, settings.max_distance), weight))

@@ -9,6 +9,7 @@ pub mod path;
 use glam::{Vec3, Vec3A};
 
 use crate::accel::{Accel, Hit, Ray, PACKET};
+use crate::experiments::Experiments;
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 use crate::shading::SurfaceInteraction;
@@ -27,21 +28,8 @@ pub struct Context<'a> {
     pub accel: &'a Accel,
     pub materials: &'a Materials,
     pub lights: &'a LightSet,
-    /// Secondary rays leave surfaces past the hit point's error bound (true, the default and
-    /// the only correct setting). False spawns them from the hit point itself: a negative
-    /// control for tests/stress_numerics.rs, which must then see self-intersection (acne).
-    pub ray_offset: bool,
-    /// Trace camera rays of neighbouring pixels in packets ([`Accel::intersect_packet`]):
-    /// the default. The hits, and so the image, are the same either way (tested), but for a
-    /// ray that meets an edge shared by two triangles at one distance, where packet and
-    /// single-ray traversal may report different triangles (1 camera ray in 4.9 M on the
-    /// helmet, BENCHMARKS.md); false is for measuring what packets gain.
-    pub camera_packets: bool,
-    /// Leave untraced the pixel blocks that cannot see the scene
-    /// ([`crate::render::culling::BlockMask`]), giving their samples the estimate of a
-    /// camera ray that misses (the default; the image is the same either way, tested).
-    /// False is for measuring the cost of strata's layers per traced ray.
-    pub cull_blocks: bool,
+    /// Switches for measurements and tests ([`Experiments`]); the defaults render.
+    pub experiments: Experiments,
     /// Fill in each sample's first-hit [`Features`] (for feature layers and denoising);
     /// false, the default, skips their cost.
     pub features: bool,
@@ -118,9 +106,7 @@ impl Prepared {
             accel,
             materials: &self.materials,
             lights: &self.lights,
-            ray_offset: true,
-            camera_packets: true,
-            cull_blocks: true,
+            experiments: Experiments::default(),
             features: false,
         }
     }

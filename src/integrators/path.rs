@@ -30,7 +30,7 @@
 //! less direct-lighting variance on the Cornell box's edges), the others with the direction
 //! that reached their vertex, the pair the one-bounce indirect light depends on (most of a
 //! diffuse scene's noise: 7% less variance on the Cornell box at 256 spp, 11% at 1024). See
-//! BENCHMARKS.md, "Sample layout". `PathSettings::paired_bounces` = false pairs each
+//! BENCHMARKS.md, "Sample layout". `Experiments::paired_bounces` = false pairs each
 //! vertex's own direction and light point instead, the layout before, for comparisons.
 //!
 //! With `sobol`, the bounces' 4D points are not padded apart (each from a sequence of its
@@ -40,7 +40,7 @@
 //! Cornell box this takes 7% off the squared error at 256 spp and 16% at 1024 (BENCHMARKS.md,
 //! "Bounces stratified jointly"). The film position's slot stays apart: joined to the
 //! bounces, it would push the first bounce off dimensions 0–1, the best-stratified pair.
-//! `PathSettings::joint_bounces` = false pads them, for comparisons.
+//! `Experiments::joint_bounces` = false pads them, for comparisons.
 
 use glam::{Vec2, Vec3};
 
@@ -72,16 +72,6 @@ pub struct PathSettings {
     /// Whether [`li`] adds the emission its camera ray meets (true, except where the renderer
     /// estimates that term apart with `emitter_samples` rays).
     pub camera_emission: bool,
-    /// True (the default): the first light point comes with the film position, and a
-    /// bounce's BSDF direction with the light point of the next vertex, each pair from one
-    /// 4D point (see the module docs). False: each vertex's BSDF direction and its own light
-    /// point do, the layout before; for comparisons.
-    pub paired_bounces: bool,
-    /// True (the default): the bounces' 4D points are dimensions of one Sobol sequence,
-    /// stratified jointly ([`PixelSampler::next_bounce_2x2d`]). False: each bounce's point is
-    /// padded, independent of the others' (Burley 2020's padding, the layout before); for
-    /// comparisons.
-    pub joint_bounces: bool,
 }
 
 impl Default for PathSettings {
@@ -92,8 +82,6 @@ impl Default for PathSettings {
             strategy: Strategy::Mis,
             emitter_samples: 16,
             camera_emission: true,
-            paired_bounces: true,
-            joint_bounces: true,
         }
     }
 }
@@ -178,13 +166,13 @@ pub fn li(
 
         let bsdf = materials.bsdf(scene, &si, uv);
         // The slots of the bounce (see the module docs).
-        let (u_bsdf, u_light_next) = if settings.paired_bounces {
+        let (u_bsdf, u_light_next) = if ctx.experiments.paired_bounces {
             if depth == 1 {
                 u_light = sampler.paired_with_film();
             }
-            bounce_2x2d(sampler, depth, settings.joint_bounces)
+            bounce_2x2d(sampler, depth, ctx.experiments.joint_bounces)
         } else {
-            let (u_bsdf, u_own) = bounce_2x2d(sampler, depth, settings.joint_bounces);
+            let (u_bsdf, u_own) = bounce_2x2d(sampler, depth, ctx.experiments.joint_bounces);
             u_light = u_own;
             (u_bsdf, Vec2::ZERO)
         };
@@ -213,9 +201,9 @@ pub fn li(
                     power_heuristic(pdf_light, bsdf.pdf(ls.wi))
                 };
                 let shadow = if ls.infinite {
-                    si.spawn_ray_with(ls.wi, f32::INFINITY, ctx.ray_offset)
+                    si.spawn_ray_with(ls.wi, f32::INFINITY, ctx.experiments.ray_offset)
                 } else {
-                    si.spawn_ray_to_with(ls.p_light, ctx.ray_offset)
+                    si.spawn_ray_to_with(ls.p_light, ctx.experiments.ray_offset)
                 };
                 rays.shadow += 1;
                 if !ctx.accel.occluded(&shadow) {
@@ -249,7 +237,7 @@ pub fn li(
         specular = bs.flags.is_specular();
         prev = Some((bs.pdf, si.p));
         u_light = u_light_next;
-        ray = si.spawn_ray_with(bs.wi, f32::INFINITY, ctx.ray_offset);
+        ray = si.spawn_ray_with(bs.wi, f32::INFINITY, ctx.experiments.ray_offset);
         rays.extension += 1;
         next_hit = ctx.accel.intersect(&ray);
     }

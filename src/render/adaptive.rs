@@ -13,7 +13,7 @@
 //! error by a near-constant 1.4–1.7× on the Cornell box (BENCHMARKS.md). Being the square of
 //! one difference per channel, it is noisy, so it is never taken below a sixteenth of σ²/n
 //! ([`HALVES_FLOOR`]), and the neighbourhood rule below needs nine of them under the target.
-//! `Stopping::halves` = false takes σ²/n alone, the estimate before, for comparisons.
+//! `Experiments::error_halves` = false takes σ²/n alone, the estimate before, for comparisons.
 //!
 //! For RGB the error is the sum of the channels' standard errors, which bounds the standard
 //! error of the channel sum whatever the channels' correlation (Cauchy–Schwarz). By default

@@ -91,10 +91,6 @@ pub struct Stopping {
     /// Stop the whole render after this much time (checked between tiles, from the second
     /// round of samples on).
     pub time_limit: Option<Duration>,
-    /// Adaptive sampling: estimate a pixel's error from the two halves of its samples (true,
-    /// the default; [`adaptive::pixel_error`]) or from their sample variance alone (false,
-    /// the estimate before; for comparisons).
-    pub halves: bool,
 }
 
 impl Stopping {
@@ -115,7 +111,6 @@ impl Default for Stopping {
             min_spp: Self::DEFAULT_MIN_SPP,
             metric: adaptive::ErrorMetric::Relative,
             time_limit: None,
-            halves: true,
         }
     }
 }
@@ -387,7 +382,7 @@ fn render_tile(
     let new_sampler = || PixelSampler::new(settings.sampler, settings.spp, settings.seed);
     // Pixel (x, y)'s entry in `sums`.
     let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
-    if !(ctx.camera_packets && integrator.traces_rays(ctx)) {
+    if !(ctx.experiments.camera_packets && integrator.traces_rays(ctx)) {
         // One camera ray at a time (or none, where nothing can be lit): each a packet of one.
         let traces = integrator.traces_rays(ctx);
         let mut sampler = [new_sampler()];
@@ -603,7 +598,7 @@ impl TileSetup {
             .ray_generator(settings.width, settings.height);
         let integrator = &settings.integrator;
         // Culling serves the packet loop only (camera packets on, rays traced at all).
-        let packets = ctx.camera_packets && integrator.traces_rays(ctx);
+        let packets = ctx.experiments.camera_packets && integrator.traces_rays(ctx);
         let miss = if packets {
             let mut sampler = PixelSampler::new(settings.sampler, settings.spp, settings.seed);
             integrator.camera_miss(ctx, &mut sampler)
@@ -611,7 +606,7 @@ impl TileSetup {
             None
         };
         // Blocks are culled only where every miss has the one estimate `miss`.
-        let mask = (packets && ctx.cull_blocks && miss.is_some())
+        let mask = (packets && ctx.experiments.cull_blocks && miss.is_some())
             .then(|| {
                 BlockMask::new(
                     &camera,
@@ -747,7 +742,7 @@ pub fn render_with_checkpoints(
     if ctx.features {
         film.keep_features();
     }
-    if stopping.target_error.is_some() && stopping.halves {
+    if stopping.target_error.is_some() && ctx.experiments.error_halves {
         film.keep_halves();
     }
     // Adaptive sampling: which pixels have not converged (all of the window at first), and
