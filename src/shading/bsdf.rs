@@ -155,7 +155,7 @@ impl Bsdf {
 
     /// The direction [`Bsdf::sample`] draws with `u` and the lobe it comes from, before its
     /// value and pdf are known to be non-zero.
-    #[inline]
+    #[inline(always)]
     fn sample_direction(&self, _wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
         match self {
             Bsdf::Diffuse { .. } => Some((square_to_cosine_hemisphere(u), self.flags())),
