@@ -6,7 +6,9 @@
 //! |-----------------|----------------------------------------------------------------------|
 //! | [`interaction`] | the surface point a ray hits, and the one way secondary rays leave it |
 //! | [`bsdf`]        | [`Bsdf`]: the closed set of scattering models, in the shading frame   |
+//! | [`gltf_brdf`]   | the glTF 2.0 metallic-roughness BRDF (Appendix B)                     |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
+//! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
 //! | [`texture`]     | decoded images and their lookups                                      |
 //! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
 //! |                 | sampled by power                                                      |
@@ -14,13 +16,16 @@
 
 pub mod bsdf;
 pub mod environment;
+pub mod gltf_brdf;
 pub mod interaction;
 pub mod lights;
 pub mod material;
+pub mod microfacet;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, SurfaceBsdf};
 pub use environment::Environment;
+pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
 pub use material::{DiffuseSampling, Materials, Need};

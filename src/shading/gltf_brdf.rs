@@ -1,0 +1,155 @@
+//! The glTF 2.0 metallic-roughness BRDF, as Appendix B of the specification writes it
+//! (single scattering):
+//!
+//! - f0 = mix(0.04, base colour, metallic) and c_diff = mix(base colour, 0, metallic)
+//!   ("Metal BRDF and dielectric BRDF"; 0.04 is the reflectance of IOR 1.5);
+//! - Schlick's F = f0 + (1 − f0)(1 − |wo·h|)⁵;
+//! - f = (1 − F) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
+//!
+//! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
+//! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
+//! normals, Heitz 2018) or the cosine, chosen with probability proportional to their
+//! Fresnel-weighted luminance at wo; `pdf` is the mixture's density.
+
+use glam::{Vec2, Vec3};
+
+use super::bsdf::{BsdfFlags, BsdfSample};
+use super::environment::luminance;
+use super::microfacet::Ggx;
+use crate::sampling::warps::square_to_cosine_hemisphere;
+
+/// The glTF metallic-roughness BRDF of one surface point, in the shading frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GltfBrdf {
+    /// Linear base colour (factor × texture × vertex colour).
+    pub base_color: Vec3,
+    pub metallic: f32,
+    /// The GGX roughness α = roughness².
+    pub alpha: f32,
+}
+
+impl GltfBrdf {
+    /// The BRDF for a material's `roughness` (perceptual, as the file gives it).
+    pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> GltfBrdf {
+        GltfBrdf {
+            base_color,
+            metallic,
+            alpha: roughness * roughness,
+        }
+    }
+
+    fn ggx(&self) -> Ggx {
+        Ggx { alpha: self.alpha }
+    }
+
+    /// f0 and c_diff.
+    #[inline]
+    fn colors(&self) -> (Vec3, Vec3) {
+        let f0 = Vec3::splat(0.04).lerp(self.base_color, self.metallic);
+        (f0, self.base_color * (1.0 - self.metallic))
+    }
+
+    /// The probability of sampling the specular lobe seen from `wo`: its share of the
+    /// Fresnel-weighted luminance, F(n·wo) against (1 − F(n·wo)) c_diff (1 where the diffuse
+    /// lobe is black).
+    #[inline]
+    fn specular_probability(&self, wo: Vec3) -> f32 {
+        let (f0, c_diff) = self.colors();
+        let f = schlick(f0, wo.z);
+        let specular = luminance(f);
+        let diffuse = luminance((Vec3::ONE - f) * c_diff);
+        if diffuse <= 0.0 {
+            1.0
+        } else {
+            specular / (specular + diffuse)
+        }
+    }
+
+    pub fn flags(&self) -> BsdfFlags {
+        let specular = match self.ggx().is_smooth() {
+            true => BsdfFlags::SPECULAR_REFLECTION,
+            false => BsdfFlags::GLOSSY_REFLECTION,
+        };
+        match self.metallic < 1.0 && self.base_color.max_element() > 0.0 {
+            true => specular.union(BsdfFlags::DIFFUSE),
+            false => specular,
+        }
+    }
+
+    /// f(wo, wi)·cos θi, the delta lobe left out.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = (wo + wi).normalize();
+        let (f0, c_diff) = self.colors();
+        let f = schlick(f0, wo.dot(h).abs());
+        let diffuse = (Vec3::ONE - f) * c_diff * std::f32::consts::FRAC_1_PI;
+        let ggx = self.ggx();
+        let specular = match ggx.is_smooth() {
+            true => Vec3::ZERO,
+            false => f * (ggx.d(h) * ggx.v(wo, wi)),
+        };
+        (diffuse + specular) * wi.z
+    }
+
+    /// The mixture's density of `wi`, the delta lobe left out.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let p_specular = self.specular_probability(wo);
+        let ggx = self.ggx();
+        let specular = match ggx.is_smooth() {
+            true => 0.0,
+            false => p_specular * ggx.reflection_pdf(wo, wi),
+        };
+        specular + (1.0 - p_specular) * wi.z * std::f32::consts::FRAC_1_PI
+    }
+
+    /// A direction and the lobe it comes from: the lobe chosen with `u.x`, whose stretch
+    /// that chose it is reused for the direction.
+    pub fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
+        let p_specular = self.specular_probability(wo);
+        if u.x < p_specular {
+            let u = Vec2::new((u.x / p_specular).min(BELOW_ONE), u.y);
+            let ggx = self.ggx();
+            if ggx.is_smooth() {
+                let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+                return Some((mirror, BsdfFlags::SPECULAR_REFLECTION));
+            }
+            let h = ggx.sample_visible_normal(wo, u);
+            let wi = 2.0 * wo.dot(h) * h - wo;
+            (wi.z > 0.0).then_some((wi, BsdfFlags::GLOSSY_REFLECTION))
+        } else {
+            let v = ((u.x - p_specular) / (1.0 - p_specular)).min(BELOW_ONE);
+            let wi = square_to_cosine_hemisphere(Vec2::new(v, u.y));
+            Some((wi, BsdfFlags::DIFFUSE_REFLECTION))
+        }
+    }
+
+    /// The mirror's sample in direction `wi`: weight F(n·wo) (a mirror's half vector is the
+    /// normal) and the probability of having chosen the lobe.
+    pub fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
+        let (f0, _) = self.colors();
+        let pdf = self.specular_probability(wo);
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            f_cos: schlick(f0, wo.z),
+            pdf,
+            flags,
+        })
+    }
+}
+
+/// Schlick's Fresnel approximation F = f0 + (1 − f0)(1 − cos)⁵.
+#[inline]
+fn schlick(f0: Vec3, cos: f32) -> Vec3 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let m2 = m * m;
+    f0 + (Vec3::ONE - f0) * (m2 * m2 * m)
+}
