@@ -289,11 +289,14 @@ impl LightSet {
         }
         let mut triangle_light = Vec::new();
         if scene.summary.emissive_triangles > 0 {
+            // Each material's mean emission (a texture's mean reads every texel), once.
+            let mut emission: Vec<Option<(Vec3, bool)>> = vec![None; scene.materials.len()];
             for (prim, &m) in scene.triangle_materials.iter().enumerate() {
                 if !materials.is_emissive_triangle(scene, prim as u32) {
                     continue;
                 }
-                let (le, two_sided) = materials.emission_power_factor(m);
+                let (le, two_sided) = *emission[m as usize]
+                    .get_or_insert_with(|| materials.emission_power_factor(m));
                 let [a, b, c] = scene.triangle_positions(prim as u32);
                 let cross = (b - a).cross(c - a);
                 let area = 0.5 * cross.length();

@@ -68,10 +68,14 @@ impl Image {
         })
     }
 
-    /// The mean of all texels (for light power estimates).
+    /// The mean of all texels (for light power estimates), summed in f64: an f32 sum of
+    /// millions of texels stops growing once the texels fall below its rounding step.
     pub fn average(&self) -> Vec4 {
-        let sum: Vec4 = self.texels.iter().copied().sum();
-        sum / self.texels.len() as f32
+        let sum = self
+            .texels
+            .iter()
+            .fold(glam::DVec4::ZERO, |sum, t| sum + t.as_dvec4());
+        (sum / self.texels.len() as f64).as_vec4()
     }
 
     #[inline]
