@@ -20,6 +20,7 @@ use strata::render::output::{self, Attr};
 use strata::render::{self, Checkpoint, Film, RenderStats};
 use strata::report::{self, Phases, Run};
 use strata::scene;
+use strata::shading::Need;
 
 /// How a successful run ended.
 enum Outcome {
@@ -90,6 +91,11 @@ fn run(args: Args) -> Result<Outcome> {
     let load_time = t_load.elapsed();
     for w in &scene.load_warnings {
         eprintln!("warning: {}: {w}", job.scene.display());
+    }
+    if job.integrator.material_need() == Need::Shading {
+        for w in scene.material_warnings() {
+            eprintln!("warning: {}: {w}", job.scene.display());
+        }
     }
 
     // Camera and resolution.

@@ -136,6 +136,12 @@ pub fn stats(run: &Run) -> String {
         summary.punctual_lights,
         summary.cameras
     );
+    let roles = &summary.texture_roles;
+    let _ = writeln!(
+        s,
+        "textures by role: {} base colour, {} emissive (rendered); {} metallic-roughness, {} normal (not rendered yet); {} occlusion (not needed)",
+        roles.base_color, roles.emissive, roles.metallic_roughness, roles.normal, roles.occlusion
+    );
     let _ = writeln!(
         s,
         "backend: {}, {} threads",
@@ -302,6 +308,7 @@ mod tests {
                 starts,
                 [
                     "scene",
+                    "textures by role",
                     "backend",
                     "memory",
                     "time",

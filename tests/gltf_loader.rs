@@ -360,3 +360,107 @@ fn cyclic_node_graph_is_refused() {
         .to_string();
     assert!(err.contains("cycle"), "{err}");
 }
+
+/// What a file asks for that strata does not render is said, once, with what it looks like
+/// instead: extensions it uses (file-level), each material's dropped inputs (for the
+/// integrators that shade materials), COLOR_0; and `--stats` counts textures by role. A
+/// material that renders as written, and an extension strata honours, say nothing.
+#[test]
+fn what_is_not_rendered_gets_one_warning_each() {
+    let (mut doc, bin) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_emissive_strength",
+        "KHR_materials_clearcoat",
+        "KHR_materials_transmission"
+    ]);
+    doc["materials"][0] = json!({
+        "name": "coated",
+        "pbrMetallicRoughness": {
+            "metallicFactor": 0.5, "roughnessFactor": 0.25,
+            "metallicRoughnessTexture": {"index": 0}
+        },
+        "normalTexture": {"index": 0, "scale": 0.5},
+        "occlusionTexture": {"index": 0},
+        "alphaMode": "MASK", "alphaCutoff": 0.3,
+        "extensions": {
+            "KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
+            "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}
+        }
+    });
+    doc["materials"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "plain", "pbrMetallicRoughness": {"metallicFactor": 0.0}}));
+    // The first primitive takes the second material too, so that both are in use.
+    let meshes = doc["meshes"].as_array_mut().unwrap();
+    meshes[0]["primitives"][0]["material"] = json!(1);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["images"] = json!([{"uri": "tex.png"}]);
+    std::fs::write(dir.path().join("tex.png"), b"not decoded at load").unwrap();
+    let path = dir.path().join("unrendered.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    std::fs::write(dir.path().join("unused.bin"), &bin).unwrap();
+    let s = load(&path);
+
+    let file_level: Vec<&String> = s.load_warnings.iter().collect();
+    let says = |w: &[&String], words: &[&str]| {
+        w.iter()
+            .filter(|l| words.iter().all(|word| l.contains(word)))
+            .count()
+    };
+    assert_eq!(
+        says(&file_level, &["KHR_materials_clearcoat", "ignores"]),
+        1,
+        "{file_level:?}"
+    );
+    assert_eq!(
+        says(&file_level, &["KHR_materials_transmission", "opaque"]),
+        1,
+        "{file_level:?}"
+    );
+    assert_eq!(
+        says(&file_level, &["emissive_strength"]),
+        0,
+        "{file_level:?}"
+    );
+
+    let materials = s.material_warnings();
+    let refs: Vec<&String> = materials.iter().collect();
+    let coated: Vec<&String> = refs
+        .iter()
+        .copied()
+        .filter(|l| l.contains("'coated'"))
+        .collect();
+    assert_eq!(coated.len(), 1, "one line for the material: {materials:?}");
+    for words in [
+        &["material 0 'coated'"][..],
+        &["metallic 0.5", "roughness 0.25", "matte"],
+        &["normal map", "without its bumps"],
+        &["occlusion texture"],
+        &["alpha MASK at 0.3", "opaque"],
+        &["KHR_materials_clearcoat"],
+    ] {
+        assert_eq!(says(&coated, words), 1, "{words:?} in {coated:?}");
+    }
+    assert!(!coated[0].contains("emissive_strength"), "{coated:?}");
+    // `plain` (metallic 0, roughness 1 by default) renders as written.
+    assert!(
+        !materials.iter().any(|l| l.contains("'plain'")),
+        "{materials:?}"
+    );
+
+    let m = &s.materials[1];
+    assert_eq!(m.normal_scale, 0.5);
+    assert_eq!(m.alpha_mode, scene::AlphaMode::Mask(0.3));
+    let roles = s.summary.texture_roles;
+    assert_eq!(
+        (
+            roles.base_color,
+            roles.metallic_roughness,
+            roles.normal,
+            roles.occlusion
+        ),
+        (0, 1, 1, 1)
+    );
+}

@@ -22,7 +22,7 @@ use glam::{DMat3, DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::{Camera, ImageSource, Light, Material, Projection, Scene, TextureRef, Wrap};
+use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, TextureRef, Wrap};
 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
@@ -30,6 +30,37 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
 ];
+
+/// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
+/// warning).
+const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
+/// What strata renders instead of what an extension it ignores asks for, for the warning
+/// about a file that uses it.
+fn ignored_extension_effect(ext: &str) -> &'static str {
+    match ext {
+        "KHR_materials_transmission" | "KHR_materials_volume" | "KHR_materials_ior" => {
+            "transmissive materials render opaque"
+        }
+        "KHR_materials_clearcoat"
+        | "KHR_materials_sheen"
+        | "KHR_materials_specular"
+        | "KHR_materials_iridescence"
+        | "KHR_materials_anisotropy"
+        | "KHR_materials_dispersion" => "its materials render without that layer or effect",
+        "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
+        "KHR_materials_variants" => "each mesh renders its default material",
+        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+            "textures in that format are not decoded; their fallback images, if any, are used"
+        }
+        "EXT_mesh_gpu_instancing" => "each instanced mesh renders once, at its node",
+        "KHR_materials_pbrSpecularGlossiness" => {
+            "materials render from their core metallic-roughness values"
+        }
+        "KHR_animation_pointer" | "KHR_xmp_json_ld" | "KHR_xmp" => "nothing it changes is rendered",
+        _ => "strata renders the file as if it were absent",
+    }
+}
 
 /// Deepest node hierarchy accepted (deeper ones are almost certainly cyclic or hostile).
 const MAX_NODE_DEPTH: usize = 256;
@@ -171,6 +202,15 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
             ));
         }
     }
+    let mut extension_warnings = Vec::new();
+    for ext in gltf.document.extensions_used() {
+        if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&ext) {
+            extension_warnings.push(format!(
+                "the file uses {ext}, which strata ignores: {}",
+                ignored_extension_effect(ext)
+            ));
+        }
+    }
     check_before_validation(gltf.document.as_json())?;
     // Validation checks every index reference in the document (accessors, views, nodes...).
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
@@ -231,6 +271,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         flat_triangles: 0,
         bad_uvs: 0,
         skipped_primitives: 0,
+        vertex_color_primitives: 0,
     };
     loader.scene.materials.push(Material::default());
     for m in gltf.document.materials() {
@@ -247,7 +288,14 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     }
 
     let mut scene = loader.scene;
-    let mut warnings = loader.warnings;
+    let mut warnings = extension_warnings;
+    warnings.extend(loader.warnings);
+    if loader.vertex_color_primitives > 0 {
+        warnings.push(format!(
+            "COLOR_0 vertex colours of {} primitive(s) ignored: their base colour is the material's",
+            loader.vertex_color_primitives
+        ));
+    }
     if loader.dropped_triangles > 0 {
         warnings.push(format!(
             "dropped {} degenerate triangle(s) (zero area or non-finite vertices)",
@@ -535,6 +583,8 @@ struct Loader<'a> {
     /// Texture coordinates that were not finite (set to (0, 0)).
     bad_uvs: usize,
     skipped_primitives: usize,
+    /// Primitives with `COLOR_0`, which is not rendered yet.
+    vertex_color_primitives: usize,
 }
 
 impl Loader<'_> {
@@ -591,7 +641,25 @@ impl Loader<'_> {
         let emissive_texture = m
             .emissive_texture()
             .map(|info| self.texture_ref(&info, &format!("{label} emissive texture")));
-        Ok(Material {
+        let plain_ref = |texture: gltf::Texture, tex_coord: u32| TextureRef {
+            image: texture.source().index(),
+            tex_coord,
+            wrap_s: wrap(texture.sampler().wrap_s()),
+            wrap_t: wrap(texture.sampler().wrap_t()),
+            transform: [Vec2::X, Vec2::Y, Vec2::ZERO],
+        };
+        let normal = m.normal_texture();
+        let normal_scale = normal.as_ref().map_or(1.0, |n| n.scale());
+        let normal_texture = normal.map(|n| plain_ref(n.texture(), n.tex_coord()));
+        let occlusion_texture = m
+            .occlusion_texture()
+            .map(|o| plain_ref(o.texture(), o.tex_coord()));
+        let alpha_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        };
+        let material = Material {
             name: m.name().map(str::to_string),
             base_color,
             base_color_texture,
@@ -600,8 +668,20 @@ impl Loader<'_> {
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
             metallic_roughness_texture,
+            normal_texture,
+            normal_scale,
+            occlusion_texture,
+            alpha_mode,
+            ignored_extensions: m
+                .extensions()
+                .into_iter()
+                .flat_map(|map| map.keys())
+                .filter(|k| !RENDERED_MATERIAL_EXTENSIONS.contains(&k.as_str()))
+                .cloned()
+                .collect(),
             double_sided: m.double_sided(),
-        })
+        };
+        Ok(material)
     }
 
     /// Where image `i`'s bytes are. Read from the JSON rather than through
@@ -790,6 +870,9 @@ impl Loader<'_> {
                 "{label}: {mode:?} skipped (strata renders triangles only)"
             ));
             return Ok(());
+        }
+        if primitive.get(&gltf::Semantic::Colors(0)).is_some() {
+            self.vertex_color_primitives += 1;
         }
         let Some(pos_acc) = primitive.get(&gltf::Semantic::Positions) else {
             self.warnings

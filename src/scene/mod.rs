@@ -61,7 +61,27 @@ pub struct Material {
     pub roughness: f32,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
+    /// `normalTexture` and its `scale` (read, not rendered yet).
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    /// `occlusionTexture` (precomputed ambient occlusion: light transport computes its own).
+    pub occlusion_texture: Option<TextureRef>,
+    pub alpha_mode: AlphaMode,
+    /// The material's `KHR_materials_*` extensions that strata does not render.
+    pub ignored_extensions: Vec<String>,
     pub double_sided: bool,
+}
+
+/// How a material's alpha covers its surface (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored: the surface is opaque.
+    #[default]
+    Opaque,
+    /// Covered where alpha ≥ the cutoff (`alphaCutoff`, 0.5 by default), else a hole.
+    Mask(f32),
+    /// Alpha is the fraction of light the surface stops.
+    Blend,
 }
 
 impl Default for Material {
@@ -76,6 +96,11 @@ impl Default for Material {
             metallic: 1.0,
             roughness: 1.0,
             metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            ignored_extensions: Vec::new(),
             double_sided: false,
         }
     }
@@ -85,6 +110,40 @@ impl Material {
     /// True when any part of the surface can emit light.
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0
+    }
+
+    /// What the material asks for that strata does not render yet, each with what it looks
+    /// like instead; empty when it renders as written.
+    pub fn unrendered_inputs(&self) -> Vec<String> {
+        let mut dropped = Vec::new();
+        if self.metallic > 0.0 || self.roughness < 1.0 || self.metallic_roughness_texture.is_some()
+        {
+            let texture = match self.metallic_roughness_texture.is_some() {
+                true => " and its texture",
+                false => "",
+            };
+            dropped.push(format!(
+                "metallic {}, roughness {}{texture} (shaded as matte base colour for now)",
+                self.metallic, self.roughness
+            ));
+        }
+        if self.normal_texture.is_some() {
+            dropped.push("its normal map (shaded without its bumps)".to_string());
+        }
+        match self.alpha_mode {
+            AlphaMode::Opaque => {}
+            AlphaMode::Mask(cutoff) => dropped.push(format!(
+                "alpha MASK at {cutoff} (rendered opaque, without its holes)"
+            )),
+            AlphaMode::Blend => dropped.push("alpha BLEND (rendered opaque)".to_string()),
+        }
+        if self.occlusion_texture.is_some() {
+            dropped.push("its occlusion texture (light transport computes occlusion)".to_string());
+        }
+        for ext in &self.ignored_extensions {
+            dropped.push(format!("{ext} (ignored)"));
+        }
+        dropped
     }
 }
 
@@ -113,12 +172,31 @@ pub enum Light {
     },
 }
 
+/// How many textures the scene's materials reference in each role.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureRoles {
+    pub base_color: usize,
+    pub emissive: usize,
+    pub metallic_roughness: usize,
+    pub normal: usize,
+    pub occlusion: usize,
+}
+
+impl TextureRoles {
+    /// The textures light transport reads today (base colour and emission).
+    pub fn rendered(&self) -> usize {
+        self.base_color + self.emissive
+    }
+}
+
 /// What a scene uses, so the renderer can skip what it does not need.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneSummary {
     pub triangles: usize,
     pub vertices: usize,
     pub textures: usize,
+    /// The textures materials reference, by what they are for.
+    pub texture_roles: TextureRoles,
     pub emissive_triangles: usize,
     pub punctual_lights: usize,
     /// Materials whose metallic factor is non-zero (rendered as diffuse until GGX lands).
@@ -154,6 +232,37 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// One line per material that some triangle uses and that asks for something strata does
+    /// not render yet, naming the material, what it drops and what it looks like instead: for
+    /// the integrators that shade materials (AO shades every surface alike).
+    pub fn material_warnings(&self) -> Vec<String> {
+        let mut used = vec![false; self.materials.len()];
+        for &m in &self.triangle_materials {
+            used[m as usize] = true;
+        }
+        let mut warnings = Vec::new();
+        for (i, (m, _)) in self
+            .materials
+            .iter()
+            .zip(&used)
+            .enumerate()
+            .filter(|(_, (_, &u))| u)
+        {
+            let dropped = m.unrendered_inputs();
+            if dropped.is_empty() {
+                continue;
+            }
+            // Index 0 is glTF's default material; the file's material k is index k + 1.
+            let name = match (i, &m.name) {
+                (0, _) => "the default material (of primitives that name none)".to_string(),
+                (i, Some(n)) => format!("material {} '{n}'", i - 1),
+                (i, None) => format!("material {}", i - 1),
+            };
+            warnings.push(format!("{name}: {}", dropped.join("; ")));
+        }
+        warnings
+    }
+
     /// Positions of the three vertices of triangle `prim`.
     #[inline]
     pub fn triangle_positions(&self, prim: u32) -> [Vec3; 3] {
@@ -191,17 +300,21 @@ impl Scene {
             .iter()
             .filter(|&&m| self.materials[m as usize].is_emissive())
             .count();
-        let textures = self
-            .materials
-            .iter()
-            .map(|m| {
-                m.base_color_texture.is_some() as usize + m.emissive_texture.is_some() as usize
-            })
-            .sum();
+        let count =
+            |role: fn(&Material) -> bool| self.materials.iter().filter(|&m| role(m)).count();
+        let texture_roles = TextureRoles {
+            base_color: count(|m| m.base_color_texture.is_some()),
+            emissive: count(|m| m.emissive_texture.is_some()),
+            metallic_roughness: count(|m| m.metallic_roughness_texture.is_some()),
+            normal: count(|m| m.normal_texture.is_some()),
+            occlusion: count(|m| m.occlusion_texture.is_some()),
+        };
+        let textures = texture_roles.rendered();
         self.summary = SceneSummary {
             triangles: self.triangles.len(),
             vertices: self.positions.len(),
             textures,
+            texture_roles,
             emissive_triangles,
             punctual_lights: self.lights.len(),
             non_diffuse_materials: self.materials.iter().filter(|m| m.metallic > 0.0).count(),

@@ -295,8 +295,8 @@ impl LightSet {
                 if !materials.is_emissive_triangle(scene, prim as u32) {
                     continue;
                 }
-                let (le, two_sided) = *emission[m as usize]
-                    .get_or_insert_with(|| materials.emission_power_factor(m));
+                let (le, two_sided) =
+                    *emission[m as usize].get_or_insert_with(|| materials.emission_power_factor(m));
                 let [a, b, c] = scene.triangle_positions(prim as u32);
                 let cross = (b - a).cross(c - a);
                 let area = 0.5 * cross.length();
