@@ -6,6 +6,14 @@
 //! - Schlick's F = f0 + (1 − f0)(1 − |wo·h|)⁵;
 //! - f = (1 − F) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
 //!
+//! Single scattering among the microfacets loses energy on rough surfaces (a white metal of
+//! roughness 1 returns about 80% of the light at normal incidence, [`AlbedoTable`]). With
+//! energy compensation (the default) the specular lobe is scaled by 1 + f0 (1 − E(μo)) / E(μo),
+//! E the single-scattering albedo of GGX with F = 1 (Turquin 2019, "Practical multiple
+//! scattering compensation for microfacet models", eq. 8): a white metal then returns all of
+//! it, and the lobe keeps its shape, so sampling is unchanged. It is not reciprocal (it reads
+//! μo alone), as Turquin notes. `single_scattering()` gives the specification's model exactly.
+//!
 //! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
 //! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
 //! normals, Heitz 2018) or the cosine, chosen with probability proportional to their
@@ -15,7 +23,7 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::{BsdfFlags, BsdfSample};
 use super::environment::luminance;
-use super::microfacet::Ggx;
+use super::microfacet::{AlbedoTable, Ggx};
 use crate::sampling::warps::square_to_cosine_hemisphere;
 
 /// The glTF metallic-roughness BRDF of one surface point, in the shading frame.
@@ -26,15 +34,27 @@ pub struct GltfBrdf {
     pub metallic: f32,
     /// The GGX roughness α = roughness².
     pub alpha: f32,
+    /// Compensate the energy single scattering loses (see the module documentation).
+    pub energy_compensation: bool,
 }
 
 impl GltfBrdf {
     /// The BRDF for a material's `roughness` (perceptual, as the file gives it).
+    /// With energy compensation, the default.
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> GltfBrdf {
         GltfBrdf {
             base_color,
             metallic,
             alpha: roughness * roughness,
+            energy_compensation: true,
+        }
+    }
+
+    /// The same BRDF without energy compensation: the specification's model exactly.
+    pub fn single_scattering(self) -> GltfBrdf {
+        GltfBrdf {
+            energy_compensation: false,
+            ..self
         }
     }
 
@@ -88,9 +108,20 @@ impl GltfBrdf {
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
-            false => f * (ggx.d(h) * ggx.v(wo, wi)),
+            false => f * (ggx.d(h) * ggx.v(wo, wi)) * self.compensation(f0, wo.z),
         };
         (diffuse + specular) * wi.z
+    }
+
+    /// Turquin's scale of the specular lobe seen from direction cosine `mu`: 1 + f0 (1 − E) / E
+    /// (1 without compensation).
+    #[inline]
+    fn compensation(&self, f0: Vec3, mu: f32) -> Vec3 {
+        if !self.energy_compensation {
+            return Vec3::ONE;
+        }
+        let e = AlbedoTable::get().e(mu, self.alpha).max(1e-3);
+        Vec3::ONE + f0 * ((1.0 - e) / e)
     }
 
     /// The mixture's density of `wi`, the delta lobe left out.
