@@ -352,6 +352,11 @@ impl ThetaPhiGrid {
     /// ∫cell pdf dω for every cell, by the composite Simpson rule in (θ, φ) with the sin θ
     /// Jacobian (16 × 16 panels per cell).
     fn cell_probabilities(&self, pdf: &dyn Fn(f64, f64) -> f64) -> Vec<f64> {
+        self.cell_probabilities_with(pdf, 16)
+    }
+
+    /// [`ThetaPhiGrid::cell_probabilities`] with `panels` Simpson panels per cell and axis.
+    fn cell_probabilities_with(&self, pdf: &dyn Fn(f64, f64) -> f64, panels: usize) -> Vec<f64> {
         let dtheta = self.theta_max / CHI2_THETA_BINS as f64;
         let dphi = TAU / CHI2_PHI_BINS as f64;
         let mut out = Vec::with_capacity(Self::CELLS);
@@ -362,7 +367,7 @@ impl ThetaPhiGrid {
                     &|t, p| pdf(t, p) * t.sin(),
                     (t0, t0 + dtheta),
                     (p0, p0 + dphi),
-                    16,
+                    panels,
                 ));
             }
         }
@@ -1819,23 +1824,38 @@ fn sobol_bounce_points_stay_stratified_and_the_first_and_deep_ones_are_unchanged
 // χ² goodness of fit of BSDF sampling: the directions `Bsdf::sample` draws against its `pdf`.
 // ---------------------------------------------------------------------------------------------
 
-/// The glTF metallic-roughness cases tested: (base colour, metallic, roughness, θ of wo).
-/// Roughness from 0.3: sharper lobes need a finer integration grid than the shared one.
-const GLTF_BSDF_CASES: [([f32; 3], f32, f32, f64); 6] = [
+/// The glTF metallic-roughness cases tested: (base colour, metallic, roughness, θ of wo in
+/// radians), over roughness 0.01 (a mirror: its delta samples are the extra cell's) to 1,
+/// metallic 0, 0.5 and 1, and incidence up to 89°.
+const GLTF_BSDF_CASES: [([f32; 3], f32, f32, f64); 12] = [
     ([0.8, 0.5, 0.2], 0.0, 0.5, 0.0),
     ([0.8, 0.5, 0.2], 0.0, 0.3, 1.2),
     ([0.9, 0.9, 0.9], 1.0, 0.3, 0.6),
     ([0.9, 0.6, 0.3], 1.0, 0.6, 1.4),
     ([0.5, 0.5, 0.5], 0.5, 1.0, 0.8),
     ([0.2, 0.7, 0.3], 0.3, 0.45, 1.5),
+    ([0.9, 0.9, 0.9], 1.0, 1.0, 1.553),
+    ([0.6, 0.6, 0.6], 0.0, 1.0, 1.553),
+    ([0.7, 0.7, 0.7], 0.5, 0.15, 0.3),
+    ([0.9, 0.9, 0.9], 1.0, 0.15, 1.0),
+    ([0.5, 0.5, 0.5], 0.0, 0.01, 0.7),
+    ([0.5, 0.5, 0.5], 0.5, 0.01, 1.553),
 ];
 /// Significance of each of those χ² tests, Bonferroni-corrected over them.
 const GLTF_CHI2_ALPHA: f64 = 0.01 / GLTF_BSDF_CASES.len() as f64;
 
 /// Draws [`CHI2_SAMPLES`] directions from `bsdf` seen from `wo`, bins them over the upper
-/// hemisphere, and runs the χ² test against its pdf. Samples the BSDF declines (None) land
-/// in an extra cell, expected to hold the probability the pdf leaves outside the hemisphere.
-fn bsdf_chi2(bsdf: &strata::shading::Bsdf, wo: Vec3, seed: u64) -> Result<Chi2Outcome, String> {
+/// hemisphere, and runs the χ² test against `pdf` integrated by Simpson's rule with `panels`
+/// panels per cell and axis. The samples the BSDF declines (None) and those of its delta
+/// lobes land in an extra cell, expected to hold the probability `pdf` leaves outside the
+/// hemisphere.
+fn bsdf_chi2(
+    bsdf: &strata::shading::Bsdf,
+    wo: Vec3,
+    pdf: &dyn Fn(Vec3) -> f64,
+    panels: usize,
+    seed: u64,
+) -> Result<Chi2Outcome, String> {
     let grid = ThetaPhiGrid {
         theta_max: FRAC_PI_2,
     };
@@ -1843,27 +1863,27 @@ fn bsdf_chi2(bsdf: &strata::shading::Bsdf, wo: Vec3, seed: u64) -> Result<Chi2Ou
     let mut rng = Pcg32::new(seed, 0xb5df);
     for _ in 0..CHI2_SAMPLES {
         match bsdf.sample(wo, rng.next_vec2()) {
-            Some(s) => match grid.cell_of(s.wi) {
+            Some(s) if !s.flags.is_specular() => match grid.cell_of(s.wi) {
                 Some(cell) => observed[cell] += 1.0,
                 None => return Err(format!("a sample below the surface: {}", s.wi)),
             },
-            None => observed[ThetaPhiGrid::CELLS] += 1.0,
+            _ => observed[ThetaPhiGrid::CELLS] += 1.0,
         }
     }
-    let pdf = |theta: f64, phi: f64| {
-        let wi = Vec3::new(
+    let in_theta_phi = |theta: f64, phi: f64| {
+        pdf(Vec3::new(
             (theta.sin() * phi.cos()) as f32,
             (theta.sin() * phi.sin()) as f32,
             theta.cos() as f32,
-        );
-        bsdf.pdf(wo, wi) as f64
+        ))
     };
-    let probabilities = grid.cell_probabilities(&pdf);
+    let probabilities = grid.cell_probabilities_with(&in_theta_phi, panels);
     let inside: f64 = probabilities.iter().sum();
-    assert!(
-        inside <= 1.0 + 1e-3,
-        "the pdf integrates to {inside} over the hemisphere"
-    );
+    if inside > 1.0 + 1e-3 {
+        return Err(format!(
+            "the pdf integrates to {inside} over the hemisphere"
+        ));
+    }
     let mut expected: Vec<f64> = probabilities
         .iter()
         .map(|p| p * CHI2_SAMPLES as f64)
@@ -1884,15 +1904,22 @@ fn from_theta(theta: f64) -> Vec3 {
     Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32)
 }
 
+/// Simpson panels per cell for a lobe of `roughness`: sharp lobes need a finer rule.
+fn panels_for(roughness: f32) -> usize {
+    if roughness < 0.25 {
+        64
+    } else {
+        16
+    }
+}
+
 #[test]
 fn chi2_gltf_brdf_sampling_matches_its_pdf() {
     for (k, &(base, metallic, roughness, theta)) in GLTF_BSDF_CASES.iter().enumerate() {
         let name = format!("base {base:?} metallic {metallic} roughness {roughness} θo {theta}");
-        let result = bsdf_chi2(
-            &gltf_bsdf(base, metallic, roughness),
-            from_theta(theta),
-            k as u64,
-        );
+        let (bsdf, wo) = (gltf_bsdf(base, metallic, roughness), from_theta(theta));
+        let pdf = |wi: Vec3| bsdf.pdf(wo, wi) as f64;
+        let result = bsdf_chi2(&bsdf, wo, &pdf, panels_for(roughness), k as u64);
         println!("{name}: {result:?}");
         match result {
             Ok(o) => assert!(
@@ -1907,50 +1934,40 @@ fn chi2_gltf_brdf_sampling_matches_its_pdf() {
     }
 }
 
-/// Negative controls: the same test rejects the BSDF's samples against the pdf of a rougher
-/// lobe, and against a pdf that leaves out the diffuse lobe's share.
+/// A negative control: its name, the BSDF sampled and the wrong pdf it is tested against.
+type NegativeCase<'a> = (&'a str, &'a strata::shading::Bsdf, &'a dyn Fn(Vec3) -> f64);
+
+/// Negative controls: the same test rejects a metal's samples against its pdf without the
+/// reflection's Jacobian 1/(4 wo·h) (the visible normals' density taken for the directions'),
+/// against its pdf times cos θi, against the pdf of a rougher lobe, and a dielectric's
+/// against a pdf without the diffuse lobe's share.
 #[test]
 fn chi2_rejects_gltf_brdf_samples_against_a_wrong_pdf() {
-    use strata::shading::Bsdf;
+    use strata::shading::microfacet::Ggx;
     let wo = from_theta(0.6);
-    // Samples of roughness 0.4 against the pdf of roughness 0.5: bin by bin with its own pdf
-    // replaced, through a wrapper that samples one and evaluates the other.
-    struct Mixed(Bsdf, Bsdf);
-    let cases = [
-        Mixed(gltf_bsdf([0.9; 3], 1.0, 0.4), gltf_bsdf([0.9; 3], 1.0, 0.5)),
-        Mixed(
-            gltf_bsdf([0.8, 0.5, 0.2], 0.0, 0.5),
-            gltf_bsdf([0.0; 3], 0.0, 0.5),
-        ),
-    ];
-    for (k, Mixed(sampled, evaluated)) in cases.iter().enumerate() {
-        let grid = ThetaPhiGrid {
-            theta_max: FRAC_PI_2,
-        };
-        let mut observed = vec![0.0; ThetaPhiGrid::CELLS + 1];
-        let mut rng = Pcg32::new(k as u64, 0xbad);
-        for _ in 0..CHI2_SAMPLES {
-            match sampled.sample(wo, rng.next_vec2()) {
-                Some(s) => observed[grid.cell_of(s.wi).unwrap()] += 1.0,
-                None => observed[ThetaPhiGrid::CELLS] += 1.0,
-            }
+    let metal = gltf_bsdf([0.9; 3], 1.0, 0.4);
+    let ggx = Ggx { alpha: 0.16 };
+    let no_jacobian = |wi: Vec3| {
+        if wi.z <= 0.0 {
+            return 0.0;
         }
-        let pdf = |t: f64, p: f64| {
-            let wi = Vec3::new(
-                (t.sin() * p.cos()) as f32,
-                (t.sin() * p.sin()) as f32,
-                t.cos() as f32,
-            );
-            evaluated.pdf(wo, wi) as f64
-        };
-        let probabilities = grid.cell_probabilities(&pdf);
-        let inside: f64 = probabilities.iter().sum();
-        let mut expected: Vec<f64> = probabilities
-            .iter()
-            .map(|p| p * CHI2_SAMPLES as f64)
-            .collect();
-        expected.push((1.0 - inside).max(0.0) * CHI2_SAMPLES as f64);
-        let result = chi2_test(&observed, &expected);
-        assert!(rejected(&result), "case {k} accepted: {result:?}");
+        let h = (wo + wi).normalize();
+        (ggx.g1(wo) * ggx.d(h) * wo.dot(h).max(0.0) / wo.z) as f64
+    };
+    let times_cos = |wi: Vec3| metal.pdf(wo, wi) as f64 * wi.z.max(0.0) as f64;
+    let rougher = gltf_bsdf([0.9; 3], 1.0, 0.5);
+    let rougher_pdf = |wi: Vec3| rougher.pdf(wo, wi) as f64;
+    let plastic = gltf_bsdf([0.8, 0.5, 0.2], 0.0, 0.5);
+    let black = gltf_bsdf([0.0; 3], 0.0, 0.5);
+    let specular_only = |wi: Vec3| black.pdf(wo, wi) as f64;
+    let cases: [NegativeCase; 4] = [
+        ("no Jacobian", &metal, &no_jacobian),
+        ("times cos θ", &metal, &times_cos),
+        ("rougher", &metal, &rougher_pdf),
+        ("no diffuse share", &plastic, &specular_only),
+    ];
+    for (k, (name, bsdf, pdf)) in cases.into_iter().enumerate() {
+        let result = bsdf_chi2(bsdf, wo, pdf, 16, 100 + k as u64);
+        assert!(rejected(&result), "{name} accepted: {result:?}");
     }
 }
