@@ -382,12 +382,10 @@ mod tests {
         estimate / (grid * grid) as f64
     }
 
-    /// The white furnace: a white metal (base colour 1, metallic 1) with energy compensation
-    /// reflects all the light that reaches it, within 1%, at every roughness and from normal
-    /// to near-grazing incidence; without it, rough ones lose up to a fifth. (The white
-    /// dielectric of the specification's model reflects more than comes in at grazing
-    /// incidence, 1.26 at 77° and roughness 0.1, since its diffuse weight 1 − F(wo·h) takes h
-    /// between wo and each wi: ROADMAP.md, issue 28.)
+    /// The white furnace: a white surface (base colour 1; metallic 1, 0.5 or 0) with energy
+    /// compensation reflects all the light that reaches it, within 1%, at every roughness and
+    /// from normal to near-grazing incidence; without it, rough metals lose up to a fifth and
+    /// smooth dielectrics return more than comes in at grazing incidence.
     #[test]
     fn a_white_metal_with_energy_compensation_stays_white() {
         for roughness in [0.1f32, 0.3, 0.5, 0.7, 0.9, 1.0] {
@@ -411,6 +409,12 @@ mod tests {
         let rough = GltfBrdf::new(Vec3::ONE, 1.0, 1.0).single_scattering();
         let lost = sampled_albedo(&Bsdf::MetallicRoughness(rough), at(0.0, 0.0));
         assert!(lost.x < 0.9, "single scattering keeps {lost}");
+        let smooth = GltfBrdf::new(Vec3::ONE, 0.0, 0.1).single_scattering();
+        let gained = sampled_albedo(&Bsdf::MetallicRoughness(smooth), at(1.35, 0.0));
+        assert!(
+            gained.x > 1.1,
+            "the specification's dielectric returns {gained}"
+        );
     }
 
     fn at(theta: f32, phi: f32) -> Vec3 {

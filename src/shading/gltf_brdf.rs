@@ -6,13 +6,22 @@
 //! - Schlick's F = f0 + (1 − f0)(1 − |wo·h|)⁵;
 //! - f = (1 − F) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
 //!
-//! Single scattering among the microfacets loses energy on rough surfaces (a white metal of
-//! roughness 1 returns about 80% of the light at normal incidence, [`AlbedoTable`]). With
-//! energy compensation (the default) the specular lobe is scaled by 1 + f0 (1 − E(μo)) / E(μo),
-//! E the single-scattering albedo of GGX with F = 1 (Turquin 2019, "Practical multiple
-//! scattering compensation for microfacet models", eq. 8): a white metal then returns all of
-//! it, and the lobe keeps its shape, so sampling is unchanged. It is not reciprocal (it reads
-//! μo alone), as Turquin notes. `single_scattering()` gives the specification's model exactly.
+//! The specification's model gains and loses energy: single scattering among the microfacets
+//! loses it on rough surfaces (a white metal of roughness 1 returns about 80% of the light at
+//! normal incidence, [`AlbedoTable`]), and the dielectric's diffuse weight 1 − F(wo·h), whose
+//! h lies between wo and each wi, gives a white dielectric more than comes in at grazing
+//! incidence (1.26 at 77° and roughness 0.1). With energy compensation, the default:
+//!
+//! - the specular lobe is scaled by 1 + f0 (1 − E(μo)) / E(μo), E the single-scattering albedo
+//!   of GGX with F = 1 (Turquin 2019, "Practical multiple scattering compensation for
+//!   microfacet models", eq. 8): a white metal then returns all the light, and the lobe keeps
+//!   its shape, so sampling is unchanged (not reciprocal: it reads μo alone, as Turquin notes);
+//! - the diffuse lobe takes what the specular layer leaves, c_diff/π · (1 − A(μo))(1 − A(μi))
+//!   / (1 − A_avg), A(μ) that layer's albedo (f0·E + (1 − f0)·E_s, compensated) and A_avg its
+//!   cosine-weighted average (the energy-conserving layering of Kulla & Conty 2017, §5.3): a
+//!   white dielectric then returns all of it, and the lobe stays reciprocal.
+//!
+//! `single_scattering()` gives the specification's model exactly.
 //!
 //! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
 //! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
@@ -104,7 +113,10 @@ impl GltfBrdf {
         let h = (wo + wi).normalize();
         let (f0, c_diff) = self.colors();
         let f = schlick(f0, wo.dot(h).abs());
-        let diffuse = (Vec3::ONE - f) * c_diff * std::f32::consts::FRAC_1_PI;
+        let diffuse = match self.energy_compensation {
+            false => (Vec3::ONE - f) * c_diff * std::f32::consts::FRAC_1_PI,
+            true => self.layered_diffuse(f0, c_diff, wo.z, wi.z),
+        };
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
@@ -122,6 +134,37 @@ impl GltfBrdf {
         }
         let e = AlbedoTable::get().e(mu, self.alpha).max(1e-3);
         Vec3::ONE + f0 * ((1.0 - e) / e)
+    }
+
+    /// The specular layer's albedo A(μ) = (f0·E + (1 − f0)·E_s)(1 + f0 (1 − E) / E), seen from
+    /// direction cosine `mu`, compensated.
+    #[inline]
+    fn specular_albedo(&self, f0: Vec3, mu: f32) -> Vec3 {
+        let table = AlbedoTable::get();
+        let e = table.e(mu, self.alpha).max(1e-3);
+        let e_s = table.e_s(mu, self.alpha);
+        (f0 * e + (Vec3::ONE - f0) * e_s) * (Vec3::ONE + f0 * ((1.0 - e) / e))
+    }
+
+    /// The cosine-weighted average of [`GltfBrdf::specular_albedo`] over μ: the table's
+    /// averages of E, E_s and E_s (1 − E) / E combined as the expanded product
+    /// f0·E + (1 − f0)·E_s + f0²(1 − E) + f0 (1 − f0)·E_s (1 − E) / E requires.
+    #[inline]
+    fn specular_albedo_average(&self, f0: Vec3) -> Vec3 {
+        let [e, e_s, ratio] = AlbedoTable::get().averages(self.alpha);
+        let g = Vec3::ONE - f0;
+        f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio
+    }
+
+    /// The diffuse lobe under a compensated specular layer (see the module documentation).
+    #[inline]
+    fn layered_diffuse(&self, f0: Vec3, c_diff: Vec3, mu_o: f32, mu_i: f32) -> Vec3 {
+        if c_diff == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let leave = |mu| (Vec3::ONE - self.specular_albedo(f0, mu)).max(Vec3::ZERO);
+        let rest = (Vec3::ONE - self.specular_albedo_average(f0)).max(Vec3::splat(1e-4));
+        c_diff * std::f32::consts::FRAC_1_PI * leave(mu_o) * leave(mu_i) / rest
     }
 
     /// The mixture's density of `wi`, the delta lobe left out.

@@ -109,12 +109,18 @@ impl Ggx {
 
 /// The directional albedo E(μ, α) of GGX reflection with F = 1, single scattering:
 /// ∫ D V (n·wi) dωi, the energy a microfacet surface of roughness α returns from direction
-/// cosine μ after one bounce among its facets. Tabulated once per process on a 32 × 32 grid
-/// of μ and √α (the perceptual roughness), each entry the mean of G2(wo, wi) / G1(wo) over
-/// 64 × 64 stratified visible-normal samples (the estimator whose pdf cancels D), and
-/// looked up bilinearly.
+/// cosine μ after one bounce among its facets; and E_s(μ, α) = ∫ (1 − |wo·h|)⁵ D V (n·wi) dωi,
+/// Schlick's Fresnel weight integrated the same way, so that a lobe with Schlick's F of
+/// reflectance f0 returns f0·E + (1 − f0)·E_s. Tabulated once per process on a 32 × 32 grid of
+/// μ and √α (the perceptual roughness), each entry the mean over 64 × 64 stratified
+/// visible-normal samples of G2(wo, wi) / G1(wo) (the estimator whose pdf cancels D), looked
+/// up bilinearly; with, per roughness, the cosine-weighted averages over μ (2 ∫ · μ dμ) of
+/// E, E_s and E_s (1 − E) / E that energy compensation needs.
 pub struct AlbedoTable {
     e: Vec<f32>,
+    e_s: Vec<f32>,
+    /// Per roughness row: the averages of E, E_s and E_s (1 − E) / E.
+    averages: Vec<[f32; 3]>,
 }
 
 impl AlbedoTable {
@@ -130,6 +136,7 @@ impl AlbedoTable {
     fn compute() -> AlbedoTable {
         let n = Self::N;
         let mut e = Vec::with_capacity(n * n);
+        let mut e_s = Vec::with_capacity(n * n);
         for i in 0..n {
             // Roughness √α on [0, 1], from a little above 0 (the smooth end is 1 anyway).
             let r = (i as f32 / (n - 1) as f32).max(0.02);
@@ -137,7 +144,7 @@ impl AlbedoTable {
             for j in 0..n {
                 let mu = (j as f32 / (n - 1) as f32).max(1e-3);
                 let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                let mut sum = 0.0f64;
+                let (mut sum, mut sum_s) = (0.0f64, 0.0f64);
                 let k = Self::SAMPLES;
                 for a in 0..k {
                     for b in 0..k {
@@ -147,25 +154,68 @@ impl AlbedoTable {
                         if wi.z > 0.0 {
                             let g1 = ggx.g1(wo);
                             let g2 = ggx.v(wo, wi) * 4.0 * wo.z * wi.z;
-                            sum += (g2 / g1) as f64;
+                            let weight = (g2 / g1) as f64;
+                            sum += weight;
+                            sum_s +=
+                                weight * ((1.0 - wo.dot(h).abs()).clamp(0.0, 1.0) as f64).powi(5);
                         }
                     }
                 }
                 e.push((sum / (k * k) as f64) as f32);
+                e_s.push((sum_s / (k * k) as f64) as f32);
             }
         }
-        AlbedoTable { e }
+        // Cosine-weighted averages over μ: 2 ∫ g(μ) μ dμ by the trapezoid rule on the grid,
+        // which integrates the bilinear lookup's piecewise-linear g exactly but for the μ².
+        let averages = (0..n)
+            .map(|i| {
+                let row = |j: usize| {
+                    let (ee, es) = (e[i * n + j].max(1e-3) as f64, e_s[i * n + j] as f64);
+                    [ee, es, es * (1.0 - ee) / ee]
+                };
+                let mut avg = [0.0f64; 3];
+                for j in 0..n - 1 {
+                    let (m0, m1) = (j as f64 / (n - 1) as f64, (j + 1) as f64 / (n - 1) as f64);
+                    let (g0, g1) = (row(j), row(j + 1));
+                    for c in 0..3 {
+                        avg[c] += (g0[c] * m0 + g1[c] * m1) * (m1 - m0);
+                    }
+                }
+                avg.map(|a| a as f32)
+            })
+            .collect();
+        AlbedoTable { e, e_s, averages }
     }
 
     /// E at direction cosine `mu` and GGX α `alpha` (bilinear in μ and √α).
     pub fn e(&self, mu: f32, alpha: f32) -> f32 {
+        self.lookup(&self.e, mu, alpha)
+    }
+
+    /// E_s at direction cosine `mu` and GGX α `alpha`.
+    pub fn e_s(&self, mu: f32, alpha: f32) -> f32 {
+        self.lookup(&self.e_s, mu, alpha)
+    }
+
+    /// The cosine-weighted averages over μ of E, E_s and E_s (1 − E) / E at GGX α `alpha`
+    /// (linear in √α).
+    pub fn averages(&self, alpha: f32) -> [f32; 3] {
+        let n = Self::N;
+        let y = (alpha.max(0.0).sqrt().min(1.0) * (n - 1) as f32).min((n - 1) as f32);
+        let y0 = y as usize;
+        let y1 = (y0 + 1).min(n - 1);
+        let fy = y - y0 as f32;
+        std::array::from_fn(|c| self.averages[y0][c] * (1.0 - fy) + self.averages[y1][c] * fy)
+    }
+
+    fn lookup(&self, table: &[f32], mu: f32, alpha: f32) -> f32 {
         let n = Self::N;
         let x = (mu.clamp(0.0, 1.0) * (n - 1) as f32).min((n - 1) as f32);
         let y = (alpha.max(0.0).sqrt().min(1.0) * (n - 1) as f32).min((n - 1) as f32);
         let (x0, y0) = (x as usize, y as usize);
         let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let at = |i: usize, j: usize| self.e[i * n + j];
+        let at = |i: usize, j: usize| table[i * n + j];
         let low = at(y0, x0) * (1.0 - fx) + at(y0, x1) * fx;
         let high = at(y1, x0) * (1.0 - fx) + at(y1, x1) * fx;
         low * (1.0 - fy) + high * fy
@@ -245,8 +295,8 @@ mod tests {
         }
     }
 
-    /// The table against quadrature of ∫ D V cos dωi (a 1000 × 600 midpoint rule in
-    /// (cos θ, φ)), and E → 1 as the surface becomes smooth.
+    /// The tables against quadrature of ∫ D V cos dωi and ∫ (1 − |wo·h|)⁵ D V cos dωi (a
+    /// 1000 × 600 midpoint rule in (cos θ, φ)), and E → 1 as the surface becomes smooth.
     #[test]
     fn the_albedo_table_matches_quadrature() {
         let table = AlbedoTable::get();
@@ -262,7 +312,7 @@ mod tests {
             };
             let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
             let (nt, np) = (1000, 600);
-            let mut sum = 0.0f64;
+            let (mut sum, mut sum_s) = (0.0f64, 0.0f64);
             for i in 0..nt {
                 let c = (i as f64 + 0.5) / nt as f64;
                 for j in 0..np {
@@ -270,7 +320,9 @@ mod tests {
                     let s = (1.0 - c * c).sqrt();
                     let wi = Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, c as f32);
                     let h = (wo + wi).normalize();
-                    sum += (ggx.d(h) * ggx.v(wo, wi)) as f64 * c;
+                    let f = (ggx.d(h) * ggx.v(wo, wi)) as f64 * c;
+                    sum += f;
+                    sum_s += f * (1.0 - wo.dot(h).abs() as f64).powi(5);
                 }
             }
             let quadrature = sum * std::f64::consts::TAU / (nt * np) as f64;
@@ -278,6 +330,12 @@ mod tests {
             assert!(
                 (tabulated - quadrature).abs() < 0.01,
                 "roughness {roughness} μ {mu}: table {tabulated}, quadrature {quadrature}"
+            );
+            let quadrature_s = sum_s * std::f64::consts::TAU / (nt * np) as f64;
+            let tabulated_s = table.e_s(mu, ggx.alpha) as f64;
+            assert!(
+                (tabulated_s - quadrature_s).abs() < 0.005,
+                "E_s, roughness {roughness} μ {mu}: table {tabulated_s}, quadrature {quadrature_s}"
             );
         }
         assert!(table.e(0.7, 1e-4) > 0.99);
