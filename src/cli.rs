@@ -75,6 +75,30 @@ pub struct Args {
     #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
     pub background: Option<[f32; 3]>,
 
+    /// Environment map: an equirectangular (latitude-longitude) Radiance .hdr or OpenEXR .exr
+    /// of linear radiance, oriented as Blender orients a world environment texture, and
+    /// importance-sampled (direct and path tracing).
+    #[arg(long, value_name = "FILE")]
+    pub env: Option<PathBuf>,
+
+    /// Turn the environment map about +Y by DEGREES, counter-clockwise seen from above.
+    #[arg(
+        long,
+        value_name = "DEGREES",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub env_rotate: f32,
+
+    /// Scale the environment map's radiance by S.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub env_intensity: f32,
+
     /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
     pub pixel: Option<(u32, u32)>,

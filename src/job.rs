@@ -23,7 +23,7 @@ use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
 use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
-use crate::shading::{DiffuseSampling, Environment};
+use crate::shading::{DiffuseSampling, EnvMap, Environment};
 
 /// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
 /// has, so the target error or the time limit is what stops it.
@@ -80,6 +80,9 @@ pub struct Job {
     pub shading: ShadingOptions,
     /// `--hemisphere`, as given (AO's estimator and the diffuse BSDF's sampling).
     pub hemisphere: Hemisphere,
+    /// The environment map to load (`--env`), its rotation about +Y in degrees and its scale;
+    /// [`Job::load_environment`] puts it into `shading`.
+    pub env: Option<(PathBuf, f32, f32)>,
     /// Switches for measurements (`--no-camera-packets`, `--padded-bounces`,
     /// `--sample-variance-error`); the defaults otherwise.
     pub experiments: Experiments,
@@ -168,6 +171,23 @@ impl Job {
             );
         }
 
+        if args.env.is_some() && args.background.is_some() {
+            refuse!("--env and --background both set what rays that leave the scene see: give one");
+        }
+        if !(args.env_intensity >= 0.0 && args.env_intensity.is_finite()) {
+            refuse!(
+                "--env-intensity must be a finite number of at least 0 (got {})",
+                args.env_intensity
+            );
+        }
+        if !args.env_rotate.is_finite() {
+            refuse!("--env-rotate must be a finite number of degrees");
+        }
+        if let Some(env) = &args.env {
+            if !env.is_file() {
+                refuse!("{}: no such environment map", env.display());
+            }
+        }
         if args.ao_samples == 0 {
             refuse!("--ao-samples must be at least 1");
         }
@@ -234,6 +254,10 @@ impl Job {
                 triangle_sampling: args.triangle_sampling,
             },
             hemisphere: args.hemisphere,
+            env: args
+                .env
+                .clone()
+                .map(|p| (p, args.env_rotate, args.env_intensity)),
             experiments: Experiments {
                 camera_packets: !args.no_camera_packets,
                 joint_bounces: !args.padded_bounces,
@@ -352,6 +376,15 @@ impl Job {
     }
 
     /// The BVH build's options, for a pool of `threads` worker threads.
+    /// Reads the environment map (`--env`), if any, into the shading options.
+    pub fn load_environment(&mut self) -> Result<(), JobError> {
+        if let Some((path, degrees, scale)) = &self.env {
+            let map = EnvMap::load(path, degrees.to_radians(), *scale).map_err(JobError)?;
+            self.shading.environment = Environment::Map(std::sync::Arc::new(map));
+        }
+        Ok(())
+    }
+
     pub fn accel_options(&self, threads: usize) -> AccelOptions {
         AccelOptions {
             backend: self.backend,

@@ -79,7 +79,7 @@ fn progress_bar(job: &Job) -> ProgressBar {
 }
 
 fn run(args: Args) -> Result<Outcome> {
-    let job = Job::from_args(&args)?;
+    let mut job = Job::from_args(&args)?;
     for w in &job.warnings {
         eprintln!("warning: {w}");
     }
@@ -117,6 +117,11 @@ fn run(args: Args) -> Result<Outcome> {
 
     // Materials and lights: only what the integrator reads.
     let t_prepare = Instant::now();
+    if job.integrator.needs_lights() {
+        job.load_environment()?;
+    } else if job.env.is_some() {
+        eprintln!("warning: --env lights direct and path tracing; ambient occlusion ignores it");
+    }
     let prepared = Prepared::with_options(&scene, &job.scene, &job.integrator, &job.shading)
         .map_err(|e| anyhow!(e))?;
     if job.integrator.needs_lights() && prepared.lights.is_empty() {

@@ -187,9 +187,19 @@ pub fn stats(run: &Run) -> String {
             run.checkpoints, run.checkpoint_seconds
         );
     }
+    let environment = match run.prepared.lights.environment() {
+        crate::shading::Environment::Map(map) => {
+            let (w, h) = map.size();
+            format!(
+                ", environment map {w}x{h} ({})",
+                crate::scene::format_bytes(map.memory() as u64)
+            )
+        }
+        crate::shading::Environment::Constant(_) => String::new(),
+    };
     let _ = writeln!(
         s,
-        "shading: {} textures decoded, {} emitters",
+        "shading: {} textures decoded, {} emitters{environment}",
         run.prepared.materials.decoded_images(),
         run.prepared.lights.emitters.len()
     );

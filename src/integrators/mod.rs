@@ -90,7 +90,12 @@ impl Prepared {
                 scene,
                 &materials,
                 options.environment.clone(),
-                integrator.background_sampling(&materials),
+                match options.environment.constant() {
+                    // An environment that varies is found by light sampling (importance
+                    // sampling of the map), always.
+                    None => BackgroundSampling::Lights,
+                    Some(_) => integrator.background_sampling(&materials),
+                },
             )
         } else {
             LightSet::default()

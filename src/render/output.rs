@@ -212,6 +212,12 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
                 "strata:background".into(),
                 Attr::Text(format!("{},{},{}", b.x, b.y, b.z)),
             ));
+            if let Some((path, degrees, scale)) = &job.env {
+                let text = format!("{}", path.display());
+                attrs.push(("strata:environment".into(), Attr::Text(text)));
+                attrs.push(("strata:env_rotate".into(), Attr::Float(*degrees)));
+                attrs.push(("strata:env_intensity".into(), Attr::Float(*scale)));
+            }
         }
     }
     attrs

@@ -1,14 +1,17 @@
 //! The environment: the radiance a ray that leaves the scene sees, as a function of its
 //! direction, and how light sampling draws directions toward it.
 //!
-//! Today a constant (`--background R,G,B`, black by default); equirectangular HDR maps join
-//! as a variant. Callers ask by direction only, so nothing outside this module assumes a
-//! constant: the renderer's shortcuts for camera rays that miss (block culling,
+//! A constant (`--background R,G,B`, black by default) or an equirectangular HDR map
+//! (`--env FILE`, [`EnvMap`]). Callers ask by direction only, so nothing outside this module
+//! assumes a constant: the renderer's shortcuts for camera rays that miss (block culling,
 //! [`crate::integrators::Integrator::camera_miss`]) ask [`Environment::constant`] first and
 //! trace where it answers None.
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
 
+use super::envmap::EnvMap;
 use crate::sampling::warps::square_to_uniform_sphere;
 
 /// Radiance arriving from infinitely far away, by direction.
@@ -16,6 +19,8 @@ use crate::sampling::warps::square_to_uniform_sphere;
 pub enum Environment {
     /// The same radiance from every direction (black: no environment).
     Constant(Vec3),
+    /// An equirectangular map, importance-sampled.
+    Map(Arc<EnvMap>),
 }
 
 impl Default for Environment {
@@ -27,25 +32,28 @@ impl Default for Environment {
 impl Environment {
     /// The radiance seen along unit direction `dir` (from the scene toward the environment).
     #[inline]
-    pub fn radiance(&self, _dir: Vec3) -> Vec3 {
-        match *self {
-            Environment::Constant(l) => l,
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        match self {
+            Environment::Constant(l) => *l,
+            Environment::Map(map) => map.radiance(dir),
         }
     }
 
     /// The radiance, where it is the same in every direction.
     #[inline]
     pub fn constant(&self) -> Option<Vec3> {
-        match *self {
-            Environment::Constant(l) => Some(l),
+        match self {
+            Environment::Constant(l) => Some(*l),
+            Environment::Map(_) => None,
         }
     }
 
     /// True when no direction sees any radiance.
     #[inline]
     pub fn is_black(&self) -> bool {
-        match *self {
+        match self {
             Environment::Constant(l) => l.max_element() <= 0.0,
+            Environment::Map(map) => map.is_black(),
         }
     }
 
@@ -53,16 +61,18 @@ impl Environment {
     /// solid-angle pdf: uniform over the sphere for a constant.
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3, f32) {
-        match *self {
-            Environment::Constant(l) => (square_to_uniform_sphere(u), l, UNIFORM_SPHERE_PDF),
+        match self {
+            Environment::Constant(l) => (square_to_uniform_sphere(u), *l, UNIFORM_SPHERE_PDF),
+            Environment::Map(map) => map.sample(u),
         }
     }
 
     /// The solid-angle pdf with which [`Environment::sample`] draws `dir`.
     #[inline]
-    pub fn pdf(&self, _dir: Vec3) -> f32 {
+    pub fn pdf(&self, dir: Vec3) -> f32 {
         match self {
             Environment::Constant(_) => UNIFORM_SPHERE_PDF,
+            Environment::Map(map) => map.pdf(dir),
         }
     }
 
@@ -71,11 +81,11 @@ impl Environment {
     /// the sphere, 4π·π·r²·L (at least a tiny positive value, so that it can be chosen).
     pub fn power(&self, radius: f32) -> f64 {
         let pi = std::f64::consts::PI;
-        match *self {
-            Environment::Constant(l) => {
-                4.0 * pi * pi * (radius.max(1e-3) as f64).powi(2) * luminance(l).max(1e-6) as f64
-            }
-        }
+        let mean = match self {
+            Environment::Constant(l) => luminance(*l),
+            Environment::Map(map) => map.mean_luminance(),
+        };
+        4.0 * pi * pi * (radius.max(1e-3) as f64).powi(2) * mean.max(1e-6) as f64
     }
 }
 

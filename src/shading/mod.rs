@@ -13,9 +13,11 @@
 //! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
 //! |                 | sampled by power                                                      |
 //! | [`environment`] | the radiance rays that leave the scene see, by direction              |
+//! | [`envmap`]      | equirectangular HDR maps: lookup and importance sampling             |
 
 pub mod bsdf;
 pub mod environment;
+pub mod envmap;
 pub mod gltf_brdf;
 pub mod interaction;
 pub mod lights;
@@ -25,6 +27,7 @@ pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, SurfaceBsdf};
 pub use environment::Environment;
+pub use envmap::EnvMap;
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
