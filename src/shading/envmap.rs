@@ -19,6 +19,7 @@
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::environment::luminance;
 
@@ -112,34 +113,33 @@ impl EnvMap {
             .map(|t| Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), t, Vec3::ZERO))
             .collect();
         // Each texel's weight: the mean of the bilinear lookup over its area, times sin θ.
-        let lum: Vec<f32> = texels.iter().map(|&t| luminance(t)).collect();
-        let at = |x: isize, y: isize| {
-            let x = x.rem_euclid(width as isize) as usize;
-            let y = y.clamp(0, height as isize - 1) as usize;
-            lum[y * width + x]
-        };
-        let k = [0.125f32, 0.75, 0.125];
-        let mut conditional = Vec::with_capacity(height);
-        let mut row_integrals = Vec::with_capacity(height);
-        for y in 0..height {
-            let sin_theta = (std::f32::consts::PI * (y as f32 + 0.5) / height as f32).sin();
-            let func: Vec<f32> = (0..width)
-                .map(|x| {
-                    let mut mean = 0.0;
-                    for (dy, ky) in k.iter().enumerate() {
-                        for (dx, kx) in k.iter().enumerate() {
-                            let (sx, sy) =
-                                (x as isize + dx as isize - 1, y as isize + dy as isize - 1);
-                            mean += kx * ky * at(sx, sy);
-                        }
-                    }
-                    mean * sin_theta
+        // The mean's kernel (1/8, 3/4, 1/8 along each axis; u wraps, v is clamped) is
+        // separable: a pass along the rows, then one along the columns, rows in parallel.
+        let lum: Vec<f32> = texels.par_iter().map(|&t| luminance(t)).collect();
+        let (k0, k1) = (0.125f32, 0.75f32);
+        let along_rows: Vec<f32> = lum
+            .par_chunks(width)
+            .flat_map_iter(|row| {
+                (0..width).map(move |x| {
+                    let (left, right) = ((x + width - 1) % width, (x + 1) % width);
+                    k0 * row[left] + k1 * row[x] + k0 * row[right]
                 })
-                .collect();
-            let row = Distribution1D::new(func);
-            row_integrals.push(row.integral);
-            conditional.push(row);
-        }
+            })
+            .collect();
+        let conditional: Vec<Distribution1D> = (0..height)
+            .into_par_iter()
+            .map(|y| {
+                let sin_theta = (std::f32::consts::PI * (y as f32 + 0.5) / height as f32).sin();
+                let (up, down) = (y.saturating_sub(1), (y + 1).min(height - 1));
+                let row = |r: usize| &along_rows[r * width..(r + 1) * width];
+                let (a, b, c) = (row(up), row(y), row(down));
+                let func = (0..width)
+                    .map(|x| (k0 * a[x] + k1 * b[x] + k0 * c[x]) * sin_theta)
+                    .collect();
+                Distribution1D::new(func)
+            })
+            .collect();
+        let row_integrals = conditional.iter().map(|row| row.integral).collect();
         EnvMap {
             width,
             height,
