@@ -973,6 +973,8 @@ def main():
     ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--spp", type=int, help="override the total spp (testing; not for committed references)")
+    ap.add_argument("--resolution", metavar="WxH",
+                    help="override every job's resolution (testing; not for committed references)")
     ap.add_argument("--out", help="output folder (default scenes/references; the manifest is only written there)")
     ap.add_argument("--no-manifest", action="store_true")
     ap.add_argument("--rebuild-manifest", action="store_true",
@@ -999,7 +1001,11 @@ def main():
     if wanted - known:
         print(f"unknown jobs: {sorted(wanted - known)}; known: {sorted(known)}", file=sys.stderr)
         return 2
-    write_manifest = not args.no_manifest and not args.out and not args.spp
+    write_manifest = not args.no_manifest and not args.out and not args.spp and not args.resolution
+    if args.resolution:
+        w, h = (int(x) for x in args.resolution.lower().split("x"))
+        for name, (rel, _) in SCENES.items():
+            SCENES[name] = (rel, (w, h))
     for s, i, spp, k in JOBS:
         if wanted and job_name(s, i) not in wanted:
             continue
