@@ -25,9 +25,9 @@ Sampling uses Mitsuba's own tools, nothing shared with strata but the formula: t
 reflects wi about a normal drawn by `mi.MicrofacetDistribution(GGX, alpha, sample_visible=True)`
 (density G1(wi) D(h) / (4 n.wi) in wo); the diffuse lobe draws wo with
 `mi.warp.square_to_cosine_hemisphere`. The lobe is chosen with `sample1`: specular with
-probability P = lum(F(n.wi)) / (lum(F(n.wi)) + lum((1 - F(n.wi)) c_diff)) (the Fresnel-weighted
-luminance each lobe reflects at normal-half-vector incidence; 1 where the diffuse lobe is black;
-lum = Rec. 709 luminance), diffuse with 1 - P. `pdf` is the mixture's density
+probability P = lum(F(n.wi)) / (lum(F(n.wi)) + lum((1 - F(n.wi)) c_diff)), lum the Rec. 709
+luminance (each lobe's weight with the half vector taken as the normal; 1 where the diffuse lobe
+is black; the choice only affects noise, never the expected value), diffuse with 1 - P. `pdf` is the mixture's density
 P pdf_spec + (1 - P) pdf_cos, and a sample's weight is eval / pdf (the mirror's: F(n.wi) / P).
 When the BSDFContext enables only one lobe (component 0 = specular, 1 = diffuse), P is 1 or 0.
 
@@ -45,8 +45,6 @@ Variants: RGB ones (scalar_rgb, llvm_ad_rgb). Use:
     mi.load_dict({"type": "gltf_metal_rough", "base_color": {"type": "rgb", "value": [1, .8, .3]},
                   "metallic": 1.0, "roughness": 0.4})
 """
-import math
-
 import drjit as dr
 import mitsuba as mi
 
