@@ -4,12 +4,15 @@
 #   tools/references/make_references.sh                 # checks, then every reference (about 20 min on 2 cores)
 #   tools/references/make_references.sh cornell-box.path ao-wall.ao   # only these; the manifest is merged
 #   tools/references/make_references.sh --list          # job names, spp, passes
+#   tools/references/make_references.sh --materials gltf [jobs...]   # shaded jobs with the glTF BRDF
 #
 # Makes (once) a virtualenv with the pinned packages of requirements.txt beside this script, in
 # $STRATA_REFS_VENV (default ~/.cache/strata/refs-venv), then runs the conversion's own checks
 # (textured-quad orientation, camera handedness, point-light and emission radiometry) and the
 # renders. Needs python3 (3.11) and oiiotool (Debian: openimageio-tools). Not run by CI.
-# STRATA_MITSUBA_VARIANT picks the Mitsuba variant (default scalar_rgb).
+# STRATA_MITSUBA_VARIANT picks the Mitsuba variant (default scalar_rgb). With --materials gltf the
+# checks of the glTF BRDF plugin (check_gltf_bsdf.py) run first too; their chi-square tests need
+# the llvm_ad_rgb variant, which needs Debian's libllvm19.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -36,4 +39,12 @@ fi
 check_dir="$(mktemp -d)"
 trap 'rm -rf "$check_dir"' EXIT
 "$venv/bin/python" "$here/mitsuba_refs.py" --check "$check_dir"
+prev=""
+for arg in "$@"; do
+    if [ "$arg" = "--materials=gltf" ] || { [ "$prev" = "--materials" ] && [ "$arg" = "gltf" ]; }; then
+        (cd "$check_dir" && "$venv/bin/python" "$here/check_gltf_bsdf.py")
+        break
+    fi
+    prev="$arg"
+done
 "$venv/bin/python" "$here/mitsuba_refs.py" "$@"

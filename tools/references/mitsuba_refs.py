@@ -5,6 +5,7 @@ Run through tools/references/make_references.sh (which makes the pinned virtuale
 
     make_references.sh                         # every reference in JOBS, then the manifest
     make_references.sh cornell-box.path ao-wall.ao   # only these (the manifest is merged)
+    make_references.sh --materials gltf        # shaded jobs with the glTF BRDF (see "material")
     python3 mitsuba_refs.py --list             # the job names
     python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera) and radiometry tests
 
@@ -18,10 +19,20 @@ implements is strata's (see scenes/references/README.md):
   flipped under a negative determinant, normals by the inverse transpose). Primitives without
   NORMAL and every emissive primitive use face normals (the winding decides the front face).
   Modes TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN; points and lines are skipped (warning).
-- material: twosided(diffuse) with reflectance = baseColorFactor.rgb x baseColorTexture.rgb
-  (texture decoded from sRGB, bilinear, glTF wrap mode, TEXCOORD_0 passed unchanged: Mitsuba 3's
-  bitmap has uv (0, 0) at the image's top row like glTF, so NO v flip; checked by
-  --check). Metallic/roughness are ignored.
+- material: the base colour is baseColorFactor.rgb x baseColorTexture.rgb (texture decoded from
+  sRGB, bilinear, glTF wrap mode, TEXCOORD_0 passed unchanged: Mitsuba 3's bitmap has uv (0, 0)
+  at the image's top row like glTF, so NO v flip; checked by --check). COLOR_0 is ignored (as
+  strata ignores it). What the material becomes depends on --materials:
+  - lambertian (the default): twosided(diffuse) with reflectance = the base colour;
+    metallic/roughness are ignored.
+  - gltf: the `gltf_metal_rough` plugin of gltf_bsdf.py (glTF 2.0 Appendix B, single scattering,
+    no energy compensation: strata's GltfBrdf::single_scattering(); two-sided; a mirror below
+    alpha = roughness^2 = 1e-3) with base_color = the base colour, metallic = metallicFactor x
+    metallicRoughnessTexture.B and roughness = roughnessFactor x metallicRoughnessTexture.G (the
+    texture read as linear data, bilinear, same uv and wrap rules; factors default to 1).
+    Material extensions that change the BRDF (KHR_materials_ior, _specular, ...) are ignored
+    with a warning in the manifest row, which also records the model ("materials").
+  `ao` jobs ignore --materials.
 - emission: a one-sided `area` emitter with radiance = emissiveFactor x emissiveTexture x
   KHR_materials_emissive_strength. A doubleSided emissive material is refused unless its
   `extras.strata_reference_single_sided_ok` is true (then only its front face emits).
@@ -61,7 +72,10 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, HERE)
 import scene_hash  # noqa: E402
 
+import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
+
+import gltf_bsdf  # noqa: E402
 
 VARIANT = os.environ.get("STRATA_MITSUBA_VARIANT", "scalar_rgb")
 RR_DEPTH = 100
@@ -97,6 +111,12 @@ JOBS = [
     ("suzanne", "path", 8192, 32),
     ("emissive-strength", "path", 8192, 32),
 ]
+# Material models (--materials): what every glTF material of a shaded job becomes.
+MATERIAL_MODELS = {
+    "lambertian": "twosided(diffuse), reflectance = base colour; metallic and roughness ignored",
+    "gltf": "gltf_metal_rough (tools/references/gltf_bsdf.py): glTF 2.0 Appendix B BRDF, single scattering, "
+            "two-sided; base colour, metallic, roughness",
+}
 # Mitsuba's multi-jittered sampler: each pass is an independent, unbiased stratified estimate
 # (seeded differently), so the sample variance across passes stays a valid variance estimate;
 # at equal spp it had 8x (AO) to 40x (path) lower variance than `independent` on the Cornell box.
@@ -283,8 +303,9 @@ def triangle_indices(g, prim, vertex_count):
 _texture_cache = {}
 
 
-def load_texture_linear(g, tex_index):
-    """(H, W, 3) float32 linear RGB of glTF texture `tex_index` (sRGB-decoded), and its wrap mode."""
+def load_texture_linear(g, tex_index, srgb=True):
+    """(H, W, 3) float32 linear RGB of glTF texture `tex_index`, and its wrap mode. `srgb`: a colour
+    texture, decoded from sRGB; else a data texture (metallicRoughnessTexture), its values / 255."""
     tex = g.doc["textures"][tex_index]
     if "source" not in tex:
         raise ConversionError(f"texture {tex_index} has no source")
@@ -293,7 +314,7 @@ def load_texture_linear(g, tex_index):
     ws, wt = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
     if ws != wt:
         raise ConversionError(f"texture {tex_index}: wrapS {ws} != wrapT {wt} is not supported by Mitsuba's bitmap")
-    key = (g.path, tex["source"])
+    key = (g.path, tex["source"], srgb)
     if key not in _texture_cache:
         if "uri" in img:
             data = g._uri_bytes(img["uri"])
@@ -305,8 +326,9 @@ def load_texture_linear(g, tex_index):
             f.write(data)
             f.flush()
             bmp = mi.Bitmap(f.name)
-        # glTF colour textures are sRGB whatever the file says; alpha is ignored (opaque).
-        bmp.set_srgb_gamma(True)
+        # glTF colour textures are sRGB, data textures linear, whatever the file says; alpha is
+        # ignored (opaque).
+        bmp.set_srgb_gamma(srgb)
         fmt = bmp.pixel_format()
         if fmt in (mi.Bitmap.PixelFormat.Y, mi.Bitmap.PixelFormat.YA):
             target = mi.Bitmap.PixelFormat.Y
@@ -317,7 +339,7 @@ def load_texture_linear(g, tex_index):
             arr = np.array(bmp, copy=True)
             arr = arr[..., :1] if target == mi.Bitmap.PixelFormat.Y else arr[..., :3]
             bmp = mi.Bitmap(np.ascontiguousarray(arr), target)
-            bmp.set_srgb_gamma(True)
+            bmp.set_srgb_gamma(srgb)
         lin = bmp.convert(target, mi.Struct.Type.Float32, srgb_gamma=False)
         arr = np.array(lin, dtype=np.float32)
         if arr.ndim == 2:
@@ -343,8 +365,9 @@ def check_texture_info(info, what):
 # scene conversion
 # ---------------------------------------------------------------------------------------
 
-def material_props(g, mat_index, mode):
-    """(bsdf dict, emitter dict or None, needs_uv) for a material, in mode 'ao' or 'shaded'."""
+def material_props(g, mat_index, mode, materials="lambertian", warnings=None):
+    """(bsdf dict, emitter dict or None, needs_uv) for a material, in mode 'ao' or 'shaded', with
+    the material model `materials` ('lambertian' or 'gltf', see MATERIAL_MODELS)."""
     white = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}}
     if mode == "ao":
         return white, None, False
@@ -361,7 +384,11 @@ def material_props(g, mat_index, mode):
         needs_uv = True
     else:
         reflectance = {"type": "rgb", "value": factor.tolist()}
-    bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
+    if materials == "gltf":
+        bsdf, mr_uv = gltf_bsdf_dict(g, mat, name, reflectance, warnings)
+        needs_uv |= mr_uv
+    else:
+        bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
 
     emissive = np.array(mat.get("emissiveFactor", [0, 0, 0]), dtype=np.float32)
     strength = mat.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
@@ -385,6 +412,38 @@ def material_props(g, mat_index, mode):
     return bsdf, emitter, needs_uv
 
 
+# Material extensions that change the glTF BRDF, which the plugin does not model.
+GLTF_BRDF_EXTENSIONS_IGNORED = ("KHR_materials_ior", "KHR_materials_specular", "KHR_materials_transmission",
+                                "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_volume",
+                                "KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_unlit",
+                                "KHR_materials_pbrSpecularGlossiness", "KHR_materials_dispersion",
+                                "KHR_materials_diffuse_transmission")
+
+
+def gltf_bsdf_dict(g, mat, name, base_color, warnings):
+    """The glTF BRDF plugin (gltf_bsdf.py) for material `mat`, and whether it needs TEXCOORD_0.
+    metallic = metallicFactor x metallicRoughnessTexture.B, roughness = roughnessFactor x
+    metallicRoughnessTexture.G (linear data, glTF's defaults 1 and 1)."""
+    gltf_bsdf.register()
+    pbr = mat.get("pbrMetallicRoughness", {})
+    metallic = float(pbr.get("metallicFactor", 1.0))
+    roughness = float(pbr.get("roughnessFactor", 1.0))
+    needs_uv = False
+    if "metallicRoughnessTexture" in pbr:
+        info = pbr["metallicRoughnessTexture"]
+        check_texture_info(info, f"{name} metallicRoughnessTexture")
+        arr, wrap = load_texture_linear(g, info["index"], srgb=False)
+        metallic = texture_dict(np.ascontiguousarray(arr[..., 2:3] * np.float32(metallic)), wrap)
+        roughness = texture_dict(np.ascontiguousarray(arr[..., 1:2] * np.float32(roughness)), wrap)
+        needs_uv = True
+    for ext in mat.get("extensions", {}):
+        msg = f"material '{name}': {ext} ignored (the reference uses the core glTF BRDF)"
+        if ext in GLTF_BRDF_EXTENSIONS_IGNORED and warnings is not None and msg not in warnings:
+            warnings.append(msg)
+    return {"type": gltf_bsdf.PLUGIN_NAME, "base_color": base_color, "metallic": metallic,
+            "roughness": roughness}, needs_uv
+
+
 def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf)
@@ -406,8 +465,9 @@ def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
     return mesh
 
 
-def convert(path, mode, resolution, max_depth):
-    """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'. Returns (dict, info)."""
+def convert(path, mode, resolution, max_depth, materials="lambertian"):
+    """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'; materials 'lambertian' or 'gltf'
+    (MATERIAL_MODELS). Returns (dict, info)."""
     g = Gltf(path)
     doc = g.doc
     scene = {"type": "scene"}
@@ -433,7 +493,7 @@ def convert(path, mode, resolution, max_depth):
                 if det < 0:
                     tris = tris[:, [0, 2, 1]]
                 wpos = pos @ lin.T + world[:3, 3]
-                bsdf, emitter, needs_uv = material_props(g, prim.get("material"), mode)
+                bsdf, emitter, needs_uv = material_props(g, prim.get("material"), mode, materials, info["warnings"])
                 normals = None
                 if "NORMAL" in attrs and emitter is None and normal_m is not None:
                     n = g.accessor(attrs["NORMAL"]) @ normal_m.T
@@ -560,6 +620,8 @@ def normals_mask(scene_dict, resolution, sub=8):
     w, h = resolution
     mask = np.zeros((h, w, 3), dtype=np.float32)
     offsets = [(i + 0.5) / sub for i in range(sub)]
+    if not mi.variant().startswith("scalar"):
+        return normals_mask_jit(scene, sensor, resolution, sub, offsets)
     for y in range(h):
         for x in range(w):
             side = 0
@@ -581,6 +643,31 @@ def normals_mask(scene_dict, resolution, sub=8):
                     wedge += (1.0 - min(c, 1.0)) / 2
             mask[y, x, 0] = side / (sub * sub)
             mask[y, x, 1] = wedge / (sub * sub)
+    return mask
+
+
+def normals_mask_jit(scene, sensor, resolution, sub, offsets):
+    """normals_mask() in a JIT variant: the same rays, traced at once, and the same float64
+    arithmetic on their float32 results. Against scalar_rgb (cornell-box, suzanne, flight-helmet
+    at 48x36): R identical, G within 6e-6 (the variants round interpolated normals differently)."""
+    w, h = resolution
+    y, x, oy, ox = np.meshgrid(np.arange(h), np.arange(w), offsets, offsets, indexing="ij")
+    u = ((x + ox) / w).astype(np.float32).ravel()
+    v = ((y + oy) / h).astype(np.float32).ravel()
+    n = len(u)
+    ray, _ = sensor.sample_ray(dr.zeros(mi.Float, n), dr.full(mi.Float, 0.5, n), mi.Point2f(u, v),
+                               mi.Point2f(dr.full(mi.Float, 0.5, n), dr.full(mi.Float, 0.5, n)))
+    si = scene.ray_intersect(ray)
+    valid = np.array(si.is_valid())
+    d, ng, ns = (np.array(a, dtype=np.float32).T.astype(np.float64) for a in (ray.d, si.n, si.sh_frame.n))
+    a = d[:, 0] * ng[:, 0] + d[:, 1] * ng[:, 1] + d[:, 2] * ng[:, 2]
+    b = d[:, 0] * ns[:, 0] + d[:, 1] * ns[:, 1] + d[:, 2] * ns[:, 2]
+    side = valid & (a * b < 0)
+    c = np.abs(ng[:, 0] * ns[:, 0] + ng[:, 1] * ns[:, 1] + ng[:, 2] * ns[:, 2])
+    wedge = np.where(valid, (1.0 - np.minimum(c, 1.0)) / 2, 0.0)
+    mask = np.zeros((h, w, 3), dtype=np.float32)
+    mask[..., 0] = side.reshape(h, w, sub * sub).sum(axis=2) / (sub * sub)
+    mask[..., 1] = wedge.reshape(h, w, sub * sub).sum(axis=2) / (sub * sub)
     return mask
 
 
@@ -646,10 +733,11 @@ def strata_args(integrator, strata_depth, res, background):
 _masks_done = set()
 
 
-def run_job(scene_name, integrator, spp, passes, seed_base=0):
+def run_job(scene_name, integrator, spp, passes, seed_base=0, materials="lambertian"):
     rel, res = SCENES[scene_name]
     mdepth, _ = INTEGRATORS[integrator]
-    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth)
+    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
+                               materials)
     t0 = time.time()
     mean, var_mean = render_passes(scene_dict, spp, passes, seed_base)
     seconds = time.time() - t0
@@ -662,14 +750,18 @@ def run_job(scene_name, integrator, spp, passes, seed_base=0):
         _masks_done.add(scene_name)
     # statistics of the float32 values as written (so --rebuild-manifest gives the same numbers)
     mean, var_mean = (a.astype(np.float32).astype(np.float64) for a in (mean, var_mean))
-    return manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds)
+    return manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds,
+                          materials)
 
 
-def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds):
+def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds,
+                   materials="lambertian"):
     rel, res = SCENES[scene_name]
     mdepth, strata_depth = INTEGRATORS[integrator]
+    if integrator == "ao":
+        materials = "lambertian"  # AO renders every surface white diffuse whatever the model
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
-    return {
+    entry = {
         "reference": os.path.relpath(base + ".exr", REPO),
         "variance": os.path.relpath(base + ".var.exr", REPO),
         "scene": rel,
@@ -693,13 +785,18 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
                        if integrator == "ao" else info["background"]),
         "triangles": info["triangles"],
         "lights": info["lights"],
-        "command": f"tools/references/make_references.sh {job_name(scene_name, integrator)}",
+        "command": "tools/references/make_references.sh "
+                   + ("" if materials == "lambertian" else f"--materials {materials} ")
+                   + job_name(scene_name, integrator),
         "standard_error": error_stats(mean, var_mean),
         "mask": os.path.relpath(os.path.join(OUT_DIR, scene_name + ".mask.exr"), REPO),
         "mask_stats": mask_stats(os.path.join(OUT_DIR, scene_name + ".mask.exr")),
         "render_seconds": None if seconds is None else round(seconds, 1),
         "warnings": info["warnings"],
     }
+    if materials != "lambertian":  # (lambertian rows stay as they were before the option existed)
+        entry["materials"] = {"model": materials, "description": MATERIAL_MODELS[materials]}
+    return entry
 
 
 def mask_stats(path):
@@ -715,18 +812,19 @@ def mask_stats(path):
                     "difference from that rule. See normals_mask() in tools/references/mitsuba_refs.py."}
 
 
-def rebuild_entry(scene_name, integrator, spp, passes, old):
+def rebuild_entry(scene_name, integrator, spp, passes, old, materials="lambertian"):
     """Manifest entry recomputed from the EXRs on disk (no rendering); keeps the old timing."""
     rel, res = SCENES[scene_name]
     mdepth, _ = INTEGRATORS[integrator]
-    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth)
+    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
+                               materials)
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
     mean = np.array(mi.Bitmap(base + ".exr"), dtype=np.float64)[..., :3]
     var_mean = np.array(mi.Bitmap(base + ".var.exr"), dtype=np.float64)[..., :3]
     seconds = (old or {}).get("render_seconds")
     if not os.path.exists(os.path.join(OUT_DIR, scene_name + ".mask.exr")):
         write_exr(os.path.join(OUT_DIR, scene_name + ".mask.exr"), normals_mask(scene_dict, res))
-    return manifest_entry(scene_name, integrator, spp, passes, 0, scene_dict, info, mean, var_mean, seconds)
+    return manifest_entry(scene_name, integrator, spp, passes, 0, scene_dict, info, mean, var_mean, seconds, materials)
 
 
 MANIFEST_HEADER = {
@@ -945,11 +1043,16 @@ def main():
     ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--spp", type=int, help="override the total spp (testing; not for committed references)")
+    ap.add_argument("--resolution", metavar="WxH",
+                    help="override every job's resolution (testing; not for committed references)")
     ap.add_argument("--out", help="output folder (default scenes/references; the manifest is only written there)")
     ap.add_argument("--no-manifest", action="store_true")
     ap.add_argument("--rebuild-manifest", action="store_true",
                     help="recompute the manifest entries of the jobs from the EXRs on disk, without rendering")
     ap.add_argument("--check", metavar="DIR", help="run the orientation and radiometry checks, writing into DIR")
+    ap.add_argument("--materials", choices=sorted(MATERIAL_MODELS), default="lambertian",
+                    help="material model of the shaded jobs (default lambertian; ao jobs are always white "
+                         "diffuse): " + "; ".join(f"{k}: {v}" for k, v in MATERIAL_MODELS.items()))
     args = ap.parse_args()
     mi.set_variant(VARIANT)
     if args.check:
@@ -971,15 +1074,22 @@ def main():
     if wanted - known:
         print(f"unknown jobs: {sorted(wanted - known)}; known: {sorted(known)}", file=sys.stderr)
         return 2
-    write_manifest = not args.no_manifest and not args.out and not args.spp
+    if args.materials == "gltf" and mi.variant().startswith("scalar"):
+        print("note: in scalar variants Mitsuba calls the glTF BRDF's Python code once per sample (about 50x "
+              "slower than twosided(diffuse)); STRATA_MITSUBA_VARIANT=llvm_ad_rgb compiles it once", file=sys.stderr)
+    write_manifest = not args.no_manifest and not args.out and not args.spp and not args.resolution
+    if args.resolution:
+        w, h = (int(x) for x in args.resolution.lower().split("x"))
+        for name, (rel, _) in SCENES.items():
+            SCENES[name] = (rel, (w, h))
     for s, i, spp, k in JOBS:
         if wanted and job_name(s, i) not in wanted:
             continue
         spp = args.spp or spp
         if args.rebuild_manifest:
-            entry = rebuild_entry(s, i, spp, k, old_entries().get(job_name(s, i)))
+            entry = rebuild_entry(s, i, spp, k, old_entries().get(job_name(s, i)), args.materials)
         else:
-            entry = run_job(s, i, spp, k)
+            entry = run_job(s, i, spp, k, materials=args.materials)
         se = entry["standard_error"]
         print(f"{job_name(s, i)}: {entry['render_seconds']} s, mean {se['image_mean']:.4g}, "
               f"rel. s.e. mean {se['mean_relative_standard_error']:.2e} max {se['max_relative_standard_error']:.2e}",
