@@ -7,8 +7,8 @@
 //! - f = (1 − F) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
 //!
 //! The specification's model gains and loses energy: single scattering among the microfacets
-//! loses it on rough surfaces (a white metal of roughness 1 returns about 80% of the light at
-//! normal incidence, [`AlbedoTable`]), and the dielectric's diffuse weight 1 − F(wo·h), whose
+//! loses it on rough surfaces (a white metal of roughness 1 returns 1 − ln 2 ≈ 31% of the
+//! light at normal incidence, [`AlbedoTable`]), and the dielectric's diffuse weight 1 − F(wo·h), whose
 //! h lies between wo and each wi, gives a white dielectric more than comes in at grazing
 //! incidence (1.26 at 77° and roughness 0.1). With energy compensation, the default:
 //!
