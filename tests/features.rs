@@ -7,13 +7,13 @@ mod common;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared};
 use strata::render::{self, Film, RenderSettings};
 use strata::sampling::SamplerKind;
-use strata::scene::{Camera, Light, Material, Projection, Scene};
+use strata::scene::{Camera, Light, Material, Scene};
 
 const FLOOR_COLOUR: Vec3 = Vec3::new(0.2, 0.4, 0.6);
 
@@ -49,22 +49,8 @@ fn floor_scene() -> Scene {
     s
 }
 
-/// A camera at `eye` whose view direction is `forward`, with `up` roughly up.
 fn camera(eye: Vec3, forward: Vec3, up: Vec3, yfov: f32) -> Camera {
-    let back = -forward.normalize();
-    let right = up.cross(back).normalize();
-    let true_up = back.cross(right);
-    Camera {
-        name: None,
-        projection: Projection::Perspective { yfov },
-        to_world: Mat4::from_cols(
-            right.extend(0.0),
-            true_up.extend(0.0),
-            back.extend(0.0),
-            eye.extend(1.0),
-        ),
-        aspect_ratio: None,
-    }
+    common::camera_looking(eye, forward, up, yfov)
 }
 
 fn render_film(scene: &Scene, camera: Camera, integrator: Integrator, features: bool) -> Film {

@@ -59,21 +59,7 @@ fn camera(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
     } else {
         Vec3::Y
     };
-    // Camera-to-world columns: right, up, back (the camera looks down its −Z), position.
-    let back = (eye - target).normalize();
-    let right = up.cross(back).normalize();
-    let true_up = back.cross(right);
-    Camera {
-        name: None,
-        projection: Projection::Perspective { yfov },
-        to_world: Mat4::from_cols(
-            right.extend(0.0),
-            true_up.extend(0.0),
-            back.extend(0.0),
-            eye.extend(1.0),
-        ),
-        aspect_ratio: None,
-    }
+    common::camera_looking(eye, target - eye, up, yfov)
 }
 
 /// How a test render is set up beyond scene, camera and integrator.

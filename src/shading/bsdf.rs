@@ -521,20 +521,7 @@ mod tests {
                             * (wi.z as f64 * std::f64::consts::TAU / (n * n) as f64);
                     }
                 }
-                let grid = 300;
-                let mut estimate = Vec3::ZERO.as_dvec3();
-                for i in 0..grid {
-                    for j in 0..grid {
-                        let u = Vec2::new(
-                            (i as f32 + 0.5) / grid as f32,
-                            (j as f32 + 0.5) / grid as f32,
-                        );
-                        if let Some(s) = bsdf.sample(wo, u) {
-                            estimate += (s.f_cos / s.pdf).as_dvec3();
-                        }
-                    }
-                }
-                estimate /= (grid * grid) as f64;
+                let estimate = sampled_albedo(&bsdf, wo);
                 let what = format!("{base} m {metallic} r {roughness} θo {theta}");
                 assert!(
                     (estimate - quadrature).abs().max_element() < 0.01 * quadrature.max_element(),

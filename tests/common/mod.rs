@@ -280,3 +280,28 @@ pub fn film_totals(film: &strata::render::Film) -> Vec<([u64; 3], [u64; 3], u32)
         })
         .collect()
 }
+
+/// A perspective camera at `eye` looking along `forward`, `up` roughly up (not parallel to
+/// `forward`), with vertical field of view `yfov`: its to-world columns are right, up, back
+/// (a glTF camera looks down its −Z) and the position.
+pub fn camera_looking(
+    eye: glam::Vec3,
+    forward: glam::Vec3,
+    up: glam::Vec3,
+    yfov: f32,
+) -> strata::scene::Camera {
+    let back = -forward.normalize();
+    let right = up.cross(back).normalize();
+    let true_up = back.cross(right);
+    strata::scene::Camera {
+        name: None,
+        projection: strata::scene::Projection::Perspective { yfov },
+        to_world: glam::Mat4::from_cols(
+            right.extend(0.0),
+            true_up.extend(0.0),
+            back.extend(0.0),
+            eye.extend(1.0),
+        ),
+        aspect_ratio: None,
+    }
+}
