@@ -36,14 +36,17 @@ struct Distribution1D {
 impl Distribution1D {
     fn new(func: Vec<f32>) -> Distribution1D {
         let n = func.len();
-        let mut cdf = Vec::with_capacity(n + 1);
-        cdf.push(0.0f64);
-        for (i, f) in func.iter().enumerate() {
-            cdf.push(cdf[i] + *f as f64 / n as f64);
-        }
-        let integral = cdf[n];
+        // The running sum in f64, normalised at the end.
+        let integral = func.iter().map(|&f| f as f64).sum::<f64>() / n as f64;
         let cdf = if integral > 0.0 {
-            cdf.iter().map(|c| (c / integral) as f32).collect()
+            let scale = 1.0 / (integral * n as f64);
+            let mut sum = 0.0f64;
+            std::iter::once(0.0)
+                .chain(func.iter().map(|&f| {
+                    sum += f as f64;
+                    (sum * scale) as f32
+                }))
+                .collect()
         } else {
             // No weight anywhere: uniform, so that sampling stays defined.
             (0..=n).map(|i| i as f32 / n as f32).collect()
@@ -108,24 +111,25 @@ impl EnvMap {
     ) -> EnvMap {
         assert_eq!(texels.len(), width * height, "texel count");
         assert!(width > 0 && height > 0, "an empty map");
-        let texels: Vec<Vec3> = texels
-            .into_iter()
-            .map(|t| Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), t, Vec3::ZERO))
-            .collect();
+        let mut texels = texels;
+        texels.par_iter_mut().for_each(|t| {
+            *t = Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), *t, Vec3::ZERO);
+        });
         // Each texel's weight: the mean of the bilinear lookup over its area, times sin θ.
         // The mean's kernel (1/8, 3/4, 1/8 along each axis; u wraps, v is clamped) is
         // separable: a pass along the rows, then one along the columns, rows in parallel.
-        let lum: Vec<f32> = texels.par_iter().map(|&t| luminance(t)).collect();
         let (k0, k1) = (0.125f32, 0.75f32);
-        let along_rows: Vec<f32> = lum
-            .par_chunks(width)
-            .flat_map_iter(|row| {
-                (0..width).map(move |x| {
+        let mut along_rows = vec![0f32; width * height];
+        along_rows
+            .par_chunks_mut(width)
+            .zip(texels.par_chunks(width))
+            .for_each(|(out, row)| {
+                let lum = |x: usize| luminance(row[x]);
+                for (x, o) in out.iter_mut().enumerate() {
                     let (left, right) = ((x + width - 1) % width, (x + 1) % width);
-                    k0 * row[left] + k1 * row[x] + k0 * row[right]
-                })
-            })
-            .collect();
+                    *o = k0 * lum(left) + k1 * lum(x) + k0 * lum(right);
+                }
+            });
         let conditional: Vec<Distribution1D> = (0..height)
             .into_par_iter()
             .map(|y| {
