@@ -71,7 +71,8 @@ pub struct Args {
     #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
     pub emitter_samples: u32,
 
-    /// Constant environment radiance, linear RGB [default: black].
+    /// Constant environment radiance, linear RGB [default: black]; with --env, what the camera
+    /// sees behind the scene while the map lights it.
     #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
     pub background: Option<[f32; 3]>,
 

@@ -171,9 +171,6 @@ impl Job {
             );
         }
 
-        if args.env.is_some() && args.background.is_some() {
-            refuse!("--env and --background both set what rays that leave the scene see: give one");
-        }
         if !(args.env_intensity >= 0.0 && args.env_intensity.is_finite()) {
             refuse!(
                 "--env-intensity must be a finite number of at least 0 (got {})",
@@ -252,6 +249,11 @@ impl Job {
                     Hemisphere::Uniform | Hemisphere::UniformUnweighted => DiffuseSampling::Uniform,
                 },
                 triangle_sampling: args.triangle_sampling,
+                // With a map, --background is what the camera sees behind the scene.
+                camera_background: match args.env {
+                    Some(_) => args.background.map(Vec3::from_array),
+                    None => None,
+                },
             },
             hemisphere: args.hemisphere,
             env: args

@@ -111,6 +111,7 @@ fn render_film(
         environment: Environment::Constant(setup.background),
         diffuse_sampling: setup.diffuse_sampling,
         triangle_sampling: setup.triangle_sampling,
+        camera_background: None,
     };
     let prepared = Prepared::with_options(scene, Path::new("test"), &integrator, &options).unwrap();
     let mut ctx = prepared.context(scene, &accel);

@@ -45,6 +45,9 @@ pub struct ShadingOptions {
     pub diffuse_sampling: DiffuseSampling,
     /// How points on emissive triangles are sampled (`--triangle-sampling`).
     pub triangle_sampling: TriangleSampling,
+    /// What camera rays that miss see instead of the environment (`--background` in front of
+    /// an `--env` map); None: the environment.
+    pub camera_background: Option<Vec3>,
 }
 
 /// The materials and lights an integrator needs, prepared once per render: nothing for AO;
@@ -101,6 +104,7 @@ impl Prepared {
             LightSet::default()
         };
         lights.triangle_sampling = options.triangle_sampling;
+        lights.camera_background = options.camera_background;
         Ok(Prepared { materials, lights })
     }
 
@@ -338,7 +342,7 @@ impl Integrator {
         Some(match self {
             Integrator::Ao(_) => Vec3A::ZERO,
             Integrator::Direct(_) | Integrator::Path(_)
-                if ctx.lights.environment().constant().is_none() =>
+                if ctx.lights.constant_camera_miss().is_none() =>
             {
                 return None
             }

@@ -122,8 +122,12 @@ pub fn li(
     let mut u_light = Vec2::ZERO;
     loop {
         let Some(hit) = next_hit else {
-            // Possibly add the environment, weighted against sampling it as a light.
-            let le = lights.environment().radiance(ray.dir);
+            // Possibly add the environment, weighted against sampling it as a light (the
+            // camera's own view of it may be a background of its own).
+            let le = match prev {
+                None => lights.camera_miss_radiance(ray.dir),
+                Some(_) => lights.environment().radiance(ray.dir),
+            };
             if le.max_element() > 0.0 {
                 let w = match prev {
                     None => 1.0,

@@ -207,7 +207,9 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
                 "strata:triangle_sampling".into(),
                 Attr::Text(job.shading.triangle_sampling.to_string()),
             ));
-            let b = job.shading.environment.constant().unwrap_or_default();
+            let b = (job.shading.camera_background)
+                .or(job.shading.environment.constant())
+                .unwrap_or_default();
             attrs.push((
                 "strata:background".into(),
                 Attr::Text(format!("{},{},{}", b.x, b.y, b.z)),

@@ -219,6 +219,9 @@ pub struct LightSet {
     /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
     triangle_light: Vec<u32>,
     environment: Environment,
+    /// What camera rays that miss the scene see instead of the environment (`--background`
+    /// in front of an `--env` map); None: the environment.
+    pub camera_background: Option<Vec3>,
     /// The environment's index in `emitters` (its selection probability, 0 when light
     /// sampling leaves it to BSDF sampling); None for a black environment.
     environment_light: Option<usize>,
@@ -342,6 +345,7 @@ impl LightSet {
             table,
             triangle_light,
             environment,
+            camera_background: None,
             environment_light,
         }
     }
@@ -361,6 +365,23 @@ impl LightSet {
     #[inline]
     pub fn environment(&self) -> &Environment {
         &self.environment
+    }
+
+    /// The radiance a camera ray that leaves the scene in direction `dir` sees: the camera
+    /// background where one is set, else the environment.
+    #[inline]
+    pub fn camera_miss_radiance(&self, dir: Vec3) -> Vec3 {
+        match self.camera_background {
+            Some(l) => l,
+            None => self.environment.radiance(dir),
+        }
+    }
+
+    /// The camera miss radiance where it is the same in every direction.
+    #[inline]
+    pub fn constant_camera_miss(&self) -> Option<Vec3> {
+        self.camera_background
+            .or_else(|| self.environment.constant())
     }
 
     /// Selection probability × solid-angle pdf with which light sampling would have drawn
