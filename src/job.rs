@@ -29,6 +29,11 @@ use crate::shading::{DiffuseSampling, EnvMap, Environment};
 /// has, so the target error or the time limit is what stops it.
 pub const PROGRESSIVE_MAX_SPP: u32 = SOBOL_MAX_SPP;
 
+/// The radiance of the uniform white sky that lights a scene bringing no light of its own,
+/// when neither `--background` nor `--env` says what else to use: the light of ambient
+/// occlusion, so such a scene renders as AO would, with its materials' colours.
+pub const DEFAULT_SKY: f32 = 1.0;
+
 /// The default `--spp` of a render that takes every pixel's samples.
 pub const DEFAULT_SPP: u32 = 64;
 
@@ -80,6 +85,9 @@ pub struct Job {
     pub shading: ShadingOptions,
     /// `--hemisphere`, as given (AO's estimator and the diffuse BSDF's sampling).
     pub hemisphere: Hemisphere,
+    /// Neither `--background` nor `--env` was given: a scene that brings no light of its own
+    /// is lit by [`DEFAULT_SKY`] ([`Job::light_a_scene_without_lights`]).
+    pub default_sky: bool,
     /// The environment map to load (`--env`), its rotation about +Y in degrees and its scale;
     /// [`Job::load_environment`] puts it into `shading`.
     pub env: Option<(PathBuf, f32, f32)>,
@@ -256,6 +264,7 @@ impl Job {
                 },
             },
             hemisphere: args.hemisphere,
+            default_sky: args.env.is_none() && args.background.is_none(),
             env: args
                 .env
                 .clone()
@@ -378,6 +387,18 @@ impl Job {
     }
 
     /// The BVH build's options, for a pool of `threads` worker threads.
+    /// Where neither `--background` nor `--env` was given and `scene` brings no light (no
+    /// punctual light, no emissive surface), lights it with [`DEFAULT_SKY`] for the integrators
+    /// that need light, and says so; returns whether it did.
+    pub fn light_a_scene_without_lights(&mut self, scene: &Scene) -> bool {
+        let dark = scene.lights.is_empty() && scene.summary.emissive_triangles == 0;
+        if !(self.default_sky && dark && self.integrator.needs_lights()) {
+            return false;
+        }
+        self.shading.environment = Environment::Constant(Vec3::splat(DEFAULT_SKY));
+        true
+    }
+
     /// Reads the environment map (`--env`), if any, into the shading options.
     pub fn load_environment(&mut self) -> Result<(), JobError> {
         if let Some((path, degrees, scale)) = &self.env {

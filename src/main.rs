@@ -117,6 +117,13 @@ fn run(args: Args) -> Result<Outcome> {
 
     // Materials and lights: only what the integrator reads.
     let t_prepare = Instant::now();
+    if job.light_a_scene_without_lights(&scene) {
+        eprintln!(
+            "note: {} has no light source (no punctual light, no emissive surface): it is lit by a uniform white sky of radiance {} (--background R,G,B or --env FILE to choose another)",
+            job.scene.display(),
+            strata::job::DEFAULT_SKY
+        );
+    }
     if job.integrator.needs_lights() {
         job.load_environment()?;
     } else if job.env.is_some() {

@@ -721,6 +721,34 @@ fn pixel_replay_renders_one_pixel_and_prints_it() {
 #[test]
 fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
     let tmp = tempfile::tempdir().unwrap();
+    // Without --background or --env, a scene with no light is lit by the default white sky,
+    // and says so: the floor beside the wall is not black.
+    let sky = tmp.path().join("sky.exr");
+    let run = render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&sky),
+            "--integrator",
+            "path",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "16",
+        ],
+    );
+    run.assert_success();
+    assert!(
+        run.stderr.contains("no light source") && run.stderr.contains("white sky"),
+        "{}",
+        run.stderr
+    );
+    let (_, _, px) = strata::render::output::read_exr_rgb(&sky).unwrap();
+    let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+    assert!(mean > 0.1, "the default sky lights the scene: mean {mean}");
+
+    // An explicit black background keeps the scene dark: black, without tracing a ray.
     let out = tmp.path().join("dark.exr");
     let wall = ao_wall();
     let args = [
@@ -729,6 +757,8 @@ fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
         s(&out),
         "--integrator",
         "path",
+        "--background",
+        "0,0,0",
         "--resolution",
         "16x16",
         "--spp",
