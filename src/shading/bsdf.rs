@@ -275,7 +275,7 @@ impl SurfaceBsdf {
         let (local, flags) = self.bsdf.sample_direction(self.wo, u)?;
         let wi = self.frame.to_world(local);
         if flags.is_specular() {
-            let s = self.bsdf.sample(self.wo, u)?;
+            let s = self.bsdf.sample_delta(self.wo, local, flags)?;
             return (wi.dot(self.ng) > 0.0).then_some(BsdfSample { wi, ..s });
         }
         let pdf = self.pdf(wi);
