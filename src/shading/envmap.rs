@@ -22,6 +22,8 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::environment::luminance;
+use super::texture::Image;
+use crate::scene::Wrap;
 
 /// A piecewise-constant density on [0, 1) (pbrt-v4's `PiecewiseConstant1D`).
 #[derive(Clone, Debug, PartialEq)]
@@ -86,10 +88,9 @@ impl Distribution1D {
 /// An equirectangular environment map (see the module documentation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
-    width: usize,
-    height: usize,
-    /// Linear RGB radiance, row-major, row 0 the top (straight up).
-    texels: Vec<Vec3>,
+    /// Linear RGB radiance (alpha 1), row 0 the top (straight up), looked up as textures
+    /// are ([`Image::bilinear`]: u repeats, v clamps at the poles).
+    image: Image,
     /// sin and cos of the rotation about +Y.
     rotation: (f32, f32),
     /// Radiance scale (`--env-intensity`).
@@ -111,10 +112,12 @@ impl EnvMap {
     ) -> EnvMap {
         assert_eq!(texels.len(), width * height, "texel count");
         assert!(width > 0 && height > 0, "an empty map");
-        let mut texels = texels;
-        texels.par_iter_mut().for_each(|t| {
-            *t = Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), *t, Vec3::ZERO);
-        });
+        // RGBA texels as textures hold them, negative and non-finite values zeroed.
+        let texels: Vec<glam::Vec4> = texels
+            .par_iter()
+            .map(|t| Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), *t, Vec3::ZERO))
+            .map(|t| t.extend(1.0))
+            .collect();
         // Each texel's weight: the mean of the bilinear lookup over its area, times sin θ.
         // The mean's kernel (1/8, 3/4, 1/8 along each axis; u wraps, v is clamped) is
         // separable: a pass along the rows, then one along the columns, rows in parallel.
@@ -124,7 +127,7 @@ impl EnvMap {
             .par_chunks_mut(width)
             .zip(texels.par_chunks(width))
             .for_each(|(out, row)| {
-                let lum = |x: usize| luminance(row[x]);
+                let lum = |x: usize| luminance(row[x].truncate());
                 for (x, o) in out.iter_mut().enumerate() {
                     let (left, right) = ((x + width - 1) % width, (x + 1) % width);
                     *o = k0 * lum(left) + k1 * lum(x) + k0 * lum(right);
@@ -145,9 +148,11 @@ impl EnvMap {
             .collect();
         let row_integrals = conditional.iter().map(|row| row.integral).collect();
         EnvMap {
-            width,
-            height,
-            texels,
+            image: Image {
+                width: width as u32,
+                height: height as u32,
+                texels,
+            },
             rotation: rotation.sin_cos(),
             scale,
             marginal: Distribution1D::new(row_integrals),
@@ -185,12 +190,13 @@ impl EnvMap {
 
     /// (width, height) in texels.
     pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
+        (self.image.width as usize, self.image.height as usize)
     }
 
     /// Bytes held (texels and the sampling distributions), for `--stats`.
     pub fn memory(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<Vec3>() + 2 * 4 * (self.texels.len() + self.height)
+        let (texels, rows) = (self.image.texels.len(), self.conditional.len());
+        texels * std::mem::size_of::<glam::Vec4>() + 2 * 4 * (texels + rows)
     }
 
     /// True when no texel holds any radiance.
@@ -235,20 +241,8 @@ impl EnvMap {
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         let uv = self.uv(dir);
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = (uv.y * self.height as f32 - 0.5).clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let w = self.width as isize;
-        let texel = |xi: isize, yi: isize| {
-            let xi = xi.rem_euclid(w) as usize;
-            let yi = (yi.max(0) as usize).min(self.height - 1);
-            self.texels[yi * self.width + xi]
-        };
-        let (xi, yi) = (x0 as isize, y0 as isize);
-        let top = texel(xi, yi) * (1.0 - fx) + texel(xi + 1, yi) * fx;
-        let bottom = texel(xi, yi + 1) * (1.0 - fx) + texel(xi + 1, yi + 1) * fx;
-        (top * (1.0 - fy) + bottom * fy) * self.scale
+        let texel = self.image.bilinear(uv, Wrap::Repeat, Wrap::ClampToEdge);
+        texel.truncate() * self.scale
     }
 
     /// A direction drawn with `u`, its radiance and its solid-angle pdf (0 at the poles,
@@ -275,8 +269,9 @@ impl EnvMap {
         if sin_theta <= 0.0 {
             return 0.0;
         }
-        let row = ((uv.y * self.height as f32) as usize).min(self.height - 1);
-        let col = ((uv.x.rem_euclid(1.0) * self.width as f32) as usize).min(self.width - 1);
+        let (width, height) = self.size();
+        let row = ((uv.y * height as f32) as usize).min(height - 1);
+        let col = ((uv.x.rem_euclid(1.0) * width as f32) as usize).min(width - 1);
         let p = self.marginal.density(row) * self.conditional[row].density(col);
         p / (2.0 * std::f32::consts::PI * std::f32::consts::PI * sin_theta)
     }
@@ -470,7 +465,7 @@ mod tests {
     fn negative_and_non_finite_texels_are_zero() {
         let texels = vec![Vec3::new(-1.0, f32::NAN, f32::INFINITY), Vec3::ONE];
         let map = EnvMap::new(2, 1, texels, 0.0, 1.0);
-        assert_eq!(map.texels[0], Vec3::ZERO);
+        assert_eq!(map.image.texels[0].truncate(), Vec3::ZERO);
         assert!(map.radiance(Vec3::X).is_finite());
     }
 }

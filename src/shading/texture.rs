@@ -9,7 +9,7 @@ use glam::{Vec2, Vec4};
 use crate::scene::{ImageSource, TextureRef, Wrap};
 
 /// A decoded image in linear RGBA, row 0 at the top.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     pub width: u32,
     pub height: u32,
