@@ -334,10 +334,10 @@ impl Integrator {
     /// (AO's 0, or a constant environment): the renderer then gives it to samples it leaves
     /// untraced. None where the environment varies with direction: such rays are traced.
     /// Direct lighting and path tracing compute it as they do for such a ray (`sampler` is
-    /// drawn from as it would be); AO's is its documented 0, written out so that `ao::li`
-    /// keeps its one caller in the render loop (a second one changed how it was inlined, and
-    /// cost a 64-ray AO render 3–5%). The render tests compare culled and traced misses bit
-    /// for bit. Only called when [`Integrator::traces_rays`].
+    /// drawn from as it would be); AO's is its documented 0, written out rather than asked of
+    /// `ao::li`, whose inlining a second caller changed (a 64-ray AO render was 3–5% slower).
+    /// The render tests compare culled and traced misses bit for bit. Only called when
+    /// [`Integrator::traces_rays`].
     pub fn camera_miss(&self, ctx: &Context, sampler: &mut PixelSampler) -> Option<Vec3A> {
         Some(match self {
             Integrator::Ao(_) => Vec3A::ZERO,

@@ -116,8 +116,9 @@ impl EmitterView {
     /// split pixels, and those of its other pixels, are each estimated as one packet; the
     /// estimates do not depend on how the packet is divided, since a split's emitter rays
     /// draw from a side stream that does not depend on where the path's draws have got to.
-    /// The emitter rays are traced in packets where camera rays are (`ctx.experiments.camera_packets`),
-    /// else one by one (the hits, so the estimates, are the same).
+    /// The emitter rays are traced in packets where camera rays are
+    /// (`ctx.experiments.camera_packets`), else one by one (the hits, so the estimates, are
+    /// the same).
     #[allow(clippy::too_many_arguments)]
     pub fn li_packet(
         &self,
