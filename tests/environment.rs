@@ -5,14 +5,12 @@
 
 mod common;
 
-use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use glam::Vec3;
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions};
-use strata::render::{self, RenderSettings};
+use strata::render::RenderSettings;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
 use strata::shading::{EnvMap, Environment};
@@ -48,14 +46,7 @@ fn render_under(
         tile_size: 8,
         min_pass_seconds: 0.0,
     };
-    let pool = render::thread_pool(2).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly(&ctx, &settings);
     assert_eq!(result.stats.bad_samples, 0);
     result.film
 }

@@ -5,13 +5,11 @@
 mod common;
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 use glam::{Vec2, Vec3};
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared};
-use strata::render::{self, Film, RenderSettings};
+use strata::render::{Film, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{Camera, Light, Material, Scene};
 
@@ -71,14 +69,7 @@ fn render_film(scene: &Scene, camera: Camera, integrator: Integrator, features: 
         tile_size: 8,
         min_pass_seconds: 0.0,
     };
-    let pool = render::thread_pool(2).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly(&ctx, &settings);
     result.film
 }
 

@@ -305,3 +305,19 @@ pub fn camera_looking(
         aspect_ratio: None,
     }
 }
+
+/// Renders `settings` through `ctx` on two worker threads, without a progress bar or a way to
+/// cancel: the render loop as the library tests drive it.
+pub fn render_quietly(
+    ctx: &strata::integrators::Context,
+    settings: &strata::render::RenderSettings,
+) -> strata::render::RenderResult {
+    let pool = strata::render::thread_pool(2).unwrap();
+    strata::render::render(
+        ctx,
+        settings,
+        &pool,
+        &indicatif::ProgressBar::hidden(),
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+}
