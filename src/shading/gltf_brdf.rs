@@ -1,10 +1,18 @@
 //! The glTF 2.0 metallic-roughness BRDF, as Appendix B of the specification writes it
 //! (single scattering):
 //!
-//! - f0 = mix(0.04, base colour, metallic) and c_diff = mix(base colour, 0, metallic)
-//!   ("Metal BRDF and dielectric BRDF"; 0.04 is the reflectance of IOR 1.5);
-//! - Schlick's F = f0 + (1 − f0)(1 − |wo·h|)⁵;
-//! - f = (1 − F) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
+//! material = mix(dielectric_brdf, metal_brdf, metallic), the metal's specular lobe tinted by
+//! Schlick's Fresnel of f0 = base colour, the dielectric's a Fresnel mix (F0 = 0.04, the
+//! reflectance of IOR 1.5) of the specular layer over Lambertian base colour. Schlick's F is
+//! affine in f0, so the two specular lobes mix into one:
+//!
+//! - f0 = mix(0.04, base colour, metallic), c_diff = (1 − metallic) base colour;
+//! - F = f0 + (1 − f0)(1 − |wo·h|)⁵, and the dielectric's F_d the same with f0 = 0.04;
+//! - f = (1 − F_d) c_diff / π + F D V, D and V those of GGX with α = roughness² ([`Ggx`]).
+//!
+//! (The specification's "suggested simplification" weights the diffuse lobe by 1 − F instead
+//! of 1 − F_d: the same model at metallic 0 and 1 only; between, it darkens, a white half-metal
+//! returning three quarters of the light. strata renders the normative mix.)
 //!
 //! The specification's model gains and loses energy: single scattering among the microfacets
 //! loses it on rough surfaces (a white metal of roughness 1 returns 1 − ln 2 ≈ 31% of the
@@ -15,7 +23,10 @@
 //! - the specular lobe is scaled by 1 + f0 (1 − E(μo)) / E(μo), E the single-scattering albedo
 //!   of GGX with F = 1 (Turquin 2019, "Practical multiple scattering compensation for
 //!   microfacet models", eq. 8): a white metal then returns all the light, and the lobe keeps
-//!   its shape, so sampling is unchanged (not reciprocal: it reads μo alone, as Turquin notes);
+//!   its shape, so sampling is unchanged (not reciprocal: it reads μo alone, as Turquin notes).
+//!   The metal's lobe and the dielectric's are each compensated with their own f0 and then
+//!   mixed by metallic: F·(1 + f0 k) is not affine in f0, and compensating the mixed f0 would
+//!   leave a white half-metal of roughness 1 at 0.84;
 //! - the diffuse lobe takes what the specular layer leaves, c_diff/π · (1 − A(μo))(1 − A(μi))
 //!   / (1 − A_avg), A(μ) that layer's albedo (f0·E + (1 − f0)·E_s, compensated) and A_avg its
 //!   cosine-weighted average (the energy-conserving layering of Kulla & Conty 2017, §5.3): a
@@ -34,6 +45,9 @@ use super::bsdf::{BsdfFlags, BsdfSample};
 use super::environment::luminance;
 use super::microfacet::{AlbedoTable, Ggx};
 use crate::sampling::warps::square_to_cosine_hemisphere;
+
+/// The dielectric's reflectance at normal incidence: IOR 1.5, ((1.5 − 1) / (1.5 + 1))².
+const DIELECTRIC_F0: f32 = 0.04;
 
 /// The glTF metallic-roughness BRDF of one surface point, in the shading frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,19 +88,19 @@ impl GltfBrdf {
     /// f0 and c_diff.
     #[inline]
     fn colors(&self) -> (Vec3, Vec3) {
-        let f0 = Vec3::splat(0.04).lerp(self.base_color, self.metallic);
+        let f0 = Vec3::splat(DIELECTRIC_F0).lerp(self.base_color, self.metallic);
         (f0, self.base_color * (1.0 - self.metallic))
     }
 
     /// The probability of sampling the specular lobe seen from `wo`: its share of the
-    /// Fresnel-weighted luminance, F(n·wo) against (1 − F(n·wo)) c_diff (1 where the diffuse
+    /// Fresnel-weighted luminance, F(n·wo) against (1 − F_d(n·wo)) c_diff (1 where the diffuse
     /// lobe is black).
     #[inline]
     fn specular_probability(&self, wo: Vec3) -> f32 {
         let (f0, c_diff) = self.colors();
-        let f = schlick(f0, wo.z);
-        let specular = luminance(f);
-        let diffuse = luminance((Vec3::ONE - f) * c_diff);
+        let specular = luminance(schlick(f0, wo.z));
+        let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
+        let diffuse = luminance((Vec3::ONE - f_d) * c_diff);
         if diffuse <= 0.0 {
             1.0
         } else {
@@ -112,28 +126,36 @@ impl GltfBrdf {
         }
         let h = (wo + wi).normalize();
         let (f0, c_diff) = self.colors();
-        let f = schlick(f0, wo.dot(h).abs());
+        let wo_h = wo.dot(h).abs();
+        let f = schlick(f0, wo_h);
         let diffuse = match self.energy_compensation {
-            false => (Vec3::ONE - f) * c_diff * std::f32::consts::FRAC_1_PI,
-            true => self.layered_diffuse(f0, c_diff, wo.z, wi.z),
+            false => {
+                let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo_h);
+                (Vec3::ONE - f_d) * c_diff * std::f32::consts::FRAC_1_PI
+            }
+            true => self.layered_diffuse(c_diff, wo.z, wi.z),
         };
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
-            false => f * (ggx.d(h) * ggx.v(wo, wi)) * self.compensation(f0, wo.z),
+            false => self.specular_weight(f, wo_h, wo.z) * (ggx.d(h) * ggx.v(wo, wi)),
         };
         (diffuse + specular) * wi.z
     }
 
-    /// Turquin's scale of the specular lobe seen from direction cosine `mu`: 1 + f0 (1 − E) / E
-    /// (1 without compensation).
+    /// The specular lobe's Fresnel weight, `f` = F(`wo_h`) of the mixed f0, seen from direction
+    /// cosine `mu`: without compensation `f` itself; with it, the metal's and the dielectric's
+    /// weights F (1 + f0 (1 − E) / E) (Turquin), each with its own F and f0, mixed by metallic.
     #[inline]
-    fn compensation(&self, f0: Vec3, mu: f32) -> Vec3 {
+    fn specular_weight(&self, f: Vec3, wo_h: f32, mu: f32) -> Vec3 {
         if !self.energy_compensation {
-            return Vec3::ONE;
+            return f;
         }
         let e = AlbedoTable::get().e(mu, self.alpha).max(1e-3);
-        Vec3::ONE + f0 * ((1.0 - e) / e)
+        let k = (1.0 - e) / e;
+        let dielectric = schlick(Vec3::splat(DIELECTRIC_F0), wo_h) * (1.0 + DIELECTRIC_F0 * k);
+        let metal = schlick(self.base_color, wo_h) * (Vec3::ONE + self.base_color * k);
+        dielectric.lerp(metal, self.metallic)
     }
 
     /// The specular layer's albedo A(μ) = (f0·E + (1 − f0)·E_s)(1 + f0 (1 − E) / E), seen from
@@ -156,12 +178,14 @@ impl GltfBrdf {
         f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio
     }
 
-    /// The diffuse lobe under a compensated specular layer (see the module documentation).
+    /// The diffuse lobe under the dielectric's compensated specular layer (see the module
+    /// documentation).
     #[inline]
-    fn layered_diffuse(&self, f0: Vec3, c_diff: Vec3, mu_o: f32, mu_i: f32) -> Vec3 {
+    fn layered_diffuse(&self, c_diff: Vec3, mu_o: f32, mu_i: f32) -> Vec3 {
         if c_diff == Vec3::ZERO {
             return Vec3::ZERO;
         }
+        let f0 = Vec3::splat(DIELECTRIC_F0);
         let leave = |mu| (Vec3::ONE - self.specular_albedo(f0, mu)).max(Vec3::ZERO);
         let rest = (Vec3::ONE - self.specular_albedo_average(f0)).max(Vec3::splat(1e-4));
         c_diff * std::f32::consts::FRAC_1_PI * leave(mu_o) * leave(mu_i) / rest

@@ -66,20 +66,27 @@ def model(base, metallic, roughness, wi, wo):
     f0 = 0.04 * (1 - metallic) + base * metallic
     c_diff = base * (1 - metallic)
 
-    def schlick(c):
+    def schlick(c, f0=f0):
+        f0 = np.broadcast_to(np.asarray(f0, dtype=np.float64), (3,))
         return f0[None, :] + (1 - f0[None, :]) * (1 - np.clip(c, 0, 1))[:, None] ** 5
 
-    fr = schlick(np.abs(np.sum(wi * h, axis=1)))
+    vh = np.abs(np.sum(wi * h, axis=1))
     d = a2 / (np.pi * (h[:, 2] ** 2 * (a2 - 1) + 1) ** 2)
     with np.errstate(invalid="ignore", divide="ignore"):
         v = 0.5 / (co * np.sqrt(ci ** 2 * (1 - a2) + a2) + ci * np.sqrt(co ** 2 * (1 - a2) + a2))
     glossy = alpha >= SMOOTH_ALPHA
-    spec = fr * (d * v)[:, None] if glossy else 0.0
-    f = (1 - fr) * c_diff[None, :] / np.pi + spec
+    specular_brdf = (d * v)[:, None] if glossy else 0.0
+    # The specification's normative form, written out: material = mix(dielectric_brdf,
+    # metal_brdf, metallic), metal_brdf = conductor_fresnel(f0 = base, specular_brdf) and
+    # dielectric_brdf = fresnel_mix(ior = 1.5: F0 0.04, base = base / pi, layer = specular_brdf).
+    metal = schlick(vh, base) * specular_brdf
+    fd = schlick(vh, 0.04)
+    dielectric = (1 - fd) * base[None, :] / np.pi + fd * specular_brdf
+    f = (1 - metallic) * dielectric + metallic * metal
     value = np.where(ok[:, None], f * co[:, None], 0.0)
 
     fn = schlick(ci)  # lobe choice: Fresnel-weighted luminance at wi
-    s, dd = fn @ LUMINANCE, ((1 - fn) * c_diff[None, :]) @ LUMINANCE
+    s, dd = fn @ LUMINANCE, ((1 - schlick(ci, 0.04)) * c_diff[None, :]) @ LUMINANCE
     p_spec = np.where(dd <= 0, 1.0, s / np.maximum(s + dd, 1e-300))
     g1 = 2 * ci / (ci + np.sqrt(a2 * (1 - ci ** 2) + ci ** 2))
     pdf_spec = d * g1 / (4 * ci) if glossy else 0.0
@@ -250,7 +257,8 @@ def check_mirror():
         ev, ep = model(base, m, 0.01, [wi], [[0, 0, 1]])
         f0 = 0.04 * (1 - m) + np.array(base) * m
         fn = f0 + (1 - f0) * (1 - wi[2]) ** 5
-        p = 1.0 if m == 1.0 else float((fn @ LUMINANCE) / (fn @ LUMINANCE + ((1 - fn) * np.array(base) * (1 - m)) @ LUMINANCE))
+        fd = 0.04 + 0.96 * (1 - wi[2]) ** 5  # the dielectric's Fresnel weighs the diffuse lobe
+        p = 1.0 if m == 1.0 else float((fn @ LUMINANCE) / (fn @ LUMINANCE + ((1 - fd) * np.array(base) * (1 - m)) @ LUMINANCE))
         delta = kind == +mi.BSDFFlags.DeltaReflection
         mirror = np.array([-wi[0], -wi[1], wi[2]])
         good = (np.allclose(wo[delta], mirror, atol=1e-6) and np.allclose(w[delta], fn / p, rtol=1e-5)

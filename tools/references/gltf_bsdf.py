@@ -8,11 +8,18 @@ direction toward the light (Mitsuba's wo), h = normalize(wi + wo), all in the sh
     f0     = mix(0.04, b, m)                 (0.04: the reflectance of IOR 1.5)
     c_diff = b (1 - m)
     F      = f0 + (1 - f0) (1 - |wi.h|)^5    (Schlick)
+    F_d    = 0.04 + 0.96 (1 - |wi.h|)^5      (the dielectric's)
     alpha  = r^2
     D      = alpha^2 / (pi ((n.h)^2 (alpha^2 - 1) + 1)^2)                         (GGX)
     V      = 0.5 / (n.wo sqrt((n.wi)^2 (1 - alpha^2) + alpha^2)
                     + n.wi sqrt((n.wo)^2 (1 - alpha^2) + alpha^2))      (height-correlated)
-    f      = (1 - F) c_diff / pi + F D V
+    f      = (1 - F_d) c_diff / pi + F D V
+
+which is the specification's normative mix(dielectric_brdf, metal_brdf, m) exactly (Schlick's F
+is affine in f0, so the two specular lobes mix into one with f0 mixed; the diffuse lobe is the
+dielectric's alone). The specification's "suggested simplification" weights the diffuse lobe by
+1 - F instead, which agrees only at m = 0 and m = 1 (a white half-metal then returns 3/4 of the
+light).
 
 `eval` returns f (n.wo). Below alpha = 1e-3 the specular lobe is a perfect mirror: a delta
 lobe of weight F(n.wi) that only `sample` produces (`eval` and `pdf` leave it out), as in strata.
@@ -25,7 +32,7 @@ Sampling uses Mitsuba's own tools, nothing shared with strata but the formula: t
 reflects wi about a normal drawn by `mi.MicrofacetDistribution(GGX, alpha, sample_visible=True)`
 (density G1(wi) D(h) / (4 n.wi) in wo); the diffuse lobe draws wo with
 `mi.warp.square_to_cosine_hemisphere`. The lobe is chosen with `sample1`: specular with
-probability P = lum(F(n.wi)) / (lum(F(n.wi)) + lum((1 - F(n.wi)) c_diff)), lum the Rec. 709
+probability P = lum(F(n.wi)) / (lum(F(n.wi)) + lum((1 - F_d(n.wi)) c_diff)), lum the Rec. 709
 luminance (each lobe's weight with the half vector taken as the normal; 1 where the diffuse lobe
 is black; the choice only affects noise, never the expected value), diffuse with 1 - P. `pdf` is the mixture's density
 P pdf_spec + (1 - P) pdf_cos, and a sample's weight is eval / pdf (the mirror's: F(n.wi) / P).
@@ -51,6 +58,7 @@ import mitsuba as mi
 PLUGIN_NAME = "gltf_metal_rough"
 # Below this GGX alpha the specular lobe is a perfect mirror (strata: Ggx::SMOOTH_ALPHA).
 SMOOTH_ALPHA = 1e-3
+DIELECTRIC_F0 = 0.04  # the reflectance at normal incidence of IOR 1.5
 
 _registered = set()
 
@@ -157,7 +165,7 @@ def _make_class():
                 return 0.0
             fr = schlick(f0, cos_i)
             s = mi.luminance(fr)
-            d = mi.luminance((1.0 - fr) * c_diff)
+            d = mi.luminance((1.0 - schlick(DIELECTRIC_F0, cos_i)) * c_diff)
             return dr.select(d <= 0.0, 1.0, s / dr.maximum(s + d, 1e-30))
 
         @staticmethod
@@ -184,7 +192,8 @@ def _make_class():
             pdf = mi.Float(0.0)
             p_spec = self._specular_probability(f0, c_diff, cos_i, glossy_on or delta_on, diffuse_on)
             if diffuse_on:
-                value += (1.0 - fr) * c_diff * dr.inv_pi
+                fr_d = schlick(DIELECTRIC_F0, dr.abs(dr.dot(wi, h)))
+                value += (1.0 - fr_d) * c_diff * dr.inv_pi
                 pdf += (1.0 - p_spec) * mi.warp.square_to_cosine_hemisphere_pdf(wo)
             if glossy_on:
                 spec = fr * (d * visibility(alpha, cos_i, cos_o))
