@@ -10,6 +10,7 @@ use crate::render::adaptive::ErrorMetric;
 use crate::render::DEFAULT_MIN_PASS_SECONDS;
 use crate::sampling::SamplerKind;
 use crate::shading::lights::TriangleSampling;
+use crate::shading::MaterialModel;
 
 /// The options of `render`, one field each; a field's doc comment is its `--help` text, and
 /// `--help` opens with the package's description.
@@ -165,8 +166,8 @@ pub struct Args {
     #[arg(long, value_name = "DISTANCE")]
     pub ao_distance: Option<f32>,
 
-    /// Hemisphere sampling of AO rays and of the path tracer's diffuse BSDF: cosine-weighted,
-    /// or uniform (weighted by cos θ / pdf), for comparisons.
+    /// Hemisphere sampling of AO rays and of Lambertian reflection (`--materials lambertian`):
+    /// cosine-weighted, or uniform (weighted by cos θ / pdf), for comparisons.
     #[arg(
         long,
         default_value = "cosine",
@@ -174,6 +175,29 @@ pub struct Args {
         hide_possible_values = true
     )]
     pub hemisphere: Hemisphere,
+
+    /// Material model: the glTF metallic-roughness BRDF the file describes, or Lambertian
+    /// reflection of the base colour (a clay override for look-dev: metallic, roughness and
+    /// their texture ignored).
+    #[arg(
+        long,
+        default_value = "gltf",
+        value_name = "gltf|lambertian",
+        hide_possible_values = true
+    )]
+    pub materials: MaterialModel,
+
+    /// Multiple-scattering energy compensation of the glTF BRDF (Turquin 2019 for the
+    /// specular lobe, Kulla & Conty 2017 for the diffuse layer below it): rough metals keep
+    /// their brightness. `off` renders the specification's single-scattering model exactly,
+    /// as the reference images do.
+    #[arg(
+        long,
+        default_value = "on",
+        value_name = "on|off",
+        hide_possible_values = true
+    )]
+    pub energy_compensation: OnOff,
 
     /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
     #[arg(long, default_value_t = 1, value_name = "N")]
@@ -281,6 +305,21 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
         [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
         [c] if c.is_finite() && c >= 0.0 => Ok([c, c, c]),
         _ => Err(format!("'{s}': expected three non-negative numbers R,G,B")),
+    }
+}
+
+/// A switch given as `on` or `off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+crate::display_as_value_name!(OnOff);
+
+impl OnOff {
+    pub fn is_on(self) -> bool {
+        self == OnOff::On
     }
 }
 

@@ -23,7 +23,7 @@ use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
 use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
-use crate::shading::{DiffuseSampling, EnvMap, Environment};
+use crate::shading::{DiffuseSampling, EnvMap, Environment, MaterialModel, MaterialOptions};
 
 /// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
 /// has, so the target error or the time limit is what stops it.
@@ -205,6 +205,12 @@ impl Job {
         {
             refuse!("--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform");
         }
+        if args.hemisphere == Hemisphere::Uniform
+            && args.integrator != IntegratorKind::Ao
+            && args.materials != MaterialModel::Lambertian
+        {
+            refuse!("--hemisphere uniform samples Lambertian reflection only; add --materials lambertian (the glTF BRDF samples its own lobes)");
+        }
         let path_settings = PathSettings {
             max_depth: args.max_depth,
             rr_depth: args.rr_depth,
@@ -252,9 +258,15 @@ impl Job {
                 environment: Environment::Constant(Vec3::from_array(
                     args.background.unwrap_or([0.0; 3]),
                 )),
-                diffuse_sampling: match args.hemisphere {
-                    Hemisphere::Cosine => DiffuseSampling::Cosine,
-                    Hemisphere::Uniform | Hemisphere::UniformUnweighted => DiffuseSampling::Uniform,
+                materials: MaterialOptions {
+                    model: args.materials,
+                    energy_compensation: args.energy_compensation.is_on(),
+                    diffuse_sampling: match args.hemisphere {
+                        Hemisphere::Cosine => DiffuseSampling::Cosine,
+                        Hemisphere::Uniform | Hemisphere::UniformUnweighted => {
+                            DiffuseSampling::Uniform
+                        }
+                    },
                 },
                 triangle_sampling: args.triangle_sampling,
                 // With a map, --background is what the camera sees behind the scene.

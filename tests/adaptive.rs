@@ -10,12 +10,13 @@ use common::*;
 use glam::Vec3;
 use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
-use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared};
+use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared, ShadingOptions};
 use strata::render::adaptive::ErrorMetric;
 use strata::render::output::read_exr_rgb;
 use strata::render::{self, Film, RenderResult, RenderSettings, Stopping};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
+use strata::shading::{Environment, MaterialOptions};
 
 /// Renders a bundled scene through the library as `render` would, with its first camera.
 fn render_scene(
@@ -70,7 +71,16 @@ fn render_scene_with(
     let path = repo_path(scene_file);
     let scene = scene::load(&path, &LoadOptions::default()).unwrap();
     let accel = Accel::build(&scene, &AccelOptions::default()).unwrap();
-    let prepared = Prepared::new(&scene, &path, &integrator, background).unwrap();
+    // The references are the specification's single-scattering model (their strata_args).
+    let options = ShadingOptions {
+        environment: Environment::Constant(background),
+        materials: MaterialOptions {
+            energy_compensation: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let prepared = Prepared::with_options(&scene, &path, &integrator, &options).unwrap();
     let ctx = strata::integrators::Context {
         experiments: strata::experiments::Experiments {
             camera_packets: camera_rays != CameraRays::Single,

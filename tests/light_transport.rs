@@ -19,7 +19,7 @@ use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions, St
 use strata::render::{self, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{Camera, Light, Material, Projection, Scene};
-use strata::shading::{DiffuseSampling, Environment};
+use strata::shading::{DiffuseSampling, Environment, MaterialOptions};
 
 fn scene_from(
     positions: Vec<Vec3>,
@@ -71,7 +71,9 @@ struct Setup {
     sampler: SamplerKind,
     background: Vec3,
     triangle_sampling: strata::shading::lights::TriangleSampling,
-    diffuse_sampling: DiffuseSampling,
+    /// Lambertian by default: these closed forms are those of Lambertian surfaces (the glTF
+    /// BRDF's own tests are in `materials.rs` and the BSDF's unit tests).
+    materials: MaterialOptions,
     experiments: Experiments,
     backend: Backend,
 }
@@ -85,7 +87,7 @@ impl Setup {
             sampler: SamplerKind::Random,
             background: Vec3::ZERO,
             triangle_sampling: Default::default(),
-            diffuse_sampling: Default::default(),
+            materials: MaterialOptions::lambertian(),
             experiments: Default::default(),
             backend: Backend::Embree,
         }
@@ -109,7 +111,7 @@ fn render_film(
     .unwrap();
     let options = ShadingOptions {
         environment: Environment::Constant(setup.background),
-        diffuse_sampling: setup.diffuse_sampling,
+        materials: setup.materials,
         triangle_sampling: setup.triangle_sampling,
         camera_background: None,
     };
@@ -612,7 +614,10 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
     // preparation: the integrator is the same.
     let render_sampled = |integrator, size, spp, seed, diffuse_sampling| {
         let setup = Setup {
-            diffuse_sampling,
+            materials: MaterialOptions {
+                diffuse_sampling,
+                ..MaterialOptions::lambertian()
+            },
             ..Setup::new(size, spp, seed)
         };
         render_film(&scene, cam.clone(), integrator, setup)
@@ -654,7 +659,10 @@ fn uniform_hemisphere_sampling_agrees_and_cosine_sampling_has_the_lower_error() 
     let cam = camera(Vec3::new(0.1, 0.05, 0.0), Vec3::new(1.0, 0.2, 0.3), 1.2);
     for bounces in [1, 3] {
         let setup = Setup {
-            diffuse_sampling: DiffuseSampling::Uniform,
+            materials: MaterialOptions {
+                diffuse_sampling: DiffuseSampling::Uniform,
+                ..MaterialOptions::lambertian()
+            },
             ..Setup::new(16, 64, 5)
         };
         let film = render_film(&furnace, cam.clone(), path(bounces), setup);

@@ -27,11 +27,14 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde_json::Value;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
-use strata::integrators::{AoSettings, Hemisphere, Integrator, PathSettings, Prepared};
+use strata::integrators::{
+    AoSettings, Hemisphere, Integrator, PathSettings, Prepared, ShadingOptions,
+};
 use strata::render::{self, RenderResult, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, Camera, Light, LoadOptions, Material, Projection, Scene};
 use strata::shading::interaction::SurfaceInteraction;
+use strata::shading::{Environment, MaterialOptions};
 
 // ---------------------------------------------------------------------------------------------
 // Building scenes in code
@@ -289,7 +292,13 @@ impl Opts {
 /// Renders `scene` and returns the result; NaN/Inf samples are left to the caller.
 fn render_raw(scene: &Scene, cam: &Camera, integrator: Integrator, o: Opts) -> RenderResult {
     let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
-    let prepared = Prepared::new(scene, Path::new("test"), &integrator, o.background).unwrap();
+    // Lambertian: the closed forms here (the furnace's 5, the lit floor's ρ/π) are its.
+    let options = ShadingOptions {
+        environment: Environment::Constant(o.background),
+        materials: MaterialOptions::lambertian(),
+        ..Default::default()
+    };
+    let prepared = Prepared::with_options(scene, Path::new("test"), &integrator, &options).unwrap();
     let mut ctx = prepared.context(scene, &accel);
     ctx.experiments.ray_offset = o.ray_offset;
     let settings = RenderSettings {

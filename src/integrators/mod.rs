@@ -14,7 +14,7 @@ use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 use crate::shading::SurfaceInteraction;
 use crate::shading::{
-    BackgroundSampling, DiffuseSampling, Environment, LightSet, Materials, Need, TriangleSampling,
+    BackgroundSampling, Environment, LightSet, MaterialOptions, Materials, Need, TriangleSampling,
 };
 
 pub use ao::{AoSettings, Hemisphere};
@@ -41,8 +41,8 @@ pub struct Context<'a> {
 pub struct ShadingOptions {
     /// What rays that leave the scene see (`--background`).
     pub environment: Environment,
-    /// How diffuse reflection draws directions (`--hemisphere`).
-    pub diffuse_sampling: DiffuseSampling,
+    /// How materials are rendered (`--materials`, `--energy-compensation`, `--hemisphere`).
+    pub materials: MaterialOptions,
     /// How points on emissive triangles are sampled (`--triangle-sampling`).
     pub triangle_sampling: TriangleSampling,
     /// What camera rays that miss see instead of the environment (`--background` in front of
@@ -86,7 +86,7 @@ impl Prepared {
             scene,
             scene_path,
             integrator.material_need(),
-            options.diffuse_sampling,
+            &options.materials,
         )?;
         let mut lights = if integrator.needs_lights() {
             LightSet::build(

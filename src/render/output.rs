@@ -199,6 +199,19 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
                 Attr::Int(p.emitter_samples as i32),
             ));
             attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
+            let materials = job.shading.materials;
+            attrs.push((
+                "strata:materials".into(),
+                Attr::Text(materials.model.to_string()),
+            ));
+            let compensation = match materials.energy_compensation {
+                true => "on",
+                false => "off",
+            };
+            attrs.push((
+                "strata:energy_compensation".into(),
+                Attr::Text(compensation.into()),
+            ));
             attrs.push((
                 "strata:hemisphere".into(),
                 Attr::Text(job.hemisphere.to_string()),
@@ -386,6 +399,8 @@ mod tests {
                 "strata:rr_depth",
                 "strata:emitter_samples",
                 "strata:strategy",
+                "strata:materials",
+                "strata:energy_compensation",
                 "strata:hemisphere",
                 "strata:triangle_sampling",
                 "strata:background",

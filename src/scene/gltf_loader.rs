@@ -271,7 +271,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         flat_triangles: 0,
         bad_uvs: 0,
         skipped_primitives: 0,
-        vertex_color_primitives: 0,
+        bad_colors: 0,
     };
     loader.scene.materials.push(Material::default());
     for m in gltf.document.materials() {
@@ -290,10 +290,10 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     let mut scene = loader.scene;
     let mut warnings = extension_warnings;
     warnings.extend(loader.warnings);
-    if loader.vertex_color_primitives > 0 {
+    if loader.bad_colors > 0 {
         warnings.push(format!(
-            "COLOR_0 vertex colours of {} primitive(s) ignored: their base colour is the material's",
-            loader.vertex_color_primitives
+            "{} COLOR_0 vertex colour(s) not finite; replaced by white",
+            loader.bad_colors
         ));
     }
     if loader.dropped_triangles > 0 {
@@ -583,8 +583,8 @@ struct Loader<'a> {
     /// Texture coordinates that were not finite (set to (0, 0)).
     bad_uvs: usize,
     skipped_primitives: usize,
-    /// Primitives with `COLOR_0`, which is not rendered yet.
-    vertex_color_primitives: usize,
+    /// `COLOR_0` values that were not finite.
+    bad_colors: usize,
 }
 
 impl Loader<'_> {
@@ -871,9 +871,6 @@ impl Loader<'_> {
             ));
             return Ok(());
         }
-        if primitive.get(&gltf::Semantic::Colors(0)).is_some() {
-            self.vertex_color_primitives += 1;
-        }
         let Some(pos_acc) = primitive.get(&gltf::Semantic::Positions) else {
             self.warnings
                 .push(format!("{label}: no POSITION attribute, skipped"));
@@ -914,6 +911,25 @@ impl Loader<'_> {
             )?;
             check_accessor(self.buffers, acc).map_err(|e| format!("{label} TEXCOORD_0: {e}"))?;
         }
+        let color_acc = primitive.get(&gltf::Semantic::Colors(0));
+        if let Some(acc) = &color_acc {
+            // glTF 2.0 §3.7.2.1: VEC3 or VEC4 of float, or normalized unsigned byte or short.
+            if !matches!(acc.dimensions(), Dimensions::Vec3 | Dimensions::Vec4) {
+                return Err(format!(
+                    "{label}: COLOR_0 accessor {} is {:?}; glTF allows VEC3 or VEC4",
+                    acc.index(),
+                    acc.dimensions()
+                ));
+            }
+            expect_format(
+                acc,
+                acc.dimensions(),
+                &[DataType::F32, DataType::U8, DataType::U16],
+                label,
+                "COLOR_0",
+            )?;
+            check_accessor(self.buffers, acc).map_err(|e| format!("{label} COLOR_0: {e}"))?;
+        }
         if let Some(acc) = primitive.indices() {
             expect_format(
                 &acc,
@@ -924,7 +940,11 @@ impl Loader<'_> {
             )?;
             check_accessor(self.buffers, &acc).map_err(|e| format!("{label} indices: {e}"))?;
         }
-        for (what, acc) in [("NORMAL", &normal_acc), ("TEXCOORD_0", &uv_acc)] {
+        for (what, acc) in [
+            ("NORMAL", &normal_acc),
+            ("TEXCOORD_0", &uv_acc),
+            ("COLOR_0", &color_acc),
+        ] {
             if let Some(acc) = acc.as_ref().filter(|a| a.count() != pos_acc.count()) {
                 return Err(format!(
                     "{label}: the {what} accessor has {} elements, the POSITION accessor {}",
@@ -962,8 +982,19 @@ impl Loader<'_> {
             ),
             None => None,
         };
+        let colors: Option<Vec<[f32; 4]>> = match color_acc {
+            Some(_) => Some(
+                reader
+                    .read_colors(0)
+                    .ok_or_else(|| unreadable("COLOR_0"))?
+                    .into_rgba_f32()
+                    .collect(),
+            ),
+            None => None,
+        };
         if normals.as_ref().is_some_and(|v| v.len() != n)
             || uvs.as_ref().is_some_and(|v| v.len() != n)
+            || colors.as_ref().is_some_and(|v| v.len() != n)
         {
             return Err(format!(
                 "{label}: attribute counts differ from the POSITION count {n}"
@@ -1046,6 +1077,30 @@ impl Loader<'_> {
             }
             None => self.scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, n)),
         }
+        // Vertex colours stay an empty list until a primitive brings them; from then on
+        // every vertex has one (white where its primitive has none).
+        if colors.is_some() && self.scene.colors.is_empty() {
+            self.scene.colors = vec![Vec4::ONE; base];
+        }
+        match &colors {
+            Some(cs) => {
+                let mut bad = 0;
+                self.scene.colors.extend(cs.iter().map(|c| {
+                    let c = Vec4::from_array(*c);
+                    if c.is_finite() {
+                        c
+                    } else {
+                        bad += 1;
+                        Vec4::ONE
+                    }
+                }));
+                self.bad_colors += bad;
+            }
+            None if !self.scene.colors.is_empty() => {
+                self.scene.colors.extend(std::iter::repeat_n(Vec4::ONE, n))
+            }
+            None => {}
+        }
         let material = primitive.material().index().map_or(0, |i| i as u32 + 1);
         for [a, b, c] in triangles {
             let [a, b, c] = [a, b, c].map(|i| i + base as u32);
@@ -1072,6 +1127,10 @@ impl Loader<'_> {
                     self.scene.positions.push(p);
                     self.scene.uvs.push(t);
                     self.scene.normals.push(Vec3::ZERO);
+                    if !self.scene.colors.is_empty() {
+                        let c = self.scene.colors[i as usize];
+                        self.scene.colors.push(c);
+                    }
                 }
                 self.flat_triangles += 1;
                 let first = first as u32;
@@ -1106,11 +1165,17 @@ fn drop_unused_vertices(scene: &mut Scene) {
         scene.positions[kept] = scene.positions[old];
         scene.normals[kept] = scene.normals[old];
         scene.uvs[kept] = scene.uvs[old];
+        if !scene.colors.is_empty() {
+            scene.colors[kept] = scene.colors[old];
+        }
         kept += 1;
     }
     scene.positions.truncate(kept);
     scene.normals.truncate(kept);
     scene.uvs.truncate(kept);
+    if !scene.colors.is_empty() {
+        scene.colors.truncate(kept);
+    }
     for t in &mut scene.triangles {
         *t = t.map(|i| new_index[i as usize]);
     }

@@ -116,17 +116,6 @@ impl Material {
     /// like instead; empty when it renders as written.
     pub fn unrendered_inputs(&self) -> Vec<String> {
         let mut dropped = Vec::new();
-        if self.metallic > 0.0 || self.roughness < 1.0 || self.metallic_roughness_texture.is_some()
-        {
-            let texture = match self.metallic_roughness_texture.is_some() {
-                true => " and its texture",
-                false => "",
-            };
-            dropped.push(format!(
-                "metallic {}, roughness {}{texture} (shaded as matte base colour for now)",
-                self.metallic, self.roughness
-            ));
-        }
         if self.normal_texture.is_some() {
             dropped.push("its normal map (shaded without its bumps)".to_string());
         }
@@ -183,9 +172,9 @@ pub struct TextureRoles {
 }
 
 impl TextureRoles {
-    /// The textures light transport reads today (base colour and emission).
+    /// The textures light transport reads today (base colour, emission, metallic-roughness).
     pub fn rendered(&self) -> usize {
-        self.base_color + self.emissive
+        self.base_color + self.emissive + self.metallic_roughness
     }
 }
 
@@ -199,8 +188,6 @@ pub struct SceneSummary {
     pub texture_roles: TextureRoles,
     pub emissive_triangles: usize,
     pub punctual_lights: usize,
-    /// Materials whose metallic factor is non-zero (rendered as diffuse until GGX lands).
-    pub non_diffuse_materials: usize,
     pub cameras: usize,
 }
 
@@ -213,6 +200,9 @@ pub struct Scene {
     pub normals: Vec<Vec3>,
     /// TEXCOORD_0 per vertex (zero where absent).
     pub uvs: Vec<Vec2>,
+    /// Linear `COLOR_0` per vertex (RGBA; white for vertices of primitives without one), or
+    /// empty when no primitive has vertex colours.
+    pub colors: Vec<Vec4>,
     /// Vertex indices of each triangle, counter-clockwise seen from the front.
     pub triangles: Vec<[u32; 3]>,
     /// Material index of each triangle.
@@ -317,7 +307,6 @@ impl Scene {
             texture_roles,
             emissive_triangles,
             punctual_lights: self.lights.len(),
-            non_diffuse_materials: self.materials.iter().filter(|m| m.metallic > 0.0).count(),
             cameras: self.cameras.len(),
         };
     }

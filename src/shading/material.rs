@@ -1,27 +1,32 @@
 //! Materials at render time: each glTF material prepared into what its [`Bsdf`] and its
 //! emission need, and looked up per surface point.
 //!
-//! | property   | from                                                    | used by          |
-//! |------------|---------------------------------------------------------|------------------|
-//! | base colour| baseColorFactor × baseColorTexture (sRGB-decoded)       | the BSDF (ρ)     |
-//! | metallic,  | metallicFactor, roughnessFactor, metallicRoughness-     | kept, not shaded |
-//! | roughness  | Texture (B = metallic, G = roughness; not decoded yet)  | yet (diffuse)    |
-//! | emission   | emissiveFactor × emissiveTexture × emissive strength;   | lights, paths    |
-//! |            | the front face only unless the material is double-sided|                  |
+//! | property   | from                                                       | used by       |
+//! |------------|------------------------------------------------------------|---------------|
+//! | base colour| baseColorFactor × baseColorTexture (sRGB-decoded) × COLOR_0 | the BSDF      |
+//! | metallic   | metallicFactor × metallicRoughnessTexture.B (linear)       | the BSDF      |
+//! | roughness  | roughnessFactor × metallicRoughnessTexture.G (linear)      | the BSDF      |
+//! | emission   | emissiveFactor × emissiveTexture × emissive strength;      | lights, paths |
+//! |            | the front face only unless the material is double-sided    |               |
 //!
-//! Every material is shaded as Lambertian reflection (f = ρ/π) until the glTF
-//! metallic-roughness BSDF joins [`Bsdf`]; [`Materials::bsdf`] is the one place that chooses
-//! a surface point's BSDF. [`Materials::prepare`] decodes exactly the textures the chosen
-//! integrator reads: none for ambient occlusion, and for light transport only those of
-//! materials some triangle uses.
+//! [`Materials::bsdf`] is the one place that chooses a surface point's BSDF: the glTF
+//! metallic-roughness BRDF ([`GltfBrdf`], energy-compensated unless
+//! [`MaterialOptions::energy_compensation`] is off), or, under [`MaterialModel::Lambertian`],
+//! Lambertian reflection of the base colour (f = ρ/π: the clay look-dev override, and the
+//! surface closed-form tests need). [`Materials::prepare`] decodes exactly the textures the
+//! chosen integrator and model read: none for ambient occlusion, and for light transport only
+//! those of materials some triangle uses.
 
 use std::path::Path;
+
+use std::collections::HashMap;
 
 use glam::{Vec2, Vec3, Vec4};
 
 use super::bsdf::{Bsdf, BsdfFlags, SurfaceBsdf};
+use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
-use super::texture::{transform_uv, Image};
+use super::texture::{transform_uv, Encoding, Image};
 use crate::scene::{Scene, TextureRef};
 
 /// What the integrator needs to read from materials.
@@ -50,19 +55,58 @@ pub enum DiffuseSampling {
     Uniform,
 }
 
+/// The scattering model every material is rendered with (`--materials`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum MaterialModel {
+    /// The glTF 2.0 metallic-roughness BRDF, as the file's materials say.
+    #[default]
+    Gltf,
+    /// Lambertian reflection of the base colour, metallic and roughness ignored: a clay
+    /// override for look-dev, and the surface of closed-form tests.
+    Lambertian,
+}
+
+crate::display_as_value_name!(MaterialModel);
+
+/// How materials are rendered: the choices a render makes beyond what the file says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaterialOptions {
+    pub model: MaterialModel,
+    /// Compensate the energy single-scattering GGX loses (`--energy-compensation`; see
+    /// [`GltfBrdf`]); off renders the specification's model exactly.
+    pub energy_compensation: bool,
+    /// How Lambertian reflection draws its directions (`--hemisphere`).
+    pub diffuse_sampling: DiffuseSampling,
+}
+
+impl Default for MaterialOptions {
+    fn default() -> Self {
+        MaterialOptions {
+            model: MaterialModel::Gltf,
+            energy_compensation: true,
+            diffuse_sampling: DiffuseSampling::Cosine,
+        }
+    }
+}
+
+impl MaterialOptions {
+    /// Lambertian reflection, cosine-sampled.
+    pub fn lambertian() -> MaterialOptions {
+        MaterialOptions {
+            model: MaterialModel::Lambertian,
+            ..Default::default()
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 struct Prepared {
     base_color: Vec3,
     base_texture: Option<Binding>,
-    /// The metallic-roughness model's factors and texture (B = metallic, G = roughness),
-    /// read from the file and kept for the glTF BSDF; not decoded while every material is
-    /// shaded as diffuse.
-    #[allow(dead_code)]
     metallic: f32,
-    #[allow(dead_code)]
     roughness: f32,
-    #[allow(dead_code)]
-    metallic_roughness_texture: Option<TextureRef>,
+    /// B = metallic, G = roughness (bound under the glTF model only).
+    metallic_roughness_texture: Option<Binding>,
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
@@ -73,19 +117,21 @@ struct Prepared {
 pub struct Materials {
     materials: Vec<Prepared>,
     images: Vec<Image>,
-    diffuse_sampling: DiffuseSampling,
+    options: MaterialOptions,
     /// True when any used material reads a texture (UVs must be interpolated).
     pub textured: bool,
+    /// True when the scene has vertex colours (`COLOR_0`), which scale the base colour.
+    vertex_colors: bool,
 }
 
 impl Materials {
-    /// Prepares the scene's materials, decoding the textures that `need` requires; diffuse
-    /// reflection draws its directions as `diffuse_sampling` says.
+    /// Prepares the scene's materials as `options` say, decoding the textures that `need`
+    /// requires.
     pub fn prepare(
         scene: &Scene,
         scene_path: &Path,
         need: Need,
-        diffuse_sampling: DiffuseSampling,
+        options: &MaterialOptions,
     ) -> Result<Materials, String> {
         if need == Need::Nothing {
             return Ok(Materials::default());
@@ -94,64 +140,76 @@ impl Materials {
         for &m in &scene.triangle_materials {
             used[m as usize] = true;
         }
-        let mut image_slot: Vec<Option<usize>> = vec![None; scene.images.len()];
+        // One decoded image per (glTF image, encoding): an image bound both as colour and as
+        // data is decoded twice.
+        let mut image_slot: HashMap<(usize, Encoding), usize> = HashMap::new();
         let mut images = Vec::new();
-        let mut bind =
-            |t: &Option<TextureRef>, images: &mut Vec<Image>| -> Result<Option<Binding>, String> {
-                let Some(t) = t else { return Ok(None) };
-                let src = scene.images.get(t.image).ok_or_else(|| {
-                    format!(
-                        "{}: texture image {} does not exist",
-                        scene_path.display(),
-                        t.image
-                    )
-                })?;
-                let slot = match image_slot[t.image] {
-                    Some(s) => s,
-                    None => {
-                        images.push(Image::decode(src, t.image, scene_path)?);
-                        image_slot[t.image] = Some(images.len() - 1);
-                        images.len() - 1
-                    }
-                };
-                Ok(Some(Binding {
-                    texture: t.clone(),
-                    image: slot,
-                }))
+        let mut bind = |t: &Option<TextureRef>,
+                        encoding: Encoding,
+                        images: &mut Vec<Image>|
+         -> Result<Option<Binding>, String> {
+            let Some(t) = t else { return Ok(None) };
+            let src = scene.images.get(t.image).ok_or_else(|| {
+                format!(
+                    "{}: texture image {} does not exist",
+                    scene_path.display(),
+                    t.image
+                )
+            })?;
+            let slot = match image_slot.get(&(t.image, encoding)) {
+                Some(&s) => s,
+                None => {
+                    images.push(Image::decode_as(src, t.image, scene_path, encoding)?);
+                    image_slot.insert((t.image, encoding), images.len() - 1);
+                    images.len() - 1
+                }
             };
+            Ok(Some(Binding {
+                texture: t.clone(),
+                image: slot,
+            }))
+        };
+        let gltf = options.model == MaterialModel::Gltf;
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (m, &is_used) in scene.materials.iter().zip(&used) {
-            let (base_texture, emissive_texture) = if is_used {
-                let base = bind(&m.base_color_texture, &mut images)?;
+            let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
+                let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
+                let metallic_roughness = match gltf {
+                    true => bind(&m.metallic_roughness_texture, Encoding::Linear, &mut images)?,
+                    false => None,
+                };
                 // An emissive texture only matters when the emissive factor is non-zero.
                 let emissive = if m.is_emissive() {
-                    bind(&m.emissive_texture, &mut images)?
+                    bind(&m.emissive_texture, Encoding::Srgb, &mut images)?
                 } else {
                     None
                 };
-                (base, emissive)
+                (base, metallic_roughness, emissive)
             } else {
-                (None, None)
+                (None, None, None)
             };
             materials.push(Prepared {
                 base_color: m.base_color.truncate(),
                 base_texture,
-                metallic: m.metallic,
-                roughness: m.roughness,
-                metallic_roughness_texture: m.metallic_roughness_texture.clone(),
+                metallic: m.metallic.clamp(0.0, 1.0),
+                roughness: m.roughness.clamp(0.0, 1.0),
+                metallic_roughness_texture,
                 emissive: m.emissive,
                 emissive_texture,
                 double_sided: m.double_sided,
             });
         }
-        let textured = materials
-            .iter()
-            .any(|m| m.base_texture.is_some() || m.emissive_texture.is_some());
+        let textured = materials.iter().any(|m| {
+            m.base_texture.is_some()
+                || m.emissive_texture.is_some()
+                || m.metallic_roughness_texture.is_some()
+        });
         Ok(Materials {
             materials,
             images,
-            diffuse_sampling,
+            options: *options,
             textured,
+            vertex_colors: !scene.colors.is_empty(),
         })
     }
 
@@ -180,19 +238,41 @@ impl Materials {
     }
 
     /// The BSDF at the surface point (`uv`: its texture coordinates, [`Materials::uv`]).
-    #[inline]
+    #[inline(always)]
     pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
-        let albedo = self.base_color(scene, si.prim, uv);
-        SurfaceBsdf::new(self.bsdf_with(albedo), si)
+        let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
+        let mut base = m.base_color;
+        if let Some(b) = &m.base_texture {
+            base *= self.lookup(b, uv).truncate();
+        }
+        if self.vertex_colors {
+            base *= vertex_color(scene, si.prim, si.u, si.v).truncate();
+        }
+        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+        if let Some(b) = &m.metallic_roughness_texture {
+            let t = self.lookup(b, uv);
+            metallic *= t.z;
+            roughness *= t.y;
+        }
+        SurfaceBsdf::new(self.bsdf_with(base, metallic, roughness), si)
     }
 
-    /// The BSDF of a material whose base colour is `albedo`: the one place that chooses a
-    /// variant.
+    /// The BSDF of base colour `base`, `metallic` and `roughness`: the one place that chooses
+    /// a variant.
     #[inline]
-    fn bsdf_with(&self, albedo: Vec3) -> Bsdf {
-        match self.diffuse_sampling {
-            DiffuseSampling::Cosine => Bsdf::Diffuse { albedo },
-            DiffuseSampling::Uniform => Bsdf::DiffuseUniform { albedo },
+    fn bsdf_with(&self, base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
+        match (self.options.model, self.options.diffuse_sampling) {
+            (MaterialModel::Lambertian, DiffuseSampling::Cosine) => Bsdf::Diffuse { albedo: base },
+            (MaterialModel::Lambertian, DiffuseSampling::Uniform) => {
+                Bsdf::DiffuseUniform { albedo: base }
+            }
+            (MaterialModel::Gltf, _) => {
+                let brdf = GltfBrdf::new(base, metallic, roughness);
+                Bsdf::MetallicRoughness(match self.options.energy_compensation {
+                    true => brdf,
+                    false => brdf.single_scattering(),
+                })
+            }
         }
     }
 
@@ -201,19 +281,20 @@ impl Materials {
     pub fn all_diffuse(&self) -> bool {
         let glossy_or_specular = BsdfFlags::GLOSSY.union(BsdfFlags::SPECULAR);
         self.materials.iter().all(|m| {
-            let flags = self.bsdf_with(m.base_color).flags();
-            !flags.intersects(glossy_or_specular)
+            // A texture scales metallic and roughness by [0, 1]: the flags at the factors and
+            // at the texture's extremes cover every point.
+            [
+                (m.metallic, m.roughness),
+                (0.0, 0.0),
+                (m.metallic, 0.0),
+                (0.0, m.roughness),
+            ]
+            .iter()
+            .all(|&(metallic, roughness)| {
+                let flags = self.bsdf_with(m.base_color, metallic, roughness).flags();
+                !flags.intersects(glossy_or_specular)
+            })
         })
-    }
-
-    /// The base colour of triangle `prim` at texture coordinates `uv`.
-    #[inline]
-    fn base_color(&self, scene: &Scene, prim: u32, uv: Vec2) -> Vec3 {
-        let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
-        match &m.base_texture {
-            Some(b) => m.base_color * self.lookup(b, uv).truncate(),
-            None => m.base_color,
-        }
     }
 
     /// True when the triangle's material emits (on some side).
@@ -269,4 +350,13 @@ impl Materials {
         };
         (m.emissive * scale, m.double_sided)
     }
+}
+
+/// The interpolated `COLOR_0` of triangle `prim` at barycentrics (u, v).
+#[inline]
+fn vertex_color(scene: &Scene, prim: u32, u: f32, v: f32) -> Vec4 {
+    let [a, b, c] = scene.triangles[prim as usize];
+    (1.0 - u - v) * scene.colors[a as usize]
+        + u * scene.colors[b as usize]
+        + v * scene.colors[c as usize]
 }

@@ -31,4 +31,4 @@ pub use envmap::EnvMap;
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
-pub use material::{DiffuseSampling, Materials, Need};
+pub use material::{DiffuseSampling, MaterialModel, MaterialOptions, Materials, Need};

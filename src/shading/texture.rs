@@ -1,12 +1,22 @@
 //! Decoded textures and their lookup: glTF UVs (origin at the image's top-left), the
 //! `KHR_texture_transform` affine map, glTF wrap modes and bilinear filtering. Colour textures
-//! (base colour, emission) are sRGB-encoded in glTF and decoded to linear once, at load.
+//! (base colour, emission) are sRGB-encoded in glTF and decoded to linear once, at load; data
+//! textures (metallic-roughness) are read as stored ([`Encoding`]).
 
 use std::path::Path;
 
 use glam::{Vec2, Vec4};
 
 use crate::scene::{ImageSource, TextureRef, Wrap};
+
+/// How an image's colour channels are encoded: glTF's colour textures (base colour,
+/// emission) are sRGB, its data textures (metallic-roughness, normal, occlusion) linear
+/// (glTF 2.0, "Textures" and the material properties' descriptions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    Srgb,
+    Linear,
+}
 
 /// A decoded image in linear RGBA, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +40,17 @@ impl Image {
     /// Decodes PNG or JPEG bytes; colour channels are sRGB-decoded, alpha kept linear.
     /// `index` is the image's index in the glTF file, for the error message.
     pub fn decode(source: &ImageSource, index: usize, scene_path: &Path) -> Result<Image, String> {
+        Image::decode_as(source, index, scene_path, Encoding::Srgb)
+    }
+
+    /// Decodes PNG or JPEG bytes whose colour channels are encoded as `encoding` says (alpha
+    /// is always linear).
+    pub fn decode_as(
+        source: &ImageSource,
+        index: usize,
+        scene_path: &Path,
+        encoding: Encoding,
+    ) -> Result<Image, String> {
         let decoded = match source {
             ImageSource::File(path) => image::open(path).map_err(|e| {
                 format!(
@@ -52,13 +73,14 @@ impl Image {
         }
         let texels = rgba
             .pixels()
-            .map(|p| {
-                Vec4::new(
+            .map(|p| match encoding {
+                Encoding::Srgb => Vec4::new(
                     srgb_to_linear(p[0]),
                     srgb_to_linear(p[1]),
                     srgb_to_linear(p[2]),
                     p[3],
-                )
+                ),
+                Encoding::Linear => Vec4::new(p[0], p[1], p[2], p[3]),
             })
             .collect();
         Ok(Image {

@@ -720,11 +720,16 @@ def job_name(scene, integrator):
     return f"{scene}.{integrator}"
 
 
-def strata_args(integrator, strata_depth, res, background):
+def strata_args(integrator, strata_depth, res, background, materials="lambertian"):
     """The strata command-line options that match this reference (plus --spp, --seed, -o)."""
     args = ["--integrator", integrator]
     if strata_depth is not None:
         args += ["--max-depth", str(strata_depth)]
+    if integrator != "ao":
+        # The plugin is the specification's single-scattering model; strata's Lambertian
+        # model is its clay override.
+        args += {"gltf": ["--energy-compensation", "off"],
+                 "lambertian": ["--materials", "lambertian"]}[materials]
     if background is not None and any(c > 0 for c in background):
         args += ["--background", ",".join(f"{c:g}" for c in background)]
     return args + ["--resolution", f"{res[0]}x{res[1]}"]
@@ -769,7 +774,7 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         "integrator": integrator,
         "max_depth": strata_depth,
         "mitsuba_max_depth": mdepth,
-        "strata_args": strata_args(integrator, strata_depth, res, info["background"]),
+        "strata_args": strata_args(integrator, strata_depth, res, info["background"], materials),
         "renderer": "mitsuba",
         "renderer_version": mi.__version__,
         "variant": mi.variant(),
