@@ -283,7 +283,7 @@ impl EmbreeAccel {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let (org, dir, t_min, t_max) = lane(ray);
         self.scene

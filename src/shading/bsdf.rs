@@ -215,14 +215,20 @@ impl SurfaceBsdf {
     #[inline]
     pub fn new(bsdf: Bsdf, si: &SurfaceInteraction) -> SurfaceBsdf {
         let frame = Onb::from_normal(si.ns);
+        let wo = match bsdf.depends_on_cos_theta_only() {
+            true => Vec3::Z,
+            false => frame.to_local(si.wo),
+        };
+        // Every query of a surface point's BSDF is from its one wo: the terms of wo once.
+        let bsdf = match bsdf {
+            Bsdf::MetallicRoughness(brdf) => Bsdf::MetallicRoughness(brdf.at(wo)),
+            other => other,
+        };
         SurfaceBsdf {
             bsdf,
             frame,
             ng: si.ng,
-            wo: match bsdf.depends_on_cos_theta_only() {
-                true => Vec3::Z,
-                false => frame.to_local(si.wo),
-            },
+            wo,
         }
     }
 

@@ -43,7 +43,7 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::{BsdfFlags, BsdfSample};
 use super::environment::luminance;
-use super::microfacet::{AlbedoTable, Ggx};
+use super::microfacet::{AlbedoRow, AlbedoTable, Ggx};
 use crate::sampling::warps::square_to_cosine_hemisphere;
 
 /// The dielectric's reflectance at normal incidence: IOR 1.5, ((1.5 − 1) / (1.5 + 1))².
@@ -59,17 +59,38 @@ pub struct GltfBrdf {
     pub alpha: f32,
     /// Compensate the energy single scattering loses (see the module documentation).
     pub energy_compensation: bool,
+    /// Where α falls in the albedo table's rows.
+    row: AlbedoRow,
+    /// The terms that depend on the outgoing direction alone, for the one they were computed
+    /// at ([`GltfBrdf::at`]): a path evaluates the BRDF at one wo many times.
+    outgoing: Option<Outgoing>,
+}
+
+/// The parts of the BRDF that read wo alone.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Outgoing {
+    wo: Vec3,
+    /// The probability of choosing the specular lobe.
+    p_specular: f32,
+    /// Turquin's (1 − E(μo)) / E(μo); 0 without compensation.
+    k: f32,
+    /// The layered diffuse lobe's factor of μo: c_diff / π · (1 − A(μo)) / (1 − A_avg), A the
+    /// dielectric layer's compensated albedo (unused without compensation).
+    diffuse: Vec3,
 }
 
 impl GltfBrdf {
     /// The BRDF for a material's `roughness` (perceptual, as the file gives it).
     /// With energy compensation, the default.
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> GltfBrdf {
+        let alpha = roughness * roughness;
         GltfBrdf {
             base_color,
             metallic,
-            alpha: roughness * roughness,
+            alpha,
             energy_compensation: true,
+            row: AlbedoRow::new(alpha),
+            outgoing: None,
         }
     }
 
@@ -77,7 +98,62 @@ impl GltfBrdf {
     pub fn single_scattering(self) -> GltfBrdf {
         GltfBrdf {
             energy_compensation: false,
+            outgoing: None,
             ..self
+        }
+    }
+
+    /// The same BRDF with the terms of outgoing direction `wo` computed ahead: evaluations at
+    /// that `wo` then skip them (any other `wo` still gets its own).
+    #[inline]
+    pub fn at(self, wo: Vec3) -> GltfBrdf {
+        GltfBrdf {
+            outgoing: Some(self.outgoing_terms(wo)),
+            ..self
+        }
+    }
+
+    #[inline]
+    fn terms(&self, wo: Vec3) -> Outgoing {
+        match self.outgoing {
+            Some(o) if o.wo == wo => o,
+            _ => self.outgoing_terms(wo),
+        }
+    }
+
+    fn outgoing_terms(&self, wo: Vec3) -> Outgoing {
+        let (f0, c_diff) = self.colors();
+        let p_specular = {
+            let specular = luminance(schlick(f0, wo.z));
+            let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
+            let diffuse = luminance((Vec3::ONE - f_d) * c_diff);
+            match diffuse <= 0.0 {
+                true => 1.0,
+                false => specular / (specular + diffuse),
+            }
+        };
+        if !self.energy_compensation || wo.z <= 0.0 {
+            return Outgoing {
+                wo,
+                p_specular,
+                k: 0.0,
+                diffuse: Vec3::ZERO,
+            };
+        }
+        let table = AlbedoTable::get();
+        let (a_o, k) = self.dielectric_albedo(table, wo.z);
+        let diffuse = match c_diff == Vec3::ZERO {
+            true => Vec3::ZERO,
+            false => {
+                let rest = (1.0 - self.dielectric_albedo_average(table)).max(1e-4);
+                c_diff * (std::f32::consts::FRAC_1_PI * (1.0 - a_o).max(0.0) / rest)
+            }
+        };
+        Outgoing {
+            wo,
+            p_specular,
+            k,
+            diffuse,
         }
     }
 
@@ -97,15 +173,7 @@ impl GltfBrdf {
     /// lobe is black).
     #[inline]
     fn specular_probability(&self, wo: Vec3) -> f32 {
-        let (f0, c_diff) = self.colors();
-        let specular = luminance(schlick(f0, wo.z));
-        let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
-        let diffuse = luminance((Vec3::ONE - f_d) * c_diff);
-        if diffuse <= 0.0 {
-            1.0
-        } else {
-            specular / (specular + diffuse)
-        }
+        self.terms(wo).p_specular
     }
 
     pub fn flags(&self) -> BsdfFlags {
@@ -124,71 +192,55 @@ impl GltfBrdf {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Vec3::ZERO;
         }
+        let o = self.terms(wo);
         let h = (wo + wi).normalize();
-        let (f0, c_diff) = self.colors();
         let wo_h = wo.dot(h).abs();
-        let f = schlick(f0, wo_h);
+        let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo_h);
+        let f_metal = schlick(self.base_color, wo_h);
         let diffuse = match self.energy_compensation {
             false => {
-                let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo_h);
+                let c_diff = self.base_color * (1.0 - self.metallic);
                 (Vec3::ONE - f_d) * c_diff * std::f32::consts::FRAC_1_PI
             }
-            true => self.layered_diffuse(c_diff, wo.z, wi.z),
+            true => {
+                let (a_i, _) = self.dielectric_albedo(AlbedoTable::get(), wi.z);
+                o.diffuse * (1.0 - a_i).max(0.0)
+            }
         };
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
-            false => self.specular_weight(f, wo_h, wo.z) * (ggx.d(h) * ggx.v(wo, wi)),
+            false => {
+                // The metal's and the dielectric's Fresnel weights, each scaled by Turquin's
+                // 1 + f0 (1 − E(μo)) / E(μo) with its own f0 (k = 0 without compensation),
+                // mixed by metallic: F of the mixed f0 when uncompensated.
+                let dielectric = f_d * (1.0 + DIELECTRIC_F0 * o.k);
+                let metal = f_metal * (Vec3::ONE + self.base_color * o.k);
+                dielectric.lerp(metal, self.metallic) * (ggx.d(h) * ggx.v(wo, wi))
+            }
         };
         (diffuse + specular) * wi.z
     }
 
-    /// The specular lobe's Fresnel weight, `f` = F(`wo_h`) of the mixed f0, seen from direction
-    /// cosine `mu`: without compensation `f` itself; with it, the metal's and the dielectric's
-    /// weights F (1 + f0 (1 − E) / E) (Turquin), each with its own F and f0, mixed by metallic.
+    /// The dielectric specular layer's albedo A(μ) = (0.04 E + 0.96 E_s)(1 + 0.04 k) seen from
+    /// direction cosine `mu`, compensated, and Turquin's k = (1 − E(μ)) / E(μ).
     #[inline]
-    fn specular_weight(&self, f: Vec3, wo_h: f32, mu: f32) -> Vec3 {
-        if !self.energy_compensation {
-            return f;
-        }
-        let e = AlbedoTable::get().e(mu, self.alpha).max(1e-3);
+    fn dielectric_albedo(&self, table: &AlbedoTable, mu: f32) -> (f32, f32) {
+        let (e, e_s) = table.e_and_e_s(mu, self.row);
+        let e = e.max(1e-3);
         let k = (1.0 - e) / e;
-        let dielectric = schlick(Vec3::splat(DIELECTRIC_F0), wo_h) * (1.0 + DIELECTRIC_F0 * k);
-        let metal = schlick(self.base_color, wo_h) * (Vec3::ONE + self.base_color * k);
-        dielectric.lerp(metal, self.metallic)
+        let f0 = DIELECTRIC_F0;
+        ((f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k), k)
     }
 
-    /// The specular layer's albedo A(μ) = (f0·E + (1 − f0)·E_s)(1 + f0 (1 − E) / E), seen from
-    /// direction cosine `mu`, compensated.
-    #[inline]
-    fn specular_albedo(&self, f0: Vec3, mu: f32) -> Vec3 {
-        let table = AlbedoTable::get();
-        let e = table.e(mu, self.alpha).max(1e-3);
-        let e_s = table.e_s(mu, self.alpha);
-        (f0 * e + (Vec3::ONE - f0) * e_s) * (Vec3::ONE + f0 * ((1.0 - e) / e))
-    }
-
-    /// The cosine-weighted average of [`GltfBrdf::specular_albedo`] over μ: the table's
+    /// The cosine-weighted average of [`GltfBrdf::dielectric_albedo`] over μ: the table's
     /// averages of E, E_s and E_s (1 − E) / E combined as the expanded product
     /// f0·E + (1 − f0)·E_s + f0²(1 − E) + f0 (1 − f0)·E_s (1 − E) / E requires.
     #[inline]
-    fn specular_albedo_average(&self, f0: Vec3) -> Vec3 {
-        let [e, e_s, ratio] = AlbedoTable::get().averages(self.alpha);
-        let g = Vec3::ONE - f0;
+    fn dielectric_albedo_average(&self, table: &AlbedoTable) -> f32 {
+        let [e, e_s, ratio] = table.averages_in(self.row);
+        let (f0, g) = (DIELECTRIC_F0, 1.0 - DIELECTRIC_F0);
         f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio
-    }
-
-    /// The diffuse lobe under the dielectric's compensated specular layer (see the module
-    /// documentation).
-    #[inline]
-    fn layered_diffuse(&self, c_diff: Vec3, mu_o: f32, mu_i: f32) -> Vec3 {
-        if c_diff == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let f0 = Vec3::splat(DIELECTRIC_F0);
-        let leave = |mu| (Vec3::ONE - self.specular_albedo(f0, mu)).max(Vec3::ZERO);
-        let rest = (Vec3::ONE - self.specular_albedo_average(f0)).max(Vec3::splat(1e-4));
-        c_diff * std::f32::consts::FRAC_1_PI * leave(mu_o) * leave(mu_i) / rest
     }
 
     /// The mixture's density of `wi`, the delta lobe left out.

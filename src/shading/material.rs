@@ -26,6 +26,7 @@ use glam::{Vec2, Vec3, Vec4};
 use super::bsdf::{Bsdf, BsdfFlags, SurfaceBsdf};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
+use super::microfacet::AlbedoTable;
 use super::texture::{transform_uv, Encoding, Image};
 use crate::scene::{Scene, TextureRef};
 
@@ -199,6 +200,11 @@ impl Materials {
                 double_sided: m.double_sided,
             });
         }
+        if gltf && options.energy_compensation {
+            // The compensation's albedo table, made now rather than by the first shading
+            // point inside the render (and its timing).
+            AlbedoTable::get();
+        }
         let textured = materials.iter().any(|m| {
             m.base_texture.is_some()
                 || m.emissive_texture.is_some()
@@ -248,13 +254,24 @@ impl Materials {
         if self.vertex_colors {
             base *= vertex_color(scene, si.prim, si.u, si.v).truncate();
         }
+        let bsdf = match self.options.model {
+            MaterialModel::Lambertian => self.bsdf_with(base, 0.0, 1.0),
+            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv),
+        };
+        SurfaceBsdf::new(bsdf, si)
+    }
+
+    /// The glTF model's BSDF of material `m` at `uv`, of base colour `base`: kept out of line,
+    /// so that the Lambertian model's path stays as short as it was before the glTF BRDF.
+    #[inline(never)]
+    fn gltf_bsdf(&self, m: &Prepared, base: Vec3, uv: Vec2) -> Bsdf {
         let (mut metallic, mut roughness) = (m.metallic, m.roughness);
         if let Some(b) = &m.metallic_roughness_texture {
             let t = self.lookup(b, uv);
             metallic *= t.z;
             roughness *= t.y;
         }
-        SurfaceBsdf::new(self.bsdf_with(base, metallic, roughness), si)
+        self.bsdf_with(base, metallic, roughness)
     }
 
     /// The BSDF of base colour `base`, `metallic` and `roughness`: the one place that chooses

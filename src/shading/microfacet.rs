@@ -112,7 +112,7 @@ impl Ggx {
 /// cosine μ after one bounce among its facets; and E_s(μ, α) = ∫ (1 − |wo·h|)⁵ D V (n·wi) dωi,
 /// Schlick's Fresnel weight integrated the same way, so that a lobe with Schlick's F of
 /// reflectance f0 returns f0·E + (1 − f0)·E_s. Tabulated once per process on a 32 × 32 grid of
-/// μ and √α (the perceptual roughness), each entry the mean over 64 × 64 stratified
+/// μ and √α (the perceptual roughness), each entry the mean over 32 × 32 stratified
 /// visible-normal samples of G2(wo, wi) / G1(wo) (the estimator whose pdf cancels D), looked
 /// up bilinearly; with, per roughness, the cosine-weighted averages over μ (2 ∫ · μ dμ) of
 /// E, E_s and E_s (1 − E) / E that energy compensation needs.
@@ -125,9 +125,10 @@ pub struct AlbedoTable {
 
 impl AlbedoTable {
     const N: usize = 32;
-    const SAMPLES: usize = 64;
+    const SAMPLES: usize = 32;
 
-    /// The process's table, computed on first use (a few milliseconds).
+    /// The process's table, computed on first use (about 0.05 s on one core;
+    /// `Materials::prepare` asks for it before a render that needs it).
     pub fn get() -> &'static AlbedoTable {
         static TABLE: std::sync::OnceLock<AlbedoTable> = std::sync::OnceLock::new();
         TABLE.get_or_init(AlbedoTable::compute)
@@ -135,9 +136,19 @@ impl AlbedoTable {
 
     fn compute() -> AlbedoTable {
         let n = Self::N;
-        let mut e = Vec::with_capacity(n * n);
-        let mut e_s = Vec::with_capacity(n * n);
-        for i in 0..n {
+        // Sequential: the table may first be asked for inside a render's worker, where a
+        // parallel loop could run a tile that asks for it again while it is being made.
+        let rows: Vec<(Vec<f32>, Vec<f32>)> = (0..n).map(Self::row).collect();
+        let e: Vec<f32> = rows.iter().flat_map(|r| r.0.iter().copied()).collect();
+        let e_s: Vec<f32> = rows.iter().flat_map(|r| r.1.iter().copied()).collect();
+        Self::with_averages(e, e_s)
+    }
+
+    /// Row `i` (roughness √α = i / (N − 1)) of E and E_s.
+    fn row(i: usize) -> (Vec<f32>, Vec<f32>) {
+        let n = Self::N;
+        let (mut e, mut e_s) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        {
             // Roughness √α on [0, 1], from a little above 0 (the smooth end is 1 anyway).
             let r = (i as f32 / (n - 1) as f32).max(0.02);
             let ggx = Ggx { alpha: r * r };
@@ -165,6 +176,12 @@ impl AlbedoTable {
                 e_s.push((sum_s / (k * k) as f64) as f32);
             }
         }
+        (e, e_s)
+    }
+
+    /// The table of E and E_s, with their cosine-weighted averages.
+    fn with_averages(e: Vec<f32>, e_s: Vec<f32>) -> AlbedoTable {
+        let n = Self::N;
         // Cosine-weighted averages over μ: 2 ∫ g(μ) μ dμ by the trapezoid rule on the grid,
         // which integrates the bilinear lookup's piecewise-linear g exactly but for the μ².
         let averages = (0..n)
@@ -189,36 +206,65 @@ impl AlbedoTable {
 
     /// E at direction cosine `mu` and GGX α `alpha` (bilinear in μ and √α).
     pub fn e(&self, mu: f32, alpha: f32) -> f32 {
-        self.lookup(&self.e, mu, alpha)
+        self.e_and_e_s(mu, AlbedoRow::new(alpha)).0
     }
 
     /// E_s at direction cosine `mu` and GGX α `alpha`.
     pub fn e_s(&self, mu: f32, alpha: f32) -> f32 {
-        self.lookup(&self.e_s, mu, alpha)
+        self.e_and_e_s(mu, AlbedoRow::new(alpha)).1
+    }
+
+    /// E and E_s at direction cosine `mu` in roughness row `row`, with one set of bilinear
+    /// weights.
+    #[inline]
+    pub fn e_and_e_s(&self, mu: f32, row: AlbedoRow) -> (f32, f32) {
+        let n = Self::N;
+        let x = (mu.clamp(0.0, 1.0) * (n - 1) as f32).min((n - 1) as f32);
+        let x0 = x as usize;
+        let x1 = (x0 + 1).min(n - 1);
+        let fx = x - x0 as f32;
+        let (lo, hi, fy) = (row.lo as usize * n, row.hi as usize * n, row.t);
+        let bilinear = |t: &[f32]| {
+            let low = t[lo + x0] * (1.0 - fx) + t[lo + x1] * fx;
+            let high = t[hi + x0] * (1.0 - fx) + t[hi + x1] * fx;
+            low * (1.0 - fy) + high * fy
+        };
+        (bilinear(&self.e), bilinear(&self.e_s))
     }
 
     /// The cosine-weighted averages over μ of E, E_s and E_s (1 − E) / E at GGX α `alpha`
     /// (linear in √α).
     pub fn averages(&self, alpha: f32) -> [f32; 3] {
-        let n = Self::N;
-        let y = (alpha.max(0.0).sqrt().min(1.0) * (n - 1) as f32).min((n - 1) as f32);
-        let y0 = y as usize;
-        let y1 = (y0 + 1).min(n - 1);
-        let fy = y - y0 as f32;
-        std::array::from_fn(|c| self.averages[y0][c] * (1.0 - fy) + self.averages[y1][c] * fy)
+        self.averages_in(AlbedoRow::new(alpha))
     }
 
-    fn lookup(&self, table: &[f32], mu: f32, alpha: f32) -> f32 {
-        let n = Self::N;
-        let x = (mu.clamp(0.0, 1.0) * (n - 1) as f32).min((n - 1) as f32);
+    /// [`AlbedoTable::averages`] in roughness row `row`.
+    #[inline]
+    pub fn averages_in(&self, row: AlbedoRow) -> [f32; 3] {
+        let (lo, hi, t) = (row.lo as usize, row.hi as usize, row.t);
+        std::array::from_fn(|c| self.averages[lo][c] * (1.0 - t) + self.averages[hi][c] * t)
+    }
+}
+
+/// Where a GGX α falls between the table's roughness rows (√α on a uniform grid), found once
+/// per material point rather than per lookup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlbedoRow {
+    lo: u8,
+    hi: u8,
+    t: f32,
+}
+
+impl AlbedoRow {
+    pub fn new(alpha: f32) -> AlbedoRow {
+        let n = AlbedoTable::N;
         let y = (alpha.max(0.0).sqrt().min(1.0) * (n - 1) as f32).min((n - 1) as f32);
-        let (x0, y0) = (x as usize, y as usize);
-        let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let at = |i: usize, j: usize| table[i * n + j];
-        let low = at(y0, x0) * (1.0 - fx) + at(y0, x1) * fx;
-        let high = at(y1, x0) * (1.0 - fx) + at(y1, x1) * fx;
-        low * (1.0 - fy) + high * fy
+        let lo = y as usize;
+        AlbedoRow {
+            lo: lo as u8,
+            hi: (lo + 1).min(n - 1) as u8,
+            t: y - lo as f32,
+        }
     }
 }
 
