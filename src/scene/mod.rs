@@ -147,13 +147,6 @@ impl Material {
         if self.normal_texture.is_some() {
             dropped.push("its normal map (shaded without its bumps)".to_string());
         }
-        match self.alpha_mode {
-            AlphaMode::Opaque => {}
-            AlphaMode::Mask(cutoff) => dropped.push(format!(
-                "alpha MASK at {cutoff} (rendered opaque, without its holes)"
-            )),
-            AlphaMode::Blend => dropped.push("alpha BLEND (rendered opaque)".to_string()),
-        }
         if self.occlusion_texture.is_some() {
             dropped.push("its occlusion texture (light transport computes occlusion)".to_string());
         }
