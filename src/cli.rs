@@ -231,6 +231,11 @@ pub struct Args {
     #[arg(long, hide = true)]
     pub no_quads: bool,
 
+    /// Render MASK and BLEND materials opaque, ignoring their alpha, as renderers that ignore
+    /// glTF alpha coverage do (for comparisons with them).
+    #[arg(long)]
+    pub no_alpha: bool,
+
     /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
     /// an RGB EXR, for statistical comparisons.
     #[arg(long, value_name = "FILE.exr")]

@@ -78,6 +78,8 @@ pub struct Job {
     pub robust: bool,
     /// Embree's quads, pairs of triangles traced as one (false only for measurements).
     pub quads: bool,
+    /// Alpha coverage of MASK and BLEND materials (`--no-alpha` turns it off).
+    pub alpha: bool,
 
     pub integrator: Integrator,
     /// How materials and lights are shaded: the environment (`--background`), diffuse
@@ -253,6 +255,7 @@ impl Job {
             bvh_quality: args.bvh_quality,
             robust: !args.no_robust,
             quads: !args.no_quads,
+            alpha: !args.no_alpha,
             integrator,
             shading: ShadingOptions {
                 environment: Environment::Constant(Vec3::from_array(
@@ -427,6 +430,7 @@ impl Job {
             threads,
             robust: self.robust,
             quads: self.quads,
+            alpha: self.alpha,
         }
     }
 

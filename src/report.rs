@@ -127,12 +127,13 @@ pub fn stats(run: &Run) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "scene: {} triangles, {} vertices, {} materials, {} textures, {} emissive triangles, {} lights, {} cameras",
+        "scene: {} triangles, {} vertices, {} materials, {} textures, {} emissive triangles, {} alpha-tested triangles, {} lights, {} cameras",
         summary.triangles,
         summary.vertices,
         scene.materials.len(),
         summary.textures,
         summary.emissive_triangles,
+        run.accel.alpha_tested_triangles(),
         summary.punctual_lights,
         summary.cameras
     );

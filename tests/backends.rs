@@ -1,5 +1,8 @@
 //! The two BVH backends (Embree and obvhs) agree on the same rays through real meshes:
-//! closest hits (hit or miss, distance, triangle), any-hit queries, and whole AO images.
+//! closest hits (hit or miss, distance, triangle), any-hit queries, and whole AO images. The
+//! flight helmet's lenses are alpha BLEND with a texture, so every comparison on it includes
+//! alpha coverage (Embree's hit filter against obvhs's test in its traversal); tests/alpha.rs
+//! compares the backends on MASK and BLEND cut-outs as well.
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;

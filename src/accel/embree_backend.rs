@@ -10,12 +10,23 @@
 //! takes 9% less time (BENCHMARKS.md). Hits are mapped back to the scene's triangle and its own
 //! barycentrics ([`QuadTriangles`]). Where few triangles pair (meshes without shared edges),
 //! plain triangles are used: a degenerate quad costs a little more than a triangle.
+//!
+//! Alpha coverage ([`AlphaCoverage`]): the triangles whose hits alpha may reject go into a
+//! second geometry, whose Embree filter callbacks ask the coverage about each candidate hit
+//! ([`AlphaFilter`]); the other triangles stay in a geometry without a filter, and pay
+//! nothing. Both geometries are of one primitive type (quads if the opaque triangles pair
+//! well, else triangles), so Embree still builds and traverses one BVH (it builds one per
+//! primitive type). A scene without alpha-tested triangles is laid out exactly as before:
+//! one geometry, Embree's primitive ids the scene's triangle indices.
+
+use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::coverage::AlphaCoverage;
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::embree::{
-    self, Device, EmbreeError, SceneBuilder, SceneOptions, OCCLUSION_PACKET, PACKET,
+    self, Device, EmbreeError, HitFilter, SceneBuilder, SceneOptions, OCCLUSION_PACKET, PACKET,
 };
 use crate::scene::Scene;
 
@@ -71,16 +82,21 @@ impl QuadTriangles {
     }
 }
 
-/// Pairs the scene's triangles into quads where that should trace faster: triangles of the
-/// same material that share an edge (by vertex position, so meshes whose vertices are split
-/// along seams still pair), taken greedily in triangle order, when the box of the pair has a
-/// surface area at most [`PAIR_AREA_RATIO`] × the mean of the two triangles' boxes' (the
-/// halves of a rectangle: equal; two thin neighbours of a curved mesh: larger). Returns the
-/// quads' vertex indices and triangles, or `None` when under half of the triangles pair.
+/// Pairs the scene's triangles `prims` (ascending indices) into quads where that should trace
+/// faster: triangles of the same material that share an edge (by vertex position, so meshes
+/// whose vertices are split along seams still pair), taken greedily in triangle order, when
+/// the box of the pair has a surface area at most [`PAIR_AREA_RATIO`] × the mean of the two
+/// triangles' boxes' (the halves of a rectangle: equal; two thin neighbours of a curved mesh:
+/// larger). Returns the quads' vertex indices and triangles (the unpaired ones as degenerate
+/// quads), or `None` when under half of the triangles pair, unless `always`.
 ///
 /// Edges are matched by sorting vertices by position and directed edges by their ends (a
 /// hash map of them took longer than Embree's whole build on the flight helmet).
-fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
+fn pair_quads(
+    scene: &Scene,
+    prims: &[u32],
+    always: bool,
+) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
     let at = |i: u32| scene.positions[i as usize];
     let box_area = |vs: &[Vec3]| {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -91,24 +107,25 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
         let d = hi - lo;
         d.x * d.y + d.y * d.z + d.z * d.x
     };
+    let triangle = |k: usize| scene.triangles[prims[k] as usize];
     // A first, cheap look (no allocation): could half of the triangles pair? A triangle whose
     // completion to a parallelogram across one of its edges stays within the ratio is a
     // candidate. Curved meshes (the flight helmet) stop here, and skip the sorts below (which
     // cost as much as half of Embree's build there).
-    let n = scene.triangles.len();
-    let candidates = scene
-        .triangles
-        .iter()
-        .filter(|tri| {
-            let [a, b, c] = tri.map(at);
-            let area = box_area(&[a, b, c]);
-            [b + c - a, c + a - b, a + b - c]
-                .iter()
-                .any(|&w| box_area(&[a, b, c, w]) <= PAIR_AREA_RATIO * area)
-        })
-        .count();
-    if 2 * candidates < n {
-        return None;
+    let n = prims.len();
+    if !always {
+        let candidates = (0..n)
+            .filter(|&k| {
+                let [a, b, c] = triangle(k).map(at);
+                let area = box_area(&[a, b, c]);
+                [b + c - a, c + a - b, a + b - c]
+                    .iter()
+                    .any(|&w| box_area(&[a, b, c, w]) <= PAIR_AREA_RATIO * area)
+            })
+            .count();
+        if 2 * candidates < n {
+            return None;
+        }
     }
     // Each vertex's canonical index: the first of the vertices at its exact position.
     let position_key = |i: u32| at(i).to_array().map(f32::to_bits);
@@ -122,24 +139,26 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
     }
     let edge_key =
         |a: u32, b: u32| (canonical[a as usize] as u64) << 32 | canonical[b as usize] as u64;
-    // Every directed edge: (key, triangle × 3 + its first corner), sorted by key.
-    let triangles = &scene.triangles;
-    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * triangles.len());
-    for (t, tri) in triangles.iter().enumerate() {
-        for k in 0..3 {
-            edges.push((edge_key(tri[k], tri[(k + 1) % 3]), 3 * t as u32 + k as u32));
+    // Every directed edge: (key, k × 3 + its first corner) for the k-th triangle of `prims`,
+    // sorted by key.
+    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
+    for k in 0..n {
+        let tri = triangle(k);
+        for c in 0..3 {
+            edges.push((edge_key(tri[c], tri[(c + 1) % 3]), 3 * k as u32 + c as u32));
         }
     }
     edges.sort_unstable();
     let mut paired = vec![false; n];
     let mut quads = Vec::with_capacity(n);
     let mut map = Vec::with_capacity(n);
-    for (t, &tri) in triangles.iter().enumerate() {
+    for (t, &prim) in prims.iter().enumerate() {
         if paired[t] {
             continue;
         }
         paired[t] = true;
-        let material = scene.triangle_materials[t];
+        let tri = triangle(t);
+        let material = scene.triangle_materials[prim as usize];
         // t = (x, y, z), rotated by k, pairs with a triangle s holding the edge z → y (t's
         // y → z reversed): that edge is the quad's diagonal v1 → v3, and s's third vertex w
         // is v2.
@@ -152,10 +171,10 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
                 .take_while(|e| e.0 == key)
                 .find_map(|&(_, corner)| {
                     let (s, edge) = ((corner / 3) as usize, corner % 3);
-                    let other = triangles[s];
+                    let other = triangle(s);
                     let w = other[(edge as usize + 2) % 3];
                     let fits = !paired[s]
-                        && scene.triangle_materials[s] == material
+                        && scene.triangle_materials[prims[s] as usize] == material
                         && canonical[w as usize] != canonical[x as usize]
                         && box_area(&[x, y, z, w].map(at))
                             <= PAIR_AREA_RATIO
@@ -170,16 +189,16 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
                 paired[s] = true;
                 quads.push(quad);
                 map.push(QuadTriangles {
-                    first: t as u32,
+                    first: prim,
                     first_rot,
-                    second: s as u32,
+                    second: prims[s],
                     second_rot,
                 });
             }
             None => {
                 quads.push([tri[0], tri[1], tri[2], tri[2]]);
                 map.push(QuadTriangles {
-                    first: t as u32,
+                    first: prim,
                     first_rot: 0,
                     second: u32::MAX,
                     second_rot: 0,
@@ -189,7 +208,7 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
     }
     // Each pair saved one quad: under half of the triangles paired, keep triangles.
     let pairs = n - quads.len();
-    (4 * pairs >= n).then_some((quads, map))
+    (always || 4 * pairs >= n).then_some((quads, map))
 }
 
 /// See [`pair_quads`]. On the Cornell box 1.02 pairs 28 of its 36 triangles (the walls' and
@@ -199,16 +218,165 @@ fn pair_quads(scene: &Scene) -> Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)> {
 /// slower; at 1.02 it stays triangles (BENCHMARKS.md).
 const PAIR_AREA_RATIO: f32 = 1.02;
 
+/// How an Embree geometry's primitives map back to scene triangles.
+#[derive(Debug)]
+enum PrimMap {
+    /// Primitive i is scene triangle i (every triangle, as triangles).
+    Identity,
+    /// Primitive i is scene triangle `ids[i]`.
+    Triangles(Vec<u32>),
+    /// Primitive i is the quad of the triangles `quads[i]`.
+    Quads(Vec<QuadTriangles>),
+}
+
+impl PrimMap {
+    /// The scene triangle and its barycentrics of a hit on primitive `prim` at Embree's
+    /// (u, v), a primitive of the geometry ([`PrimMap::has`]).
+    #[inline(always)]
+    fn hit(&self, prim: u32, u: f32, v: f32) -> (u32, f32, f32) {
+        match self {
+            PrimMap::Identity => (prim, u, v),
+            PrimMap::Triangles(ids) => (ids[prim as usize], u, v),
+            PrimMap::Quads(quads) => quads[prim as usize].hit(u, v),
+        }
+    }
+
+    /// True when the geometry has primitive `prim` (what Embree reports always is; the
+    /// filter checks, as it must not panic).
+    #[inline(always)]
+    fn has(&self, prim: u32) -> bool {
+        match self {
+            PrimMap::Identity => true,
+            PrimMap::Triangles(ids) => (prim as usize) < ids.len(),
+            PrimMap::Quads(quads) => (prim as usize) < quads.len(),
+        }
+    }
+
+    fn is_quads(&self) -> bool {
+        matches!(self, PrimMap::Quads(_))
+    }
+}
+
+/// The hit filter of the alpha-tested triangles' geometry: a hit counts where the scene
+/// triangle's alpha covers it ([`AlphaCoverage::covers`]).
+struct AlphaFilter {
+    map: PrimMap,
+    coverage: Arc<AlphaCoverage>,
+}
+
+impl HitFilter for AlphaFilter {
+    #[inline]
+    fn accept(&self, prim: u32, u: f32, v: f32, org: [f32; 3], dir: [f32; 3]) -> bool {
+        if !self.map.has(prim) {
+            return true;
+        }
+        let (tri, u, v) = self.map.hit(prim, u, v);
+        let ray = Ray::new(Vec3::from_array(org), Vec3::from_array(dir));
+        self.coverage.covers(tri, u, v, &ray)
+    }
+}
+
+/// The vertices that `indices` use, in order of first use, with `indices` renumbered to
+/// them: the alpha-tested triangles and the others each get only their own vertices.
+fn compact_vertices<const N: usize>(
+    positions: &[[f32; 3]],
+    indices: &mut [[u32; N]],
+) -> Vec<[f32; 3]> {
+    let mut renumbered = vec![u32::MAX; positions.len()];
+    let mut used = Vec::new();
+    for i in indices.iter_mut().flatten() {
+        let new = &mut renumbered[*i as usize];
+        if *new == u32::MAX {
+            *new = used.len() as u32;
+            used.push(positions[*i as usize]);
+        }
+        *i = *new;
+    }
+    used
+}
+
+/// The geometry of scene triangles `prims` (ascending), as quads (`quads`: what
+/// [`pair_quads`] made of them) or as triangles: its own vertices, its index buffer, and how
+/// its primitives map back.
+enum Part {
+    Triangles(Vec<[f32; 3]>, Vec<[u32; 3]>, PrimMap),
+    Quads(Vec<[f32; 3]>, Vec<[u32; 4]>, PrimMap),
+}
+
+impl Part {
+    fn new(
+        scene: &Scene,
+        positions: &[[f32; 3]],
+        prims: &[u32],
+        quads: Option<(Vec<[u32; 4]>, Vec<QuadTriangles>)>,
+    ) -> Part {
+        match quads {
+            Some((mut indices, map)) => {
+                let vertices = compact_vertices(positions, &mut indices);
+                Part::Quads(vertices, indices, PrimMap::Quads(map))
+            }
+            None => {
+                let mut indices: Vec<[u32; 3]> =
+                    prims.iter().map(|&t| scene.triangles[t as usize]).collect();
+                let vertices = compact_vertices(positions, &mut indices);
+                Part::Triangles(vertices, indices, PrimMap::Triangles(prims.to_vec()))
+            }
+        }
+    }
+
+    /// Attaches the geometry without a filter; returns its map.
+    fn attach(self, builder: &mut SceneBuilder) -> Result<PrimMap, EmbreeError> {
+        match self {
+            Part::Triangles(v, i, map) => builder.attach_triangles(&v, &i).map(|_| map),
+            Part::Quads(v, i, map) => builder.attach_quads(&v, &i).map(|_| map),
+        }
+    }
+
+    /// Attaches the geometry with [`AlphaFilter`] on its hits; returns its id and the filter.
+    fn attach_filtered(
+        self,
+        builder: &mut SceneBuilder,
+        coverage: Arc<AlphaCoverage>,
+    ) -> Result<(u32, Arc<AlphaFilter>), EmbreeError> {
+        let (id, filter) = match self {
+            Part::Triangles(v, i, map) => {
+                let filter = Arc::new(AlphaFilter { map, coverage });
+                (
+                    builder.attach_filtered_triangles(&v, &i, filter.clone())?,
+                    filter,
+                )
+            }
+            Part::Quads(v, i, map) => {
+                let filter = Arc::new(AlphaFilter { map, coverage });
+                (
+                    builder.attach_filtered_quads(&v, &i, filter.clone())?,
+                    filter,
+                )
+            }
+        };
+        Ok((id, filter))
+    }
+}
+
 pub struct EmbreeAccel {
     scene: embree::Scene,
     version: String,
     memory: AccelMemory,
-    /// The triangles of each quad, when the geometry is made of quads.
-    quads: Option<Vec<QuadTriangles>>,
+    /// How the primitives of the geometry without a filter map to scene triangles (all of
+    /// them when none is alpha-tested).
+    opaque: PrimMap,
+    /// The geometry of the alpha-tested triangles: its id and its filter (which holds its
+    /// map).
+    alpha: Option<(u32, Arc<AlphaFilter>)>,
 }
 
 impl EmbreeAccel {
-    pub fn build(scene: &Scene, options: &AccelOptions) -> Result<EmbreeAccel, EmbreeError> {
+    /// Builds the BVH of `scene`'s triangles, those that `coverage` tests behind a filter.
+    pub fn build(
+        scene: &Scene,
+        options: &AccelOptions,
+        coverage: Option<Arc<AlphaCoverage>>,
+    ) -> Result<EmbreeAccel, EmbreeError> {
         let config = if options.threads > 0 {
             format!("threads={},verbose=0", options.threads)
         } else {
@@ -233,14 +401,47 @@ impl EmbreeAccel {
         )?;
         // glam's Vec3 is three packed f32s: the same layout as Embree's FLOAT3 buffer items.
         let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
-        let quads = match options.quads.then(|| pair_quads(scene)).flatten() {
-            Some((indices, map)) => {
-                builder.attach_quads(&positions, &indices)?;
-                Some(map)
-            }
+        let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
+        let (opaque, alpha) = match coverage {
             None => {
-                builder.attach_triangles(&positions, &scene.triangles)?;
-                None
+                let map = match options
+                    .quads
+                    .then(|| pair_quads(scene, &all, false))
+                    .flatten()
+                {
+                    Some((indices, map)) => {
+                        builder.attach_quads(&positions, &indices)?;
+                        PrimMap::Quads(map)
+                    }
+                    None => {
+                        builder.attach_triangles(&positions, &scene.triangles)?;
+                        PrimMap::Identity
+                    }
+                };
+                (map, None)
+            }
+            Some(coverage) => {
+                let (tested, untested): (Vec<u32>, Vec<u32>) =
+                    all.into_iter().partition(|&t| coverage.tests(t));
+                // Quads where the untested triangles pair well (judged on the tested ones
+                // when there are no others), and then for both, so that Embree keeps one BVH.
+                let pair = |prims: &[u32], always| {
+                    options
+                        .quads
+                        .then(|| pair_quads(scene, prims, always))
+                        .flatten()
+                };
+                let (opaque, tested_quads) = if untested.is_empty() {
+                    (PrimMap::Triangles(Vec::new()), pair(&tested, false))
+                } else {
+                    let quads = pair(&untested, false);
+                    let tested_quads = quads.as_ref().and_then(|_| pair(&tested, true));
+                    let part = Part::new(scene, &positions, &untested, quads);
+                    (part.attach(&mut builder)?, tested_quads)
+                };
+                let alpha = Part::new(scene, &positions, &tested, tested_quads)
+                    .attach_filtered(&mut builder, coverage)?;
+                (opaque, Some(alpha))
             }
         };
         let geometry = device.memory_in_use();
@@ -257,22 +458,30 @@ impl EmbreeAccel {
             scene,
             version,
             memory,
-            quads,
+            opaque,
+            alpha,
         })
     }
 
     /// True when the geometry is made of quads (see the module docs).
     pub fn uses_quads(&self) -> bool {
-        self.quads.is_some()
+        self.opaque.is_quads() || self.alpha.as_ref().is_some_and(|(_, f)| f.map.is_quads())
+    }
+
+    /// How many triangles are behind the alpha filter.
+    pub fn filtered_triangles(&self) -> usize {
+        self.alpha
+            .as_ref()
+            .map_or(0, |(_, f)| f.coverage.tested_triangles())
     }
 
     /// Embree's answer as a backend-neutral hit: the scene triangle and its barycentrics, and
     /// the unit geometric normal.
     #[inline(always)]
     fn to_hit(&self, h: embree::RawHit) -> Hit {
-        let (prim, u, v) = match &self.quads {
-            Some(quads) => quads[h.prim_id as usize].hit(h.u, h.v),
-            None => (h.prim_id, h.u, h.v),
+        let (prim, u, v) = match &self.alpha {
+            Some((id, filter)) if h.geom_id == *id => filter.map.hit(h.prim_id, h.u, h.v),
+            _ => self.opaque.hit(h.prim_id, h.u, h.v),
         };
         Hit {
             t: h.t,
@@ -328,16 +537,24 @@ impl EmbreeAccel {
     }
 
     pub fn describe(&self) -> String {
-        let quads = match &self.quads {
-            Some(map) => format!(
-                ", traced as {} quads ({} of them pairs of triangles)",
-                map.len(),
-                map.iter().filter(|q| q.second != u32::MAX).count()
-            ),
-            None => String::new(),
+        let quad_maps = [Some(&self.opaque), self.alpha.as_ref().map(|(_, f)| &f.map)];
+        let (mut quads, mut pairs) = (0, 0);
+        for map in quad_maps.into_iter().flatten() {
+            if let PrimMap::Quads(q) = map {
+                quads += q.len();
+                pairs += q.iter().filter(|q| q.second != u32::MAX).count();
+            }
+        }
+        let quads = match quads {
+            0 => String::new(),
+            _ => format!(", traced as {quads} quads ({pairs} of them pairs of triangles)"),
+        };
+        let alpha = match self.filtered_triangles() {
+            0 => String::new(),
+            n => format!(", {n} alpha-tested triangles behind a hit filter"),
         };
         format!(
-            "Embree {} (compiled against {} headers){quads}",
+            "Embree {} (compiled against {} headers){quads}{alpha}",
             self.version,
             env!("STRATA_EMBREE_HEADER_VERSION")
         )

@@ -7,10 +7,18 @@
 //! the geometric normal is normalize((p1 − p0) × (p2 − p0)), the front side of a
 //! counter-clockwise triangle. Integrators never see backend types.
 //!
+//! Alpha coverage ([`AlphaCoverage`], glTF's MASK and BLEND): a hit where a triangle's alpha
+//! makes a hole is no hit, for every query of both backends; [`Accel::build`] builds the
+//! coverage itself, and nothing for a scene without alpha-tested materials.
+//!
 //! Backends form a closed set, dispatched by `match` (no virtual calls in the ray loop).
 
+mod coverage;
 mod embree_backend;
 mod obvhs_backend;
+
+use std::path::Path;
+use std::sync::Arc;
 
 use glam::{Vec3, Vec3A};
 
@@ -18,6 +26,7 @@ use crate::scene::Scene;
 
 pub use crate::embree::{enable_ftz_daz, ftz_daz_enabled};
 pub use crate::ray::{Hit, Ray, OCCLUSION_PACKET, PACKET};
+pub use coverage::AlphaCoverage;
 pub use embree_backend::EmbreeAccel;
 pub use obvhs_backend::ObvhsAccel;
 
@@ -121,6 +130,9 @@ pub struct AccelOptions {
     /// Embree: triangles that share an edge traced as quads where that pays (see
     /// `embree_backend`); on by default, off for comparisons.
     pub quads: bool,
+    /// Alpha coverage of MASK and BLEND materials ([`AlphaCoverage`]); on by default, off to
+    /// render every surface opaque, as renderers that ignore glTF alpha do (`--no-alpha`).
+    pub alpha: bool,
 }
 
 impl Default for AccelOptions {
@@ -131,6 +143,7 @@ impl Default for AccelOptions {
             threads: 0,
             robust: true,
             quads: true,
+            alpha: true,
         }
     }
 }
@@ -156,6 +169,9 @@ pub enum AccelError {
     Empty,
     #[error(transparent)]
     Embree(#[from] crate::embree::EmbreeError),
+    /// A base colour texture that alpha coverage needs could not be read.
+    #[error("{0}")]
+    Coverage(String),
 }
 
 /// The acceleration structure of a scene: the backend's BVH, and the boxes of
@@ -163,6 +179,8 @@ pub enum AccelError {
 pub struct Accel {
     bvh: Bvh,
     clusters: Vec<(Vec3, Vec3)>,
+    /// The alpha coverage the backend tests hits against, if any triangle is alpha-tested.
+    coverage: Option<Arc<AlphaCoverage>>,
 }
 
 enum Bvh {
@@ -171,19 +189,41 @@ enum Bvh {
 }
 
 impl Accel {
-    /// Builds the acceleration structure over every triangle of `scene`.
+    /// Builds the acceleration structure over every triangle of `scene`, with the alpha
+    /// coverage of its MASK and BLEND materials unless `options.alpha` is off
+    /// ([`AlphaCoverage::build`]: their base colour textures are decoded here; a texture that
+    /// cannot be is an error).
     pub fn build(scene: &Scene, options: &AccelOptions) -> Result<Accel, AccelError> {
         if scene.triangles.is_empty() {
             return Err(AccelError::Empty);
         }
+        // The caller names the scene in its errors (main adds the path); an image that cannot
+        // be decoded is named by its own path or index.
+        let coverage = match options.alpha {
+            true => AlphaCoverage::build(scene, Path::new("alpha coverage"))
+                .map_err(AccelError::Coverage)?
+                .map(Arc::new),
+            false => None,
+        };
         let bvh = match options.backend {
-            Backend::Embree => Bvh::Embree(EmbreeAccel::build(scene, options)?),
-            Backend::Obvhs => Bvh::Obvhs(ObvhsAccel::build(scene, options)),
+            Backend::Embree => Bvh::Embree(EmbreeAccel::build(scene, options, coverage.clone())?),
+            Backend::Obvhs => Bvh::Obvhs(ObvhsAccel::build(scene, options, coverage.clone())),
         };
         Ok(Accel {
             bvh,
             clusters: cluster_boxes(scene, 0..scene.triangles.len() as u32),
+            coverage,
         })
+    }
+
+    /// The alpha coverage hits are tested against; `None` when no triangle is alpha-tested.
+    pub fn coverage(&self) -> Option<&AlphaCoverage> {
+        self.coverage.as_deref()
+    }
+
+    /// How many triangles are alpha-tested (their hits may be holes).
+    pub fn alpha_tested_triangles(&self) -> usize {
+        self.coverage.as_ref().map_or(0, |c| c.tested_triangles())
     }
 
     /// Boxes around groups of nearby triangles, every triangle of the structure inside one

@@ -4,7 +4,12 @@
 //!
 //! The triangles are stored in the BVH's leaf order, so traversal reads them contiguously;
 //! `ids` maps a leaf slot back to the scene's triangle index.
+//!
+//! Alpha coverage: where the scene has alpha-tested triangles, the per-triangle test rejects
+//! a hit that [`AlphaCoverage::covers`] calls a hole, and the traversal goes on past it, as
+//! Embree's filter callbacks make Embree do. Without them the traversal is the plain one.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use glam::{Vec3, Vec3A};
@@ -14,6 +19,7 @@ use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
+use super::coverage::AlphaCoverage;
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::scene::Scene;
 
@@ -25,6 +31,8 @@ pub struct ObvhsAccel {
     ids: Vec<u32>,
     /// The box of the triangles' vertices.
     bounds: (Vec3, Vec3),
+    /// The coverage of the alpha-tested triangles, if any.
+    coverage: Option<Arc<AlphaCoverage>>,
 }
 
 /// Möller & Trumbore (1997): (t, u, v) of the ray's hit with triangle (v0, v1, v2), with
@@ -54,7 +62,12 @@ fn intersect_triangle(tri: &Triangle, ray: &ORay) -> Option<(f32, f32, f32)> {
 }
 
 impl ObvhsAccel {
-    pub fn build(scene: &Scene, options: &AccelOptions) -> ObvhsAccel {
+    /// Builds the BVH of `scene`'s triangles, testing hits against `coverage` if given.
+    pub fn build(
+        scene: &Scene,
+        options: &AccelOptions,
+        coverage: Option<Arc<AlphaCoverage>>,
+    ) -> ObvhsAccel {
         let tris: Vec<Triangle> = scene
             .triangles
             .iter()
@@ -86,6 +99,19 @@ impl ObvhsAccel {
             tris,
             ids,
             bounds: (bounds.0.into(), bounds.1.into()),
+            coverage,
+        }
+    }
+
+    /// The distance of the hit of `r` (the caller's `ray`, as obvhs takes it) with the
+    /// triangle in leaf slot `slot`, or infinity for a miss or a hole.
+    #[inline(always)]
+    fn hit_distance(&self, slot: usize, r: &ORay, ray: &Ray, coverage: &AlphaCoverage) -> f32 {
+        match intersect_triangle(&self.tris[slot], r) {
+            // BLEND's coin reads the caller's ray (not obvhs's, whose −0 became +0), as
+            // Embree's filter does.
+            Some((t, u, v)) if coverage.covers(self.ids[slot], u, v, ray) => t,
+            _ => f32::INFINITY,
         }
     }
 
@@ -116,9 +142,14 @@ impl ObvhsAccel {
         let r = Self::ray(ray);
         let mut hit = RayHit::none();
         let tris = &self.tris;
-        let found = self.bvh.ray_traverse(r, &mut hit, |r, slot| {
-            intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
-        });
+        let found = match &self.coverage {
+            None => self.bvh.ray_traverse(r, &mut hit, |r, slot| {
+                intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
+            }),
+            Some(c) => self
+                .bvh
+                .ray_traverse(r, &mut hit, |r, slot| self.hit_distance(slot, r, ray, c)),
+        };
         if !found {
             return None;
         }
@@ -141,9 +172,14 @@ impl ObvhsAccel {
     #[inline(never)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         let tris = &self.tris;
-        !self.bvh.ray_traverse_miss(Self::ray(ray), |r, slot| {
-            intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
-        })
+        !match &self.coverage {
+            None => self.bvh.ray_traverse_miss(Self::ray(ray), |r, slot| {
+                intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
+            }),
+            Some(c) => self
+                .bvh
+                .ray_traverse_miss(Self::ray(ray), |r, slot| self.hit_distance(slot, r, ray, c)),
+        }
     }
 
     pub fn memory(&self) -> AccelMemory {
@@ -157,6 +193,14 @@ impl ObvhsAccel {
     }
 
     pub fn describe(&self) -> String {
-        format!("obvhs {} CWBVH ({} nodes)", "0.4", self.bvh.nodes.len())
+        let alpha = match self.coverage.as_ref().map_or(0, |c| c.tested_triangles()) {
+            0 => String::new(),
+            n => format!(", {n} alpha-tested triangles"),
+        };
+        format!(
+            "obvhs {} CWBVH ({} nodes){alpha}",
+            "0.4",
+            self.bvh.nodes.len()
+        )
     }
 }

@@ -6,9 +6,22 @@
 //! default in Embree 4) stay inside this file: callers see [`Device`], [`SceneBuilder`] and the
 //! committed, thread-safe [`Scene`] with [`Scene::intersect`] and [`Scene::occluded`].
 //!
+//! Hit filters: a geometry attached with a [`HitFilter`] has it run on every candidate hit of
+//! every query (single rays and packets, closest and any hit) through Embree's geometry
+//! filter callbacks (`rtcSetGeometryIntersectFilterFunction`,
+//! `rtcSetGeometryOccludedFilterFunction`), which reject a hit by clearing its `valid` lane.
+//! Embree 3 runs them whenever they are set. Embree 4 runs a geometry's own filter when the
+//! query's feature mask holds `RTC_FEATURE_FLAG_FILTER_FUNCTION_IN_GEOMETRY`: the default
+//! mask (`RTC_FEATURE_FLAG_ALL`, what null arguments select) and the one
+//! `intersect_arguments` sets both do. (Embree 4's other filter, the one passed in
+//! `RTCIntersectArguments::filter`, needs `RTC_SCENE_FLAG_FILTER_FUNCTION_IN_ARGUMENTS` and
+//! `rtcSetGeometryEnableFilterFunctionFromArguments`; strata does not use it.) Geometry
+//! without a filter pays nothing.
+//!
 //! Device errors reported through the error callback or `rtcGetDeviceError` become
 //! [`EmbreeError`]s; nothing is ignored.
 
+use std::any::Any;
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::fmt;
 use std::sync::atomic::{AtomicI64, Ordering};
@@ -269,6 +282,81 @@ impl Device {
     }
 }
 
+/// Decides whether a candidate hit on a geometry counts: registered with
+/// [`SceneBuilder::attach_filtered_triangles`] or [`SceneBuilder::attach_filtered_quads`], it
+/// runs inside Embree's traversal, from any thread, for every hit the geometry's primitives
+/// report to any query. It must not panic: a panic cannot unwind through Embree, and aborts.
+pub trait HitFilter: Send + Sync + 'static {
+    /// True when the hit of the ray `org + t·dir` with primitive `prim` of the geometry, at
+    /// Embree's coordinates (u, v) (as [`RawHit`] reports them), counts; false rejects it and
+    /// the traversal goes on past it.
+    fn accept(&self, prim: u32, u: f32, v: f32, org: [f32; 3], dir: [f32; 3]) -> bool;
+}
+
+/// Embree's intersection and occlusion filter callback for a geometry whose user data is an
+/// `F`: asks `F` about each valid lane of the packet of hits and clears the lanes it rejects.
+/// The ray and hit packets are `N` wide, structure of arrays, laid out as `rtcore_ray.h`'s
+/// `RTCRayN_*` and `RTCHitN_*` accessors read them (the same in Embree 3 and 4): ray field k
+/// of lane i at float k·N + i (origin x, y, z: k = 0, 1, 2; direction: 4, 5, 6), hit u, v at
+/// 3·N + i, 4·N + i, primID at 5·N + i.
+unsafe extern "C" fn filter_hits<F: HitFilter>(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes a valid argument struct for the duration of the call. Its
+    // geometryUserPtr is the `F` registered with the geometry in `attach_mesh`, kept alive by
+    // the SceneBuilder and then the Scene that own the geometry (released before it); `valid`
+    // points to N ints Embree lets the filter write; `ray` and `hit` to N-wide packets.
+    let (filter, valid, ray, hit, n) = unsafe {
+        let a = &*args;
+        let n = a.N as usize;
+        if n == 0 || a.valid.is_null() {
+            return;
+        }
+        (
+            &*(a.geometryUserPtr as *const F),
+            std::slice::from_raw_parts_mut(a.valid, n),
+            a.ray as *const f32,
+            a.hit as *const f32,
+            n,
+        )
+    };
+    for (i, lane) in valid.iter_mut().enumerate() {
+        if *lane == 0 {
+            continue;
+        }
+        // SAFETY: i < N, and every offset read lies inside the N-wide packets (see above).
+        let (org, dir, u, v, prim) = unsafe {
+            let at = |k: usize| *ray.add(k * n + i);
+            (
+                [at(0), at(1), at(2)],
+                [at(4), at(5), at(6)],
+                *hit.add(3 * n + i),
+                *hit.add(4 * n + i),
+                *(hit as *const u32).add(5 * n + i),
+            )
+        };
+        if !filter.accept(prim, u, v, org, dir) {
+            *lane = 0;
+        }
+    }
+}
+
+/// A [`HitFilter`] ready to register: Embree's callback for its type, its address as the
+/// geometry's user pointer, and the owner that keeps it alive.
+struct FilterBinding {
+    callback: unsafe extern "C" fn(*const sys::RTCFilterFunctionNArguments),
+    user: *mut c_void,
+    owner: Arc<dyn Any + Send + Sync>,
+}
+
+impl FilterBinding {
+    fn new<F: HitFilter>(filter: Arc<F>) -> FilterBinding {
+        FilterBinding {
+            callback: filter_hits::<F>,
+            user: Arc::as_ptr(&filter) as *mut c_void,
+            owner: filter,
+        }
+    }
+}
+
 /// Scene build quality, mapped to `RTCBuildQuality`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BuildQuality {
@@ -292,6 +380,8 @@ pub struct SceneBuilder {
     device: Device,
     raw: sys::RTCScene,
     quality: BuildQuality,
+    /// The hit filters of the attached geometries, alive as long as the scene is.
+    filters: Vec<Arc<dyn Any + Send + Sync>>,
 }
 
 impl Drop for SceneBuilder {
@@ -331,6 +421,7 @@ impl SceneBuilder {
             device: device.clone(),
             raw,
             quality: options.quality,
+            filters: Vec::new(),
         };
         device.check()?;
         Ok(builder)
@@ -349,6 +440,24 @@ impl SceneBuilder {
             indices,
             sys::RTC_GEOMETRY_TYPE_TRIANGLE,
             sys::RTC_FORMAT_UINT3,
+            None,
+        )
+    }
+
+    /// [`Self::attach_triangles`] with `filter` deciding which of the mesh's hits count (for
+    /// every query; see the module docs). The scene keeps `filter` alive.
+    pub fn attach_filtered_triangles<F: HitFilter>(
+        &mut self,
+        positions: &[[f32; 3]],
+        indices: &[[u32; 3]],
+        filter: Arc<F>,
+    ) -> Result<u32, EmbreeError> {
+        self.attach_mesh(
+            positions,
+            indices,
+            sys::RTC_GEOMETRY_TYPE_TRIANGLE,
+            sys::RTC_FORMAT_UINT3,
+            Some(FilterBinding::new(filter)),
         )
     }
 
@@ -368,17 +477,37 @@ impl SceneBuilder {
             indices,
             sys::RTC_GEOMETRY_TYPE_QUAD,
             sys::RTC_FORMAT_UINT4,
+            None,
+        )
+    }
+
+    /// [`Self::attach_quads`] with `filter` deciding which of the mesh's hits count; it is
+    /// given Embree's quad coordinates (see [`Self::attach_quads`]). The scene keeps
+    /// `filter` alive.
+    pub fn attach_filtered_quads<F: HitFilter>(
+        &mut self,
+        positions: &[[f32; 3]],
+        indices: &[[u32; 4]],
+        filter: Arc<F>,
+    ) -> Result<u32, EmbreeError> {
+        self.attach_mesh(
+            positions,
+            indices,
+            sys::RTC_GEOMETRY_TYPE_QUAD,
+            sys::RTC_FORMAT_UINT4,
+            Some(FilterBinding::new(filter)),
         )
     }
 
     /// A mesh of `N`-gons (triangles or quads) of Embree geometry type `kind`, its index
-    /// buffer items of `format` (`N` × u32).
+    /// buffer items of `format` (`N` × u32), its hits filtered by `filter` if given.
     fn attach_mesh<const N: usize>(
         &mut self,
         positions: &[[f32; 3]],
         indices: &[[u32; N]],
         kind: sys::RTCGeometryType,
         format: sys::RTCFormat,
+        filter: Option<FilterBinding>,
     ) -> Result<u32, EmbreeError> {
         if positions.is_empty() || indices.is_empty() {
             return Err(EmbreeError {
@@ -433,6 +562,16 @@ impl SceneBuilder {
                     return Err(null_buffer("index"));
                 }
                 std::ptr::copy_nonoverlapping(indices.as_ptr(), ib, indices.len());
+                if let Some(f) = &filter {
+                    // The same callback filters closest-hit and any-hit queries. `f.user`
+                    // stays valid while the geometry exists: its owner goes into
+                    // `self.filters` below and from there into the committed Scene, which
+                    // releases the Embree scene (and with it the geometry) before dropping it.
+                    sys::rtcSetGeometryUserData(geom, f.user);
+                    sys::rtcSetGeometryIntersectFilterFunction(geom, Some(f.callback));
+                    sys::rtcSetGeometryOccludedFilterFunction(geom, Some(f.callback));
+                    self.device.check()?;
+                }
                 sys::rtcCommitGeometry(geom);
                 let id = sys::rtcAttachGeometry(self.raw, geom);
                 self.device.check()?;
@@ -441,6 +580,10 @@ impl SceneBuilder {
         })();
         // SAFETY: the scene holds its own reference once attached; ours is released either way.
         unsafe { sys::rtcReleaseGeometry(geom) };
+        if let Some(f) = filter {
+            // Kept even when attaching failed: the geometry may have been attached anyway.
+            self.filters.push(f.owner);
+        }
         result
     }
 
@@ -453,6 +596,7 @@ impl SceneBuilder {
         Ok(Scene {
             device: self.device.clone(),
             raw,
+            _filters: std::mem::take(&mut self.filters),
         })
     }
 }
@@ -476,6 +620,9 @@ fn null_buffer(what: &str) -> EmbreeError {
 pub struct Scene {
     device: Device,
     raw: sys::RTCScene,
+    /// The geometries' hit filters, whose addresses Embree holds as user data: dropped after
+    /// `Drop` has released `raw` (fields drop after `drop` runs).
+    _filters: Vec<Arc<dyn Any + Send + Sync>>,
 }
 
 // SAFETY: a committed RTCScene is immutable; Embree documents rtcIntersect1/rtcOccluded1 on a

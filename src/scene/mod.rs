@@ -112,19 +112,29 @@ impl Material {
         self.emissive.max_element() > 0.0
     }
 
+    /// True when alpha may leave holes in the surface (glTF 2.0, "Alpha Coverage"): a MASK
+    /// or BLEND material with a base colour texture (whose alpha is only known once decoded,
+    /// see `accel::AlphaCoverage`), or whose factor's alpha alone is below what covers
+    /// everywhere (the cutoff for MASK, 1 for BLEND). OPAQUE ignores alpha.
+    ///
+    /// COLOR_0: the loader keeps no vertex colours yet; when it does, a primitive whose
+    /// COLOR_0 has alpha makes its MASK or BLEND triangles alpha-tested too.
+    pub fn may_cut_holes(&self) -> bool {
+        let alpha = self.base_color.w;
+        let covers = match self.alpha_mode {
+            AlphaMode::Opaque => return false,
+            AlphaMode::Mask(cutoff) => alpha >= cutoff,
+            AlphaMode::Blend => alpha >= 1.0,
+        };
+        self.base_color_texture.is_some() || !covers
+    }
+
     /// What the material asks for that strata does not render yet, each with what it looks
     /// like instead; empty when it renders as written.
     pub fn unrendered_inputs(&self) -> Vec<String> {
         let mut dropped = Vec::new();
         if self.normal_texture.is_some() {
             dropped.push("its normal map (shaded without its bumps)".to_string());
-        }
-        match self.alpha_mode {
-            AlphaMode::Opaque => {}
-            AlphaMode::Mask(cutoff) => dropped.push(format!(
-                "alpha MASK at {cutoff} (rendered opaque, without its holes)"
-            )),
-            AlphaMode::Blend => dropped.push("alpha BLEND (rendered opaque)".to_string()),
         }
         if self.occlusion_texture.is_some() {
             dropped.push("its occlusion texture (light transport computes occlusion)".to_string());
@@ -187,6 +197,9 @@ pub struct SceneSummary {
     /// The textures materials reference, by what they are for.
     pub texture_roles: TextureRoles,
     pub emissive_triangles: usize,
+    /// Triangles whose material may cut holes by alpha ([`Material::may_cut_holes`]): zero,
+    /// and the acceleration structure decodes nothing and filters no hit.
+    pub alpha_tested_triangles: usize,
     pub punctual_lights: usize,
     pub cameras: usize,
 }
@@ -300,12 +313,18 @@ impl Scene {
             occlusion: count(|m| m.occlusion_texture.is_some()),
         };
         let textures = texture_roles.rendered();
+        let alpha_tested_triangles = self
+            .triangle_materials
+            .iter()
+            .filter(|&&m| self.materials[m as usize].may_cut_holes())
+            .count();
         self.summary = SceneSummary {
             triangles: self.triangles.len(),
             vertices: self.positions.len(),
             textures,
             texture_roles,
             emissive_triangles,
+            alpha_tested_triangles,
             punctual_lights: self.lights.len(),
             cameras: self.cameras.len(),
         };

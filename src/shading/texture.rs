@@ -19,12 +19,23 @@ pub enum Encoding {
 }
 
 /// A decoded image in linear RGBA, row 0 at the top.
+///
+/// Or one channel of it: `Image<f32>`, e.g. the alpha that alpha coverage reads
+/// ([`Image::alpha`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Image {
+pub struct Image<T = Vec4> {
     pub width: u32,
     pub height: u32,
-    pub texels: Vec<Vec4>,
+    pub texels: Vec<T>,
 }
+
+/// What an [`Image`] may hold: values that bilinear filtering blends. A channel of a
+/// [`Vec4`] image filters to the same bits as that channel of the whole texel (the same
+/// products and sums, lane by lane).
+pub trait Texel: Copy + std::ops::Mul<f32, Output = Self> + std::ops::Add<Output = Self> {}
+
+impl Texel for Vec4 {}
+impl Texel for f32 {}
 
 /// sRGB transfer function, decoding (IEC 61966-2-1).
 #[inline]
@@ -100,8 +111,19 @@ impl Image {
         (sum / self.texels.len() as f64).as_vec4()
     }
 
+    /// The alpha channel alone (a quarter of the memory).
+    pub fn alpha(&self) -> Image<f32> {
+        Image {
+            width: self.width,
+            height: self.height,
+            texels: self.texels.iter().map(|t| t.w).collect(),
+        }
+    }
+}
+
+impl<T: Texel> Image<T> {
     #[inline]
-    fn texel(&self, x: i64, y: i64, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
+    fn texel(&self, x: i64, y: i64, wrap_s: Wrap, wrap_t: Wrap) -> T {
         let x = wrap_index(x, self.width as i64, wrap_s);
         let y = wrap_index(y, self.height as i64, wrap_t);
         self.texels[(y * self.width as i64 + x) as usize]
@@ -110,7 +132,7 @@ impl Image {
     /// Bilinear lookup at texture coordinates `uv` (already transformed), with texel centres
     /// at half-integer positions.
     #[inline]
-    pub fn bilinear(&self, uv: Vec2, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
+    pub fn bilinear(&self, uv: Vec2, wrap_s: Wrap, wrap_t: Wrap) -> T {
         // Coordinates a billion texels out have no sub-texel precision left in f32; clamping
         // them keeps the integer texel indices (and x0 + 1) far from overflow, and gives
         // clamp-to-edge its edge texel. The loader replaces non-finite coordinates; the check
@@ -187,6 +209,31 @@ mod tests {
             (mid - Vec4::new(0.25, 0.25, 0.25, 1.0)).abs().max_element() < 1e-6,
             "{mid}"
         );
+    }
+
+    /// The alpha image filters to the same bits as the alpha channel of the whole texels,
+    /// at any coordinates and wrap mode: alpha coverage and shading read one alpha.
+    #[test]
+    fn the_alpha_image_filters_as_the_alpha_channel_does() {
+        let mut next = crate::sampling::hash::uniform_sequence(5);
+        let img = Image {
+            width: 3,
+            height: 5,
+            texels: (0..15)
+                .map(|_| Vec4::new(next(), next(), next(), next()))
+                .collect(),
+        };
+        let alpha = img.alpha();
+        for _ in 0..1000 {
+            let uv = Vec2::new(next() * 6.0 - 3.0, next() * 6.0 - 3.0);
+            for wrap in [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge] {
+                let want = img.bilinear(uv, wrap, Wrap::Repeat).w;
+                assert_eq!(
+                    alpha.bilinear(uv, wrap, Wrap::Repeat).to_bits(),
+                    want.to_bits()
+                );
+            }
+        }
     }
 
     #[test]

@@ -22,7 +22,8 @@ implements is strata's (see scenes/references/README.md):
 - material: the base colour is baseColorFactor.rgb x baseColorTexture.rgb (texture decoded from
   sRGB, bilinear, glTF wrap mode, TEXCOORD_0 passed unchanged: Mitsuba 3's bitmap has uv (0, 0)
   at the image's top row like glTF, so NO v flip; checked by --check). COLOR_0 is ignored (as
-  strata ignores it). What the material becomes depends on --materials:
+  strata ignores it). alphaMode is ignored: every surface is opaque, and the manifest row of a
+  scene with MASK or BLEND materials asks strata for the same (--no-alpha). What the material becomes depends on --materials:
   - lambertian (the default): twosided(diffuse) with reflectance = the base colour;
     metallic/roughness are ignored.
   - gltf: the `gltf_metal_rough` plugin of gltf_bsdf.py (glTF 2.0 Appendix B, single scattering,
@@ -799,9 +800,17 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         "render_seconds": None if seconds is None else round(seconds, 1),
         "warnings": info["warnings"],
     }
+    if has_alpha_modes(os.path.join(REPO, rel)):
+        # The conversion renders MASK and BLEND surfaces opaque; so does strata with --no-alpha.
+        entry["strata_args"] = entry["strata_args"] + ["--no-alpha"]
     if materials != "lambertian":  # (lambertian rows stay as they were before the option existed)
         entry["materials"] = {"model": materials, "description": MATERIAL_MODELS[materials]}
     return entry
+
+
+def has_alpha_modes(path):
+    """True when a material of glTF `path` has alphaMode MASK or BLEND."""
+    return any(m.get("alphaMode", "OPAQUE") != "OPAQUE" for m in Gltf(path).doc.get("materials", []))
 
 
 def mask_stats(path):

@@ -1,0 +1,469 @@
+//! Alpha coverage: where a surface exists for rays (glTF 2.0, "Alpha Coverage").
+//!
+//! A triangle's alpha at a point is `baseColorFactor.a × baseColorTexture.a`, the texture read
+//! at the point's TEXCOORD_0 exactly as the base colour is (the texture transform, the
+//! sampler's wrap modes, bilinear filtering; [`crate::shading::Materials`]). COLOR_0's alpha
+//! multiplies in as a third factor once the scene keeps vertex colours: the loader does not
+//! yet (the hook is in `Rule::alpha`). By the material's `alphaMode`:
+//!
+//! | mode            | the surface stops a ray                                          |
+//! |-----------------|------------------------------------------------------------------|
+//! | `OPAQUE`        | always: alpha is ignored                                         |
+//! | `MASK` (cutoff) | where alpha ≥ cutoff; elsewhere it is a hole                     |
+//! | `BLEND`         | with probability alpha (stochastic coverage, Enderton et al. 2010) |
+//!
+//! BLEND's coin is a hash of the triangle and of the ray's origin and direction (their bits),
+//! not a random number drawn in the integrator: the answer is a pure function of the ray, so
+//! a render does not depend on the thread count or the schedule, both backends answer alike,
+//! a ray asked twice (Embree may run a filter more than once on one hit) gets one answer, and
+//! camera, shadow and AO rays all meet the same partial surface in the mean. The ray's extent
+//! does not enter: a shadow ray toward a light and an unbounded ray along the same line meet
+//! the same surface. Two rays that differ in any bit of their origin or direction flip
+//! independent coins.
+//!
+//! Why here, beside the backends and not in `shading`: whether a hit exists is the
+//! acceleration structure's answer, which both backends must give alike (Embree through its
+//! filter callbacks, obvhs inside its traversal), and which no integrator must ever see a hole
+//! in. It borrows only the texture lookup from [`crate::shading::texture`].
+//!
+//! [`AlphaCoverage::build`] decodes only the base colour images of the MASK and BLEND
+//! materials that some triangle uses, keeps their alpha channel alone, and builds nothing for
+//! a scene without such materials ([`crate::scene::SceneSummary::alpha_tested_triangles`]).
+
+use std::path::Path;
+
+use glam::Vec2;
+
+use super::Ray;
+use crate::sampling::hash::{hash_words, unit_f32};
+use crate::scene::{AlphaMode, Scene, TextureRef};
+use crate::shading::texture::{transform_uv, Image};
+
+/// `slot` of a triangle that is not alpha-tested.
+const NOT_TESTED: u32 = u32::MAX;
+
+/// Salt of BLEND's coverage hash, so that it shares no values with the samplers' hashes.
+const BLEND_SALT: u64 = 0x616c_7068_615f_626c; // "alpha_bl"
+
+/// Which surfaces of a scene let rays through where, by alpha.
+#[derive(Clone, Debug)]
+pub struct AlphaCoverage {
+    /// For each scene triangle, its index into `tested`, or [`NOT_TESTED`].
+    slot: Vec<u32>,
+    tested: Vec<TestedTriangle>,
+    /// The coverage rules of the alpha-tested materials.
+    rules: Vec<Rule>,
+    /// The alpha channels of the decoded base colour images.
+    images: Vec<Image<f32>>,
+}
+
+/// What an alpha-tested triangle needs to look its alpha up.
+#[derive(Clone, Copy, Debug)]
+struct TestedTriangle {
+    /// Index into `AlphaCoverage::rules`.
+    rule: u32,
+    /// TEXCOORD_0 of its three vertices.
+    uv: [Vec2; 3],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Cut {
+    /// Covered where alpha ≥ the cutoff.
+    Mask(f32),
+    /// Covered with probability alpha.
+    Blend,
+}
+
+/// The coverage of one material.
+#[derive(Clone, Debug)]
+struct Rule {
+    cut: Cut,
+    /// `baseColorFactor.a`.
+    factor: f32,
+    /// The base colour texture, its `image` an index into `AlphaCoverage::images`.
+    texture: Option<TextureRef>,
+}
+
+impl Rule {
+    /// Alpha at texture coordinates `uv`.
+    #[inline]
+    fn alpha(&self, images: &[Image<f32>], uv: Vec2) -> f32 {
+        // COLOR_0 hook: once the scene keeps vertex colours, `TestedTriangle` carries its
+        // vertices' COLOR_0 alpha beside `uv`, and their interpolation multiplies in here
+        // (and `Material::may_cut_holes` counts triangles whose COLOR_0 alpha is below 1).
+        match &self.texture {
+            Some(t) => {
+                self.factor * images[t.image].bilinear(transform_uv(t, uv), t.wrap_s, t.wrap_t)
+            }
+            None => self.factor,
+        }
+    }
+
+    /// True when the rule covers every point whatever the texture, which is the case when
+    /// the texture's alpha is 1 at every texel (`texture_alpha_is_one`): bilinear filtering
+    /// of ones gives exactly 1 ((1 − f) + f rounds to 1 for f in [0, 1]), so alpha is the
+    /// factor everywhere.
+    fn always_covers(&self, texture_alpha_is_one: bool) -> bool {
+        if self.texture.is_some() && !texture_alpha_is_one {
+            return false;
+        }
+        match self.cut {
+            Cut::Mask(cutoff) => self.factor >= cutoff,
+            Cut::Blend => self.factor >= 1.0,
+        }
+    }
+}
+
+/// A uniform number in (0, 1) for BLEND's coin at triangle `prim` along `ray` (its origin
+/// and direction bits).
+#[inline]
+fn blend_coin(prim: u32, ray: &Ray) -> f32 {
+    let bits = |a: f32, b: f32| u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32;
+    let (o, d) = (ray.org, ray.dir);
+    unit_f32(hash_words(&[
+        BLEND_SALT ^ u64::from(prim),
+        bits(o.x, o.y),
+        bits(o.z, d.x),
+        bits(d.y, d.z),
+    ]))
+}
+
+impl AlphaCoverage {
+    /// The alpha coverage of `scene`'s triangles, or `None` when none is alpha-tested (the
+    /// scene's summary counts no [`crate::scene::Material::may_cut_holes`] triangle, or every
+    /// texture of such a material turns out to have alpha 1 everywhere and its factor
+    /// covers). Decodes the base colour images of the MASK and BLEND materials that
+    /// triangles use; `scene_path` names the scene in decoding errors.
+    pub fn build(scene: &Scene, scene_path: &Path) -> Result<Option<AlphaCoverage>, String> {
+        if scene.summary.alpha_tested_triangles == 0 {
+            return Ok(None);
+        }
+        let mut used = vec![false; scene.materials.len()];
+        for &m in &scene.triangle_materials {
+            used[m as usize] = true;
+        }
+        let mut images: Vec<Image<f32>> = Vec::new();
+        let mut image_slot: Vec<Option<usize>> = vec![None; scene.images.len()];
+        // Each material's index into `rules`, or NOT_TESTED.
+        let mut material_rule = vec![NOT_TESTED; scene.materials.len()];
+        let mut rules = Vec::new();
+        for (i, m) in scene.materials.iter().enumerate() {
+            if !used[i] || !m.may_cut_holes() {
+                continue;
+            }
+            let cut = match m.alpha_mode {
+                AlphaMode::Opaque => continue,
+                AlphaMode::Mask(cutoff) => Cut::Mask(cutoff),
+                AlphaMode::Blend => Cut::Blend,
+            };
+            let (texture, alpha_is_one) = match &m.base_color_texture {
+                None => (None, true),
+                Some(t) => {
+                    let src = scene.images.get(t.image).ok_or_else(|| {
+                        format!(
+                            "{}: texture image {} does not exist",
+                            scene_path.display(),
+                            t.image
+                        )
+                    })?;
+                    let slot = match image_slot[t.image] {
+                        Some(s) => s,
+                        None => {
+                            images.push(Image::decode(src, t.image, scene_path)?.alpha());
+                            image_slot[t.image] = Some(images.len() - 1);
+                            images.len() - 1
+                        }
+                    };
+                    let alpha_is_one = images[slot].texels.iter().all(|&a| a == 1.0);
+                    (
+                        Some(TextureRef {
+                            image: slot,
+                            ..t.clone()
+                        }),
+                        alpha_is_one,
+                    )
+                }
+            };
+            let rule = Rule {
+                cut,
+                factor: m.base_color.w,
+                texture,
+            };
+            if rule.always_covers(alpha_is_one) {
+                continue;
+            }
+            material_rule[i] = rules.len() as u32;
+            rules.push(rule);
+        }
+        let mut slot = vec![NOT_TESTED; scene.triangles.len()];
+        let mut tested = Vec::new();
+        for (t, (&m, tri)) in scene
+            .triangle_materials
+            .iter()
+            .zip(&scene.triangles)
+            .enumerate()
+        {
+            let rule = material_rule[m as usize];
+            if rule == NOT_TESTED {
+                continue;
+            }
+            slot[t] = tested.len() as u32;
+            tested.push(TestedTriangle {
+                rule,
+                uv: tri.map(|v| scene.uvs.get(v as usize).copied().unwrap_or(Vec2::ZERO)),
+            });
+        }
+        if tested.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(AlphaCoverage {
+            slot,
+            tested,
+            rules,
+            images,
+        }))
+    }
+
+    /// True when triangle `prim`'s hits are tested ([`AlphaCoverage::covers`] may say no);
+    /// false for the triangles that always stop rays.
+    #[inline]
+    pub fn tests(&self, prim: u32) -> bool {
+        self.slot
+            .get(prim as usize)
+            .is_some_and(|&s| s != NOT_TESTED)
+    }
+
+    /// How many triangles are alpha-tested.
+    pub fn tested_triangles(&self) -> usize {
+        self.tested.len()
+    }
+
+    /// Alpha of triangle `prim` at barycentrics (u, v) (p = (1 − u − v)·p0 + u·p1 + v·p2),
+    /// or `None` for a triangle that is not alpha-tested.
+    #[inline]
+    pub fn alpha(&self, prim: u32, u: f32, v: f32) -> Option<f32> {
+        let &slot = self.slot.get(prim as usize)?;
+        let t = self.tested.get(slot as usize)?;
+        let rule = &self.rules[t.rule as usize];
+        let uv = (1.0 - u - v) * t.uv[0] + u * t.uv[1] + v * t.uv[2];
+        Some(rule.alpha(&self.images, uv))
+    }
+
+    /// True when the hit of `ray` with triangle `prim` at barycentrics (u, v) stops the ray;
+    /// false where the surface is a hole for this ray. Only the ray's origin and direction
+    /// are read (BLEND's coin, see the module docs). Never panics (it runs inside Embree's
+    /// callbacks): a triangle it does not know is covered.
+    #[inline]
+    pub fn covers(&self, prim: u32, u: f32, v: f32, ray: &Ray) -> bool {
+        let Some(&slot) = self.slot.get(prim as usize) else {
+            return true;
+        };
+        let Some(t) = self.tested.get(slot as usize) else {
+            return true;
+        };
+        let rule = &self.rules[t.rule as usize];
+        let uv = (1.0 - u - v) * t.uv[0] + u * t.uv[1] + v * t.uv[2];
+        let alpha = rule.alpha(&self.images, uv);
+        match rule.cut {
+            Cut::Mask(cutoff) => alpha >= cutoff,
+            Cut::Blend => blend_coin(prim, ray) < alpha,
+        }
+    }
+
+    /// Bytes the coverage holds (alpha images and per-triangle data).
+    pub fn memory(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(self.slot.as_slice())
+            + size_of_val(self.tested.as_slice())
+            + self
+                .images
+                .iter()
+                .map(|i| size_of_val(i.texels.as_slice()))
+                .sum::<usize>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{ImageSource, Material, Wrap};
+    use glam::{Vec3, Vec4};
+
+    /// A 2×1 RGBA PNG: a left texel of alpha `left`, a right one of alpha 255.
+    fn png_2x1(left: u8) -> Vec<u8> {
+        let mut png = Vec::new();
+        image::ImageEncoder::write_image(
+            image::codecs::png::PngEncoder::new(&mut png),
+            &[255, 255, 255, left, 255, 255, 255, 255],
+            2,
+            1,
+            image::ExtendedColorType::Rgba8,
+        )
+        .unwrap();
+        png
+    }
+
+    /// One triangle per material of `materials`, with UVs (0, 0.5), (1, 0.5), (0.5, 0.5) on
+    /// a 2×1 image whose left texel has alpha `left` / 255.
+    fn scene(materials: Vec<Material>, left: u8) -> Scene {
+        let mut s = Scene::default();
+        for (i, m) in materials.into_iter().enumerate() {
+            let b = s.positions.len() as u32;
+            s.positions
+                .extend([Vec3::ZERO, Vec3::X, Vec3::Y].map(|p| p + Vec3::Z * i as f32));
+            s.uvs.extend([
+                Vec2::new(0.0, 0.5),
+                Vec2::new(1.0, 0.5),
+                Vec2::new(0.5, 0.5),
+            ]);
+            s.normals.extend([Vec3::ZERO; 3]);
+            s.triangles.push([b, b + 1, b + 2]);
+            s.triangle_materials.push(i as u32);
+            s.materials.push(m);
+        }
+        s.images = vec![ImageSource::Bytes {
+            data: png_2x1(left).into(),
+            mime: Some("image/png".into()),
+        }];
+        s.update_summary();
+        s
+    }
+
+    fn textured(alpha_mode: AlphaMode, factor: f32) -> Material {
+        Material {
+            base_color: Vec4::new(1.0, 1.0, 1.0, factor),
+            base_color_texture: Some(TextureRef {
+                image: 0,
+                tex_coord: 0,
+                wrap_s: Wrap::ClampToEdge,
+                wrap_t: Wrap::ClampToEdge,
+                transform: [Vec2::X, Vec2::Y, Vec2::ZERO],
+            }),
+            alpha_mode,
+            ..Default::default()
+        }
+    }
+
+    fn plain(alpha_mode: AlphaMode, factor: f32) -> Material {
+        Material {
+            base_color: Vec4::new(1.0, 1.0, 1.0, factor),
+            alpha_mode,
+            ..Default::default()
+        }
+    }
+
+    fn build(s: &Scene) -> Option<AlphaCoverage> {
+        AlphaCoverage::build(s, Path::new("test.gltf")).unwrap()
+    }
+
+    /// Alpha is the factor times the texture's alpha, read bilinearly at the point's UV: the
+    /// triangle's vertex 0 sits on the left texel's centre line (u = 0 clamps to it), vertex
+    /// 1 on the right one's, and halfway between them alpha is their mean.
+    #[test]
+    fn alpha_is_the_factor_times_the_filtered_texture_alpha() {
+        let s = scene(vec![textured(AlphaMode::Mask(0.5), 0.8)], 51);
+        let c = build(&s).expect("a MASK material with a texture is tested");
+        let left = 51.0 / 255.0;
+        let at = |u, v| c.alpha(0, u, v).unwrap();
+        assert!((at(0.0, 0.0) - 0.8 * left).abs() < 1e-6);
+        assert!((at(1.0, 0.0) - 0.8).abs() < 1e-6);
+        // Vertex 2 has UV (0.5, 0.5): the texel boundary, where bilinear gives the mean.
+        assert!((at(0.0, 1.0) - 0.8 * 0.5 * (left + 1.0)).abs() < 1e-6);
+    }
+
+    /// MASK cuts at the cutoff: covered where alpha ≥ cutoff, a hole below, whatever the ray.
+    #[test]
+    fn mask_covers_where_alpha_reaches_the_cutoff() {
+        let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+        // Alpha 0.8 × 0.2 = 0.16 on the left, 0.8 on the right.
+        for (cutoff, left, right) in [(0.5, false, true), (0.16, true, true), (0.81, false, false)]
+        {
+            let s = scene(vec![textured(AlphaMode::Mask(cutoff), 0.8)], 51);
+            let c = build(&s).unwrap();
+            assert_eq!(c.covers(0, 0.0, 0.0, &ray), left, "cutoff {cutoff}, left");
+            assert_eq!(c.covers(0, 1.0, 0.0, &ray), right, "cutoff {cutoff}, right");
+        }
+    }
+
+    /// BLEND stops a fraction alpha of rays (here over 40,000 rays, 5 standard errors), the
+    /// same answer for the same ray each time, and different rays decide independently.
+    #[test]
+    fn blend_stops_a_fraction_alpha_of_rays() {
+        let s = scene(vec![plain(AlphaMode::Blend, 0.3)], 255);
+        let c = build(&s).unwrap();
+        let n = 40_000;
+        let rays: Vec<Ray> = (0..n)
+            .map(|i| {
+                let x = (i % 200) as f32 / 200.0;
+                let y = (i / 200) as f32 / 200.0;
+                Ray::new(Vec3::new(0.3 * x, 0.3 * y, 1.0), -Vec3::Z)
+            })
+            .collect();
+        let stopped = rays.iter().filter(|r| c.covers(0, 0.2, 0.2, r)).count();
+        let p = stopped as f64 / n as f64;
+        let se = (0.3f64 * 0.7 / n as f64).sqrt();
+        assert!((p - 0.3).abs() < 5.0 * se, "{p} of rays stopped, not 0.3");
+        for r in &rays[..100] {
+            assert_eq!(c.covers(0, 0.2, 0.2, r), c.covers(0, 0.7, 0.1, r));
+        }
+    }
+
+    /// Materials whose alpha cannot cut (OPAQUE whatever its alpha; MASK or BLEND with a
+    /// factor that covers and no texture, or a texture of alpha 1 everywhere) are not tested,
+    /// and a scene of only those builds nothing.
+    #[test]
+    fn surfaces_that_always_cover_are_not_tested() {
+        let s = scene(
+            vec![
+                plain(AlphaMode::Opaque, 0.1),
+                plain(AlphaMode::Mask(0.5), 0.5),
+                plain(AlphaMode::Blend, 1.0),
+                textured(AlphaMode::Blend, 1.0),
+                textured(AlphaMode::Mask(0.5), 0.9),
+            ],
+            255,
+        );
+        // The summary cannot see inside textures: it counts the two textured triangles.
+        assert_eq!(s.summary.alpha_tested_triangles, 2);
+        assert!(build(&s).is_none());
+        let none = scene(vec![plain(AlphaMode::Opaque, 0.0)], 0);
+        assert_eq!(none.summary.alpha_tested_triangles, 0);
+        assert!(build(&none).is_none());
+        // Negative control: a texture with one transparent texel is tested, and so is a
+        // MASK whose factor falls below its cutoff.
+        let s = scene(
+            vec![
+                plain(AlphaMode::Opaque, 1.0),
+                textured(AlphaMode::Blend, 1.0),
+            ],
+            254,
+        );
+        let c = build(&s).unwrap();
+        assert_eq!(
+            (c.tests(0), c.tests(1), c.tested_triangles()),
+            (false, true, 1)
+        );
+        let s = scene(vec![plain(AlphaMode::Mask(0.5), 0.49)], 255);
+        assert!(!build(&s)
+            .unwrap()
+            .covers(0, 0.1, 0.1, &Ray::new(Vec3::Z, -Vec3::Z)));
+    }
+
+    /// An undecodable base colour image of an alpha-tested material is an error naming the
+    /// scene and the image; the same image on an OPAQUE material is never decoded.
+    #[test]
+    fn an_undecodable_alpha_texture_is_an_error() {
+        let mut s = scene(vec![textured(AlphaMode::Mask(0.5), 1.0)], 0);
+        s.images = vec![ImageSource::Bytes {
+            data: b"not a png".to_vec().into(),
+            mime: None,
+        }];
+        let e = AlphaCoverage::build(&s, Path::new("test.gltf")).unwrap_err();
+        assert!(e.contains("test.gltf") && e.contains("image 0"), "{e}");
+        s.materials[0].alpha_mode = AlphaMode::Opaque;
+        s.update_summary();
+        assert!(AlphaCoverage::build(&s, Path::new("test.gltf"))
+            .unwrap()
+            .is_none());
+    }
+}
