@@ -140,7 +140,7 @@ pub fn stats(run: &Run) -> String {
     let roles = &summary.texture_roles;
     let _ = writeln!(
         s,
-        "textures by role: {} base colour, {} emissive, {} metallic-roughness (rendered); {} normal (not rendered yet); {} occlusion (not needed)",
+        "textures by role: {} base colour, {} emissive, {} metallic-roughness, {} normal (rendered); {} occlusion (not needed)",
         roles.base_color, roles.emissive, roles.metallic_roughness, roles.normal, roles.occlusion
     );
     let _ = writeln!(

@@ -47,6 +47,13 @@ struct Surface {
     color: Option<Vec4>,
     /// A 2 × 2 PNG of one RGBA8 colour, bound as texture 0.
     texture: Option<[u8; 4]>,
+    /// A 2 × 2 normal map of one texel and its `scale`, bound as the material's
+    /// `normalTexture` (texture 1).
+    normal_map: Option<([u8; 4], f32)>,
+    /// `TANGENT` of every vertex, if any.
+    tangent: Option<Vec4>,
+    /// A directional light shining from direction (its node's +Z), irradiance 2.
+    light_from: Option<Vec3>,
 }
 
 fn png_2x2(rgba: [u8; 4]) -> Vec<u8> {
@@ -83,6 +90,9 @@ fn write_scene(dir: &Path, name: &str, surface: &Surface, pitch: f32) -> PathBuf
     let vc = surface
         .color
         .map(|c| view(&mut bin, &c.to_array().repeat(4)));
+    let vtan = surface
+        .tangent
+        .map(|t| view(&mut bin, &t.to_array().repeat(4)));
     let index_offset = bin.len();
     for i in [0u16, 1, 2, 0, 2, 3] {
         bin.extend_from_slice(&i.to_le_bytes());
@@ -101,6 +111,11 @@ fn write_scene(dir: &Path, name: &str, surface: &Surface, pitch: f32) -> PathBuf
         accessors
             .push(json!({"bufferView": vc, "componentType": 5126, "count": 4, "type": "VEC4"}));
         attributes["COLOR_0"] = json!(accessors.len() - 1);
+    }
+    if let Some(vtan) = vtan {
+        accessors
+            .push(json!({"bufferView": vtan, "componentType": 5126, "count": 4, "type": "VEC4"}));
+        attributes["TANGENT"] = json!(accessors.len() - 1);
     }
     let c = pose(pitch);
     let back = -c.forward;
@@ -121,12 +136,27 @@ fn write_scene(dir: &Path, name: &str, surface: &Surface, pitch: f32) -> PathBuf
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
     });
-    if let Some(rgba) = surface.texture {
-        std::fs::write(dir.join(format!("{name}.png")), png_2x2(rgba)).unwrap();
-        doc["images"] = json!([{"uri": format!("{name}.png")}]);
-        doc["textures"] = json!([{"source": 0}]);
-        doc["samplers"] = json!([{"magFilter": 9729, "minFilter": 9729}]);
-        doc["textures"][0]["sampler"] = json!(0);
+    // Texture 0: the surface's texture (or a white one), texture 1: its normal map.
+    let base = surface.texture.unwrap_or([255; 4]);
+    let normal = surface.normal_map.map_or([128, 128, 255, 255], |n| n.0);
+    std::fs::write(dir.join(format!("{name}.png")), png_2x2(base)).unwrap();
+    std::fs::write(dir.join(format!("{name}-n.png")), png_2x2(normal)).unwrap();
+    doc["images"] = json!([{"uri": format!("{name}.png")}, {"uri": format!("{name}-n.png")}]);
+    doc["samplers"] = json!([{"magFilter": 9729, "minFilter": 9729}]);
+    doc["textures"] = json!([{"source": 0, "sampler": 0}, {"source": 1, "sampler": 0}]);
+    if let Some((_, scale)) = surface.normal_map {
+        doc["materials"][0]["normalTexture"] = json!({"index": 1, "scale": scale});
+    }
+    if let Some(from) = surface.light_from {
+        // The rotation taking +Z to `from` (the light shines along its node's −Z).
+        let q = glam::Quat::from_rotation_arc(Vec3::Z, from.normalize());
+        doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+            {"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 2.0}]}});
+        doc["nodes"].as_array_mut().unwrap().push(
+            json!({"rotation": q.to_array(), "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        );
+        doc["scenes"][0]["nodes"] = json!([0, 1, 2]);
     }
     let path = dir.join(format!("{name}.gltf"));
     std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
@@ -146,12 +176,22 @@ fn plain(material: Value) -> Surface {
         material,
         color: None,
         texture: None,
+        normal_map: None,
+        tangent: None,
+        light_from: None,
     }
 }
 
 /// Renders `surface` seen at `pitch` degrees under a white sky of radiance 1 with the path
 /// tracer and `extra` options; returns the pixels.
 fn render_surface(surface: &Surface, pitch: f32, spp: u32, extra: &[&str]) -> Vec<[f32; 3]> {
+    let mut args = vec!["--integrator", "path", "--background", "1,1,1"];
+    args.extend(extra);
+    render_with(surface, pitch, spp, &args)
+}
+
+/// Renders `surface` seen at `pitch` degrees with `args`; returns the pixels.
+fn render_with(surface: &Surface, pitch: f32, spp: u32, extra: &[&str]) -> Vec<[f32; 3]> {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), "quad", surface, pitch);
     let out = dir.path().join("out.exr");
@@ -162,10 +202,6 @@ fn render_surface(surface: &Surface, pitch: f32, spp: u32, extra: &[&str]) -> Ve
         "-o",
         s(&out),
         "--no-png",
-        "--integrator",
-        "path",
-        "--background",
-        "1,1,1",
         "--resolution",
         &size,
         "--spp",
@@ -292,9 +328,8 @@ fn the_metallic_roughness_texture_is_read_as_linear_blue_and_green() {
         let mut m = material(base, 1.0, 1.0);
         m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": 0});
         Surface {
-            material: m,
-            color: None,
             texture: Some(rgba),
+            ..plain(m)
         }
     };
     let from_texture = render_surface(&textured([0, 128, 255, 255]), pitch, 64, &extra);
@@ -320,9 +355,8 @@ fn vertex_colors_multiply_the_base_color() {
     let pitch = 40.0;
     let c = Vec4::new(0.5, 0.25, 1.0, 1.0);
     let colored = Surface {
-        material: material([1.0; 3], 0.0, 0.6),
         color: Some(c),
-        texture: None,
+        ..plain(material([1.0; 3], 0.0, 0.6))
     };
     let with_colors = render_surface(&colored, pitch, 32, &[]);
     let as_factor = render_surface(&plain(material([0.5, 0.25, 1.0], 0.0, 0.6)), pitch, 32, &[]);
@@ -381,4 +415,104 @@ fn uniform_hemisphere_sampling_needs_the_lambertian_model() {
     let mut ok = args.to_vec();
     ok.extend(["--materials", "lambertian", "--no-png"]);
     render(dir.path(), &ok).assert_success();
+}
+
+/// The unit tangent-space normal a normal-map texel encodes at `scale` (glTF 2.0: (2 texel −
+/// 1) × (scale, scale, 1), normalised), from the 8-bit values as the decoder reads them.
+fn encoded_normal(texel: [u8; 4], scale: f32) -> Vec3 {
+    let c = |i: usize| 2.0 * texel[i] as f32 / 255.0 - 1.0;
+    Vec3::new(c(0) * scale, c(1) * scale, c(2)).normalize()
+}
+
+/// A constant normal map tilts the shading normal: under a directional light, a Lambertian
+/// quad seen from above shades as ρ/π E cos(n', L) with n' the map's normal in the tangent
+/// frame (+X along +u, +Y up the image, +Z the normal), from the quantised texel. Lights
+/// from either side of each tilt tell the directions apart (a green channel read the other
+/// way round, or a reversed tangent, swaps them); with MikkTSpace's tangents and with the
+/// file's `TANGENT` alike; and `scale` scales X and Y.
+#[test]
+fn a_tilted_normal_map_shades_as_the_cosine_of_the_tilt() {
+    let rho = 0.8f32;
+    let s30 = (30f32.to_radians().sin() * 0.5 + 0.5) * 255.0;
+    let c30 = (30f32.to_radians().cos() * 0.5 + 0.5) * 255.0;
+    let (s30, c30) = (s30.round() as u8, c30.round() as u8);
+    // Tilted 30° toward +x (red), and 30° up the image (green), which is +y here.
+    let cases = [
+        ([s30, 128, c30, 255], 1.0),
+        ([128, s30, c30, 255], 1.0),
+        ([s30, 128, c30, 255], 0.5),
+    ];
+    for (texel, scale) in cases {
+        for tangent in [None, Some(Vec4::new(1.0, 0.0, 0.0, 1.0))] {
+            let n = encoded_normal(texel, scale);
+            for from in [
+                Vec3::new(0.5, 0.0, 0.866),
+                Vec3::new(-0.5, 0.0, 0.866),
+                Vec3::new(0.0, 0.5, 0.866),
+                Vec3::new(0.0, -0.5, 0.866),
+            ] {
+                let surface = Surface {
+                    normal_map: Some((texel, scale)),
+                    tangent,
+                    light_from: Some(from),
+                    ..plain(material([rho; 3], 0.0, 1.0))
+                };
+                let px = render_with(
+                    &surface,
+                    89.0,
+                    2,
+                    &["--integrator", "direct", "--materials", "lambertian"],
+                );
+                let want = rho / std::f32::consts::PI * 2.0 * n.dot(from.normalize()).max(0.0);
+                let what = format!("texel {texel:?} scale {scale} tangent {tangent:?} from {from}");
+                for p in &px {
+                    assert!(
+                        (p[0] - want).abs() < 2e-4 * want.max(1.0),
+                        "{what}: {p:?}, want {want}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A normal map bent so far that wo's mirror direction would dive below the surface leaves
+/// no black rim: the normal is turned back just enough (a smooth white-ish metal under a sky
+/// of 1 reflects at least its F0 everywhere). And light never passes through: a light
+/// below the quad lights none of it, however the map bends the normal toward it.
+#[test]
+fn bent_normals_leave_no_black_and_let_no_light_through() {
+    // 75° toward +x: seen from 30° above the horizon along +y, the bend takes the mirror
+    // direction of every pixel below the quad.
+    let t = 75f32.to_radians();
+    let texel = [
+        ((t.sin() * 0.5 + 0.5) * 255.0).round() as u8,
+        128,
+        ((t.cos() * 0.5 + 0.5) * 255.0).round() as u8,
+        255,
+    ];
+    let mirror = Surface {
+        normal_map: Some((texel, 1.0)),
+        ..plain(material([0.9; 3], 1.0, 0.0))
+    };
+    let px = render_surface(&mirror, 30.0, 4, &[]);
+    let darkest = px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min);
+    assert!(darkest >= 0.85, "darkest pixel {darkest}");
+    let below = Surface {
+        normal_map: Some((texel, 1.0)),
+        light_from: Some(Vec3::new(0.3, 0.0, -1.0)),
+        ..plain(material([0.8; 3], 0.0, 1.0))
+    };
+    for model in ["gltf", "lambertian"] {
+        let px = render_with(
+            &below,
+            60.0,
+            4,
+            &["--integrator", "path", "--materials", model],
+        );
+        assert!(
+            px.iter().all(|p| *p == [0.0; 3]),
+            "{model}: light came through"
+        );
+    }
 }

@@ -911,6 +911,11 @@ impl Loader<'_> {
             )?;
             check_accessor(self.buffers, acc).map_err(|e| format!("{label} TEXCOORD_0: {e}"))?;
         }
+        let tangent_acc = primitive.get(&gltf::Semantic::Tangents);
+        if let Some(acc) = &tangent_acc {
+            expect_format(acc, Dimensions::Vec4, &[DataType::F32], label, "TANGENT")?;
+            check_accessor(self.buffers, acc).map_err(|e| format!("{label} TANGENT: {e}"))?;
+        }
         let color_acc = primitive.get(&gltf::Semantic::Colors(0));
         if let Some(acc) = &color_acc {
             // glTF 2.0 §3.7.2.1: VEC3 or VEC4 of float, or normalized unsigned byte or short.
@@ -944,6 +949,7 @@ impl Loader<'_> {
             ("NORMAL", &normal_acc),
             ("TEXCOORD_0", &uv_acc),
             ("COLOR_0", &color_acc),
+            ("TANGENT", &tangent_acc),
         ] {
             if let Some(acc) = acc.as_ref().filter(|a| a.count() != pos_acc.count()) {
                 return Err(format!(
@@ -992,9 +998,24 @@ impl Loader<'_> {
             ),
             None => None,
         };
+        let material = primitive.material().index().map_or(0, |i| i as u32 + 1);
+        // Tangents matter only under a normal map.
+        let normal_mapped = self.scene.materials[material as usize]
+            .normal_texture
+            .is_some();
+        let tangents: Option<Vec<[f32; 4]>> = match &tangent_acc {
+            Some(_) if normal_mapped => Some(
+                reader
+                    .read_tangents()
+                    .ok_or_else(|| unreadable("TANGENT"))?
+                    .collect(),
+            ),
+            _ => None,
+        };
         if normals.as_ref().is_some_and(|v| v.len() != n)
             || uvs.as_ref().is_some_and(|v| v.len() != n)
             || colors.as_ref().is_some_and(|v| v.len() != n)
+            || tangents.as_ref().is_some_and(|v| v.len() != n)
         {
             return Err(format!(
                 "{label}: attribute counts differ from the POSITION count {n}"
@@ -1101,7 +1122,10 @@ impl Loader<'_> {
             }
             None => {}
         }
-        let material = primitive.material().index().map_or(0, |i| i as u32 + 1);
+        let first_triangle = self.scene.triangles.len();
+        // The vertices of each triangle kept, as the file numbers them (before flat-shaded
+        // triangles get copies), for its tangent frame.
+        let mut corners: Vec<[u32; 3]> = Vec::new();
         for [a, b, c] in triangles {
             let [a, b, c] = [a, b, c].map(|i| i + base as u32);
             let [pa, pb, pc] = [a, b, c].map(|i| self.scene.positions[i as usize]);
@@ -1113,6 +1137,9 @@ impl Loader<'_> {
             // A triangle that uses a bad vertex normal is shaded flat: it gets its own copies
             // of its vertices, all with the zero normal that means "no normal", so the
             // neighbours sharing its good vertices keep their smooth shading.
+            if normal_mapped {
+                corners.push(if flip { [a, c, b] } else { [a, b, c] });
+            }
             let [a, b, c] = if normals.is_some()
                 && [a, b, c]
                     .iter()
@@ -1143,7 +1170,56 @@ impl Loader<'_> {
                 .push(if flip { [a, c, b] } else { [a, b, c] });
             self.scene.triangle_materials.push(material);
         }
+        let file_tangents = tangents.as_deref().map(|t| (base, t));
+        self.tangent_frames(first_triangle, &corners, file_tangents, &linear, flip);
         Ok(())
+    }
+
+    /// The tangent frames of the triangles from `first` on (those this primitive added, whose
+    /// file vertices are `corners`: empty unless its material has a normal map): from the
+    /// file's `TANGENT` (`file`: the primitive's first vertex in the scene and its tangents in
+    /// object space: xyz by the node's `linear` map, w negated under a mirroring one) or else
+    /// by MikkTSpace.
+    fn tangent_frames(
+        &mut self,
+        first: usize,
+        corners: &[[u32; 3]],
+        file: Option<(usize, &[[f32; 4]])>,
+        linear: &DMat3,
+        flip: bool,
+    ) {
+        let added = self.scene.triangles.len() - first;
+        if corners.is_empty() {
+            if !self.scene.tangents.is_empty() {
+                self.scene
+                    .tangents
+                    .extend(std::iter::repeat_n([Vec4::ZERO; 3], added));
+            }
+            return;
+        }
+        let frames: Vec<[Vec4; 3]> = match file {
+            Some((base, ts)) => {
+                let world = |t: [f32; 4]| {
+                    let xyz = (*linear * DVec3::new(t[0] as f64, t[1] as f64, t[2] as f64))
+                        .normalize_or_zero()
+                        .as_vec3();
+                    let w = if t[3] < 0.0 { -1.0 } else { 1.0 } * if flip { -1.0 } else { 1.0 };
+                    match xyz.is_finite() && xyz != Vec3::ZERO {
+                        true => xyz.extend(w),
+                        false => Vec4::ZERO,
+                    }
+                };
+                corners
+                    .iter()
+                    .map(|c| c.map(|i| world(ts[i as usize - base])))
+                    .collect()
+            }
+            None => super::tangents::mikktspace(&self.scene, corners),
+        };
+        if self.scene.tangents.is_empty() {
+            self.scene.tangents = vec![[Vec4::ZERO; 3]; first];
+        }
+        self.scene.tangents.extend(frames);
     }
 }
 

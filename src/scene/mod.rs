@@ -6,6 +6,7 @@
 
 mod camera;
 mod gltf_loader;
+mod tangents;
 
 pub use camera::{Camera, Projection, RayGenerator};
 pub use gltf_loader::{
@@ -61,7 +62,7 @@ pub struct Material {
     pub roughness: f32,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
-    /// `normalTexture` and its `scale` (read, not rendered yet).
+    /// `normalTexture` and its `scale`.
     pub normal_texture: Option<TextureRef>,
     pub normal_scale: f32,
     /// `occlusionTexture` (precomputed ambient occlusion: light transport computes its own).
@@ -133,9 +134,6 @@ impl Material {
     /// like instead; empty when it renders as written.
     pub fn unrendered_inputs(&self) -> Vec<String> {
         let mut dropped = Vec::new();
-        if self.normal_texture.is_some() {
-            dropped.push("its normal map (shaded without its bumps)".to_string());
-        }
         if self.occlusion_texture.is_some() {
             dropped.push("its occlusion texture (light transport computes occlusion)".to_string());
         }
@@ -182,9 +180,10 @@ pub struct TextureRoles {
 }
 
 impl TextureRoles {
-    /// The textures light transport reads today (base colour, emission, metallic-roughness).
+    /// The textures light transport reads (base colour, emission, metallic-roughness,
+    /// normal).
     pub fn rendered(&self) -> usize {
-        self.base_color + self.emissive + self.metallic_roughness
+        self.base_color + self.emissive + self.metallic_roughness + self.normal
     }
 }
 
@@ -216,6 +215,10 @@ pub struct Scene {
     /// Linear `COLOR_0` per vertex (RGBA; white for vertices of primitives without one), or
     /// empty when no primitive has vertex colours.
     pub colors: Vec<Vec4>,
+    /// The tangent frame of each triangle's corners for its material's normal map (xyz the
+    /// tangent, w the bitangent's sign: the file's `TANGENT`, or MikkTSpace's), zero where
+    /// it has none; empty when no triangle has one.
+    pub tangents: Vec<[Vec4; 3]>,
     /// Vertex indices of each triangle, counter-clockwise seen from the front.
     pub triangles: Vec<[u32; 3]>,
     /// Material index of each triangle.

@@ -108,6 +108,9 @@ struct Prepared {
     roughness: f32,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
+    /// The tangent-space normal map and its `scale` (both models).
+    normal_texture: Option<Binding>,
+    normal_scale: f32,
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
@@ -173,6 +176,10 @@ impl Materials {
         let gltf = options.model == MaterialModel::Gltf;
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (m, &is_used) in scene.materials.iter().zip(&used) {
+            let normal_texture = match is_used {
+                true => bind(&m.normal_texture, Encoding::Linear, &mut images)?,
+                false => None,
+            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
                 let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
                 let metallic_roughness = match gltf {
@@ -195,6 +202,8 @@ impl Materials {
                 metallic: m.metallic.clamp(0.0, 1.0),
                 roughness: m.roughness.clamp(0.0, 1.0),
                 metallic_roughness_texture,
+                normal_texture,
+                normal_scale: m.normal_scale,
                 emissive: m.emissive,
                 emissive_texture,
                 double_sided: m.double_sided,
@@ -209,6 +218,7 @@ impl Materials {
             m.base_texture.is_some()
                 || m.emissive_texture.is_some()
                 || m.metallic_roughness_texture.is_some()
+                || m.normal_texture.is_some()
         });
         Ok(Materials {
             materials,
@@ -258,7 +268,62 @@ impl Materials {
             MaterialModel::Lambertian => self.bsdf_with(base, 0.0, 1.0),
             MaterialModel::Gltf => self.gltf_bsdf(m, base, uv),
         };
-        SurfaceBsdf::new(bsdf, si)
+        match &m.normal_texture {
+            None => SurfaceBsdf::new(bsdf, si),
+            Some(b) => {
+                SurfaceBsdf::new(bsdf, &self.normal_mapped(scene, si, b, m.normal_scale, uv))
+            }
+        }
+    }
+
+    /// The surface point with its shading normal bent by normal map `map` at `uv` (glTF 2.0,
+    /// "normalTexture": n = normalize(T x + B y + N z) with (x, y, z) = (2 texel − 1) ×
+    /// (scale, scale, 1), B = cross(N, T) w), on the side the ray arrived from. A strongly
+    /// bent normal mirrors wo below the geometric surface (or turns away from it), where
+    /// `SurfaceBsdf` gives nothing: smooth surfaces would show black rims. So the normal is
+    /// turned toward the geometric normal just enough that wo's mirror direction stays
+    /// above the surface ([`valid_reflection_normal`], the rule Cycles applies to shading
+    /// normals). Light still never passes through the surface: `SurfaceBsdf` gives nothing
+    /// to directions below the geometric surface, whatever the shading normal.
+    fn normal_mapped(
+        &self,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        map: &Binding,
+        scale: f32,
+        uv: Vec2,
+    ) -> SurfaceInteraction {
+        let Some(corners) = scene.tangents.get(si.prim as usize) else {
+            return *si;
+        };
+        let (u, v) = (si.u, si.v);
+        let t4 = (1.0 - u - v) * corners[0] + u * corners[1] + v * corners[2];
+        // The surface's own normal, before the two-sided rule turned it toward the ray.
+        let front_ng = if si.front_face { si.ng } else { -si.ng };
+        let n = scene.shading_normal(si.prim, u, v).unwrap_or(front_ng);
+        let t = t4.truncate() - n * n.dot(t4.truncate());
+        if t.length_squared() < 1e-12 || !t.is_finite() {
+            return *si;
+        }
+        let t = t.normalize();
+        let b = n.cross(t) * if t4.w < 0.0 { -1.0 } else { 1.0 };
+        let texel = self.lookup(map, uv);
+        let m = Vec3::new(
+            (2.0 * texel.x - 1.0) * scale,
+            (2.0 * texel.y - 1.0) * scale,
+            2.0 * texel.z - 1.0,
+        );
+        let mut bent = (t * m.x + b * m.y + n * m.z).normalize_or_zero();
+        if bent == Vec3::ZERO {
+            return *si;
+        }
+        if si.ns.dot(n) < 0.0 {
+            bent = -bent;
+        }
+        SurfaceInteraction {
+            ns: valid_reflection_normal(si.ng, si.wo, bent),
+            ..*si
+        }
     }
 
     /// The glTF model's BSDF of material `m` at `uv`, of base colour `base`: kept out of line,
@@ -369,6 +434,45 @@ impl Materials {
     }
 }
 
+/// Shading normal `n`, turned toward geometric normal `ng` (both on `wo`'s side) just enough
+/// that wo's mirror direction r = 2 (n·wo) n − wo rises at least t = min(0.9 wo·ng, 0.01)
+/// above the surface: unchanged where it already does.
+///
+/// In the frame z = ng, x = n's part across ng, the new normal is (√(1 − z²), 0, √z²) with
+/// r·ng = 2 (n·wo) n_z − wo_z = t. Writing s = n_z², n·wo = √(1 − s) wo_x + √s wo_z; squared,
+/// 4 s (1 − s) wo_x² = (t + wo_z − 2 s wo_z)², the quadratic
+/// 4 (wo_x² + wo_z²) s² − 4 (wo_x² + wo_z² + t wo_z) s + (t + wo_z)² = 0,
+/// whose root is the one that satisfies the equation before squaring (the sign of wo_x).
+pub fn valid_reflection_normal(ng: Vec3, wo: Vec3, n: Vec3) -> Vec3 {
+    let wo_z = wo.dot(ng);
+    let t = (0.9 * wo_z).min(0.01);
+    if wo_z <= 0.0 || (2.0 * n.dot(wo) * n - wo).dot(ng) >= t {
+        return n;
+    }
+    let x = n - n.dot(ng) * ng;
+    let x = match x.length_squared() > 1e-12 {
+        true => x.normalize(),
+        // n along ng: its reflection is wo's own, which is above: not reached.
+        false => return n,
+    };
+    let wo_x = wo.dot(x);
+    let a = wo_x * wo_x + wo_z * wo_z;
+    let b = a + t * wo_z;
+    let c = (t + wo_z) * (t + wo_z);
+    let root = (b * b - a * c).max(0.0).sqrt();
+    let residual = |s: f32| {
+        let (nx, nz) = ((1.0 - s).max(0.0).sqrt(), s.max(0.0).sqrt());
+        (2.0 * (nx * wo_x + nz * wo_z) * nz - wo_z - t).abs()
+    };
+    let (s1, s2) = ((b + root) / (2.0 * a), (b - root) / (2.0 * a));
+    let s = match residual(s1) <= residual(s2) {
+        true => s1,
+        false => s2,
+    }
+    .clamp(0.0, 1.0);
+    ((1.0 - s).sqrt() * x + s.sqrt() * ng).normalize()
+}
+
 /// The interpolated `COLOR_0` of triangle `prim` at barycentrics (u, v).
 #[inline]
 fn vertex_color(scene: &Scene, prim: u32, u: f32, v: f32) -> Vec4 {
@@ -376,4 +480,56 @@ fn vertex_color(scene: &Scene, prim: u32, u: f32, v: f32) -> Vec4 {
     (1.0 - u - v) * scene.colors[a as usize]
         + u * scene.colors[b as usize]
         + v * scene.colors[c as usize]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Over many normals, views and surfaces: a normal whose mirror direction of wo already
+    /// rises t = min(0.9 wo·ng, 0.01) above the surface is kept bit for bit; any other comes
+    /// back a unit vector whose mirror direction rises exactly t (to rounding), between the
+    /// normal and ng.
+    #[test]
+    fn valid_reflection_normals_keep_the_mirror_direction_above_the_surface() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        let sphere = |next: &mut dyn FnMut() -> f32| {
+            let z = 2.0 * next() - 1.0;
+            let phi = std::f32::consts::TAU * next();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        };
+        let (mut kept, mut turned) = (0, 0);
+        for _ in 0..20_000 {
+            let ng = sphere(&mut next);
+            let mut wo = sphere(&mut next);
+            if wo.dot(ng) < 0.0 {
+                wo = -wo;
+            }
+            let mut n = sphere(&mut next);
+            if n.dot(ng) < 0.0 {
+                n = -n;
+            }
+            let t = (0.9 * wo.dot(ng)).min(0.01);
+            let rises = |n: Vec3| (2.0 * n.dot(wo) * n - wo).dot(ng);
+            let out = valid_reflection_normal(ng, wo, n);
+            if rises(n) >= t {
+                assert_eq!(out, n);
+                kept += 1;
+                continue;
+            }
+            turned += 1;
+            assert!((out.length() - 1.0).abs() < 1e-4, "{out}");
+            assert!((rises(out) - t).abs() < 2e-3, "rises {} t {t}", rises(out));
+            assert!(out.dot(ng) >= n.dot(ng) - 1e-5, "turned away from ng");
+            assert!(out.dot(wo) > 0.0);
+        }
+        assert!(kept > 1000 && turned > 1000, "kept {kept}, turned {turned}");
+    }
 }
