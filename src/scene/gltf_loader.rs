@@ -1179,7 +1179,7 @@ impl Loader<'_> {
     /// file vertices are `corners`: empty unless its material has a normal map): from the
     /// file's `TANGENT` (`file`: the primitive's first vertex in the scene and its tangents in
     /// object space: xyz by the node's `linear` map, w negated under a mirroring one) or else
-    /// by MikkTSpace.
+    /// by MikkTSpace (later: [`super::Scene::tangent_frames`]).
     fn tangent_frames(
         &mut self,
         first: usize,
@@ -1199,22 +1199,34 @@ impl Loader<'_> {
         }
         let frames: Vec<[Vec4; 3]> = match file {
             Some((base, ts)) => {
-                let world = |t: [f32; 4]| {
-                    let xyz = (*linear * DVec3::new(t[0] as f64, t[1] as f64, t[2] as f64))
-                        .normalize_or_zero()
-                        .as_vec3();
-                    let w = if t[3] < 0.0 { -1.0 } else { 1.0 } * if flip { -1.0 } else { 1.0 };
-                    match xyz.is_finite() && xyz != Vec3::ZERO {
-                        true => xyz.extend(w),
-                        false => Vec4::ZERO,
-                    }
-                };
+                // Once per vertex, then looked up per corner.
+                let m = linear.as_mat3();
+                let sign = if flip { -1.0 } else { 1.0 };
+                let world: Vec<Vec4> = ts
+                    .iter()
+                    .map(|t| {
+                        let xyz = (m * Vec3::new(t[0], t[1], t[2])).normalize_or_zero();
+                        let w = if t[3] < 0.0 { -sign } else { sign };
+                        match xyz.is_finite() && xyz != Vec3::ZERO {
+                            true => xyz.extend(w),
+                            false => Vec4::ZERO,
+                        }
+                    })
+                    .collect();
                 corners
                     .iter()
-                    .map(|c| c.map(|i| world(ts[i as usize - base])))
+                    .map(|c| c.map(|i| world[i as usize - base]))
                     .collect()
             }
-            None => super::tangents::mikktspace(&self.scene, corners),
+            None => {
+                // MikkTSpace waits until a render reads the normal map (ambient occlusion
+                // does not): the frames stay zero, and the primitive's corners are kept.
+                self.scene.pending_tangents.push(super::PendingTangents {
+                    first_triangle: first,
+                    corners: corners.to_vec(),
+                });
+                vec![[Vec4::ZERO; 3]; corners.len()]
+            }
         };
         if self.scene.tangents.is_empty() {
             self.scene.tangents = vec![[Vec4::ZERO; 3]; first];

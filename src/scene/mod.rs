@@ -73,6 +73,16 @@ pub struct Material {
     pub double_sided: bool,
 }
 
+/// A normal-mapped primitive whose tangent frames MikkTSpace is to make.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PendingTangents {
+    /// Its first triangle in [`Scene::triangles`]; its triangles follow in order.
+    pub first_triangle: usize,
+    /// Each triangle's vertices as the file numbers them (flat-shaded triangles' copies
+    /// replaced by the originals, so that MikkTSpace welds them with their neighbours).
+    pub corners: Vec<[u32; 3]>,
+}
+
 /// How a material's alpha covers its surface (glTF `alphaMode`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum AlphaMode {
@@ -216,9 +226,12 @@ pub struct Scene {
     /// empty when no primitive has vertex colours.
     pub colors: Vec<Vec4>,
     /// The tangent frame of each triangle's corners for its material's normal map (xyz the
-    /// tangent, w the bitangent's sign: the file's `TANGENT`, or MikkTSpace's), zero where
-    /// it has none; empty when no triangle has one.
+    /// tangent, w the bitangent's sign) from the file's `TANGENT`, zero where it has none
+    /// (yet); empty when no triangle has one. [`Scene::tangent_frames`] adds MikkTSpace's.
     pub tangents: Vec<[Vec4; 3]>,
+    /// The normal-mapped primitives without `TANGENT`, whose frames MikkTSpace makes when a
+    /// render needs them.
+    pub pending_tangents: Vec<PendingTangents>,
     /// Vertex indices of each triangle, counter-clockwise seen from the front.
     pub triangles: Vec<[u32; 3]>,
     /// Material index of each triangle.
@@ -267,6 +280,18 @@ impl Scene {
             warnings.push(format!("{name}: {}", dropped.join("; ")));
         }
         warnings
+    }
+
+    /// Every triangle's tangent frames: the file's, with MikkTSpace's for the primitives that
+    /// have none (the work normal maps need; ambient occlusion never asks); empty when no
+    /// triangle has a normal map.
+    pub fn tangent_frames(&self) -> Vec<[Vec4; 3]> {
+        let mut frames = self.tangents.clone();
+        for p in &self.pending_tangents {
+            let made = tangents::mikktspace(self, &p.corners);
+            frames[p.first_triangle..p.first_triangle + made.len()].copy_from_slice(&made);
+        }
+        frames
     }
 
     /// Positions of the three vertices of triangle `prim`.

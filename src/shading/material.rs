@@ -126,6 +126,9 @@ pub struct Materials {
     pub textured: bool,
     /// True when the scene has vertex colours (`COLOR_0`), which scale the base colour.
     vertex_colors: bool,
+    /// Each triangle's tangent frames for its normal map ([`Scene::tangent_frames`]); empty
+    /// when no material some triangle uses has one.
+    tangents: Vec<[Vec4; 3]>,
 }
 
 impl Materials {
@@ -220,12 +223,17 @@ impl Materials {
                 || m.metallic_roughness_texture.is_some()
                 || m.normal_texture.is_some()
         });
+        let tangents = match materials.iter().any(|m| m.normal_texture.is_some()) {
+            true => scene.tangent_frames(),
+            false => Vec::new(),
+        };
         Ok(Materials {
             materials,
             images,
             options: *options,
             textured,
             vertex_colors: !scene.colors.is_empty(),
+            tangents,
         })
     }
 
@@ -293,7 +301,7 @@ impl Materials {
         scale: f32,
         uv: Vec2,
     ) -> SurfaceInteraction {
-        let Some(corners) = scene.tangents.get(si.prim as usize) else {
+        let Some(corners) = self.tangents.get(si.prim as usize) else {
             return *si;
         };
         let (u, v) = (si.u, si.v);
