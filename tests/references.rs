@@ -520,7 +520,8 @@ fn every_reference_was_made_from_the_current_scene() {
 
 /// The negative controls on scenes whose images have structure (the analytic scenes are
 /// uniform: a shift or a different warp cannot change them): AO of the Cornell box and the
-/// flight helmet, direct light of the textured Suzanne, and path tracing of the Cornell box.
+/// flight helmet, direct light of the textured Suzanne, and path tracing of the Cornell box and
+/// of the glossy sphere grid.
 /// The wrong-warp control applies to AO only; the shaded ones must also reject strata's
 /// energy-compensated model and its Lambertian override.
 #[test]
@@ -531,6 +532,7 @@ fn comparisons_fail_on_wrong_images() {
         "flight-helmet.ao",
         "suzanne.direct",
         "cornell-box.path",
+        "sphere-grid.path",
     ] {
         let r = manifest().into_iter().find(|r| r.name == name).expect(name);
         let (img, path, _) = render_strata(&r, &[], "");
@@ -577,7 +579,7 @@ fn comparisons_fail_on_wrong_images() {
                 .strata_args
                 .retain(|a| a != "--energy-compensation" && a != "off");
             let mut controls = vec![(["--materials", "lambertian"], ".lambertian")];
-            if name == "cornell-box.path" {
+            if name == "cornell-box.path" || name == "sphere-grid.path" {
                 controls.push((["--energy-compensation", "on"], ".compensated"));
             }
             for (extra, tag) in controls {

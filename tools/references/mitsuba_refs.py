@@ -91,6 +91,7 @@ SCENES = {
     "point-lights": ("scenes/point-lights.gltf", (192, 144)),
     "suzanne": ("scenes/suzanne.gltf", (192, 144)),
     "emissive-strength": ("scenes/emissive-strength.gltf", (256, 128)),
+    "sphere-grid": ("scenes/sphere-grid.gltf", (192, 144)),
 }
 # strata integrator -> (Mitsuba max_depth, strata --max-depth or None)
 INTEGRATORS = {"ao": (2, None), "direct": (2, 1), "path": (9, 8)}
@@ -111,6 +112,9 @@ JOBS = [
     ("point-lights", "path", 8192, 32),
     ("suzanne", "path", 8192, 32),
     ("emissive-strength", "path", 8192, 32),
+    # The glossy scene: shaded jobs only, with --materials gltf.
+    ("sphere-grid", "direct", 8192, 32),
+    ("sphere-grid", "path", 8192, 32),
 ]
 # Material models (--materials): what every glTF material of a shaded job becomes.
 MATERIAL_MODELS = {
