@@ -21,13 +21,14 @@
 #     docstring) -> WORK/<Name>.cycles.exr;
 #     --single-scattering: strata --energy-compensation off and Cycles' (single-scattering)
 #     GGX, the distribution Blender's importer leaves, instead;
-#  4. a coverage mask (strata AO with an occlusion distance of 1e-9: 1 where a camera ray
-#     meets the model, 0 where it sees the sky) -> WORK/<Name>.mask.exr;
+#  4. strata again with --seed 1 (the Monte Carlo noise in the differences: the same measure
+#     between two strata renders), and a coverage mask (strata AO with an occlusion distance
+#     of 1e-9: 1 where a camera ray meets the model, 0 where it sees the sky);
 #  5. the PNG: each EXR clamped to [0, 1] and sRGB-encoded (no exposure, no tone curve),
 #     labelled, side by side (a model at least twice as wide as tall is rendered --wide-width
 #     wide and shown with strata above Cycles); and the differences: mean |strata - Cycles| /
-#     mean Cycles over the image and over the model (mask), and the ratio of the means over
-#     the model.
+#     mean Cycles over the image and over the model (mask), the same between strata's two
+#     seeds over the model, and the ratio of strata's mean to Cycles' over the model.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
@@ -103,8 +104,8 @@ cell() {
 
 source=(src build.rs Cargo.toml Cargo.lock)  # what the strata binary is built from
 echo "strata source at $(git -C "$repo" log -1 --format=%h -- "${source[@]}")$(git -C "$repo" diff --quiet HEAD -- "${source[@]}" || echo '+dirty') (checkout $(git -C "$repo" rev-parse --short HEAD)), $("$blender" --version 2>/dev/null | head -1), spp $spp, threads $threads, Principled $distribution, strata ${strata_args[*]:-defaults}" >&2
-echo "| model | resolution | environment | strata s | Cycles s | mean abs diff / mean, image | same, model only | strata / Cycles mean, model only |"
-echo "|---|---|---|---|---|---|---|---|"
+echo "| model | resolution | environment | strata s | Cycles s | mean abs diff / mean, image | same, model only | noise: strata seed 0 vs 1, model only | strata / Cycles mean, model only |"
+echo "|---|---|---|---|---|---|---|---|---|"
 for name in $models; do
     src="$(model_path "$name")"
     hdr="$(model_env "$name")"
@@ -120,6 +121,8 @@ for name in $models; do
         "$glb" "$hdr" "$res" "$spp" 7 "$threads" "$work/$name.cycles.exr" --distribution "$distribution" > "$work/$name.cycles.log" 2>&1 \
         || { tail -20 "$work/$name.cycles.log" >&2; exit 1; }
     t2=$(date +%s.%N)
+    nice -n 10 "$strata" --integrator path --env "$hdr" --spp "$spp" --threads "$threads" --resolution "$res" \
+        ${strata_args[@]+"${strata_args[@]}"} --seed 1 --no-png -o "$work/$name.strata-seed1.exr" "$glb" > /dev/null 2>&1
     nice -n 10 "$strata" --integrator ao --ao-distance 1e-9 --spp 4 --threads "$threads" --resolution "$res" \
         --no-png -o "$work/$name.mask.exr" "$glb" > /dev/null 2>&1
 
@@ -134,6 +137,7 @@ for name in $models; do
     d_mod="$(avg "$s" --ch R,G,B "$c" --ch R,G,B --absdiff "$m" --ch R,G,B --mul | mean3)"
     c_mod="$(avg "$c" --ch R,G,B "$m" --ch R,G,B --mul | mean3)"
     s_mod="$(avg "$s" --ch R,G,B "$m" --ch R,G,B --mul | mean3)"
+    n_mod="$(avg "$s" --ch R,G,B "$work/$name.strata-seed1.exr" --ch R,G,B --absdiff "$m" --ch R,G,B --mul | mean3)"
 
     cell "$s" "strata, $spp spp" "$work/$name.strata.cell.exr"
     cell "$c" "Cycles, $("$blender" --version 2>/dev/null | head -1), $spp spp" "$work/$name.cycles.cell.exr"
@@ -141,8 +145,8 @@ for name in $models; do
     layout=2x1; [ "$w" -ge $((2 * h)) ] && layout=1x2  # a wide model: strata above Cycles
     oiiotool "$work/$name.strata.cell.exr" "$work/$name.cycles.cell.exr" --mosaic:pad=4 "$layout" -d uint8 -o "$out/$name.png"
 
-    printf '| %s | %s | %s | %.1f (%.1f) | %.1f (%.1f) | %.3f | %.3f | %.3f |\n' "$name" "$res" "$(basename "$hdr" .hdr)" \
-        "$ts" "$ws" "$tc" "$wc" \
-        "$(echo "$d_img / $c_img" | bc -l)" "$(echo "$d_mod / $c_mod" | bc -l)" "$(echo "$s_mod / $c_mod" | bc -l)"
+    printf '| %s | %s | %s | %.1f (%.1f) | %.1f (%.1f) | %.3f | %.3f | %.3f | %.3f |\n' "$name" "$res" "$(basename "$hdr" .hdr)" \
+        "$ts" "$ws" "$tc" "$wc" "$(echo "$d_img / $c_img" | bc -l)" "$(echo "$d_mod / $c_mod" | bc -l)" \
+        "$(echo "$n_mod / $s_mod" | bc -l)" "$(echo "$s_mod / $c_mod" | bc -l)"
 done
 echo "(times: the render alone, and in brackets the whole process: loading, BVH, kernels, writing; EXRs in $work)" >&2
