@@ -119,6 +119,46 @@ def normalise_scale(s):
     return k
 
 
+def render_settings(s, width, height, bounces, threads):
+    """Cycles set up to strata's contract: CPU path tracing with max_bounces = strata's
+    --max-depth - 1, a box filter of one pixel, no adaptive sampling, denoising, clamping,
+    light threshold or motion blur, a fixed thread count, the Standard view transform
+    (linear radiance in, plain sRGB out) and a linear float32 EXR as the output format."""
+    s.render.engine = "CYCLES"
+    cy = s.cycles
+    cy.device = "CPU"
+    cy.use_adaptive_sampling = False
+    cy.use_denoising = False
+    cy.use_preview_denoising = False
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.light_sampling_threshold = 0.0
+    cy.pixel_filter_type = "BOX"
+    cy.filter_width = 1.0
+    cy.max_bounces = bounces
+    cy.diffuse_bounces = bounces
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.blur_glossy = 0.0
+    cy.use_auto_tile = False
+    s.render.use_motion_blur = False
+    s.render.threads_mode = "FIXED"
+    s.render.threads = threads
+    s.render.resolution_x, s.render.resolution_y = width, height
+    s.render.resolution_percentage = 100
+    s.render.pixel_aspect_x = s.render.pixel_aspect_y = 1.0
+    s.render.film_transparent = False
+    s.view_settings.view_transform = "Standard"
+    s.view_settings.look = "None"
+    s.view_settings.exposure = 0.0
+    s.view_settings.gamma = 1.0
+    im = s.render.image_settings
+    im.file_format = "OPEN_EXR"
+    im.color_mode = "RGB"
+    im.color_depth = "32"
+    im.exr_codec = "ZIP"
+
+
 def setup(scene_path, mode, width, height, bounces, threads):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
@@ -172,40 +212,8 @@ def setup(scene_path, mode, width, height, bounces, threads):
     s.world = world
 
     # renderer
-    s.render.engine = "CYCLES"
-    cy = s.cycles
-    cy.device = "CPU"
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.use_preview_denoising = False
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.light_sampling_threshold = 0.0
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 1.0
-    cy.max_bounces = bounces
-    cy.diffuse_bounces = bounces
-    cy.caustics_reflective = True
-    cy.caustics_refractive = True
-    cy.blur_glossy = 0.0
-    cy.use_auto_tile = False
-    s.render.use_motion_blur = False
-    s.render.threads_mode = "FIXED"
-    s.render.threads = threads
+    render_settings(s, width, height, bounces, threads)
     s.render.use_persistent_data = True  # keep the synced scene and BVH between renders
-    s.render.resolution_x, s.render.resolution_y = width, height
-    s.render.resolution_percentage = 100
-    s.render.pixel_aspect_x = s.render.pixel_aspect_y = 1.0
-    s.render.film_transparent = False
-    s.view_settings.view_transform = "Standard"
-    s.view_settings.look = "None"
-    s.view_settings.exposure = 0.0
-    s.view_settings.gamma = 1.0
-    im = s.render.image_settings
-    im.file_format = "OPEN_EXR"
-    im.color_mode = "RGB"
-    im.color_depth = "32"
-    im.exr_codec = "ZIP"
     s["peer_scale"] = k
     return s
 
@@ -237,4 +245,5 @@ def main():
         print("PEER_JSON " + json.dumps({"seconds": t1 - t0, "cpu_seconds": c1 - c0}), flush=True)
 
 
-main()
+if __name__ == "__main__":  # khronos_cycles.py imports this file's helpers
+    main()
