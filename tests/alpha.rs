@@ -692,3 +692,99 @@ fn scenes_without_alpha_build_no_coverage() {
         accel.describe()
     );
 }
+
+/// `doc` with `COLOR_0` (VEC4 float, alpha `alpha`, white) added to mesh `mesh`'s four
+/// vertices.
+fn with_vertex_alpha(mut doc: Value, mesh: usize, alpha: f32) -> Value {
+    use base64::Engine;
+    let engine = base64::engine::general_purpose::STANDARD;
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_string();
+    let mut bin = engine
+        .decode(uri.split_once(";base64,").unwrap().1)
+        .unwrap();
+    let offset = bin.len();
+    for _ in 0..4 {
+        for c in [1.0f32, 1.0, 1.0, alpha] {
+            bin.extend(c.to_le_bytes());
+        }
+    }
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 64}));
+    let view = views.len() - 1;
+    let accessors = doc["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"bufferView": view, "componentType": 5126, "count": 4, "type": "VEC4"}));
+    let accessor = accessors.len() - 1;
+    doc["meshes"][mesh]["primitives"][0]["attributes"]["COLOR_0"] = json!(accessor);
+    doc["buffers"][0] = json!({"byteLength": bin.len(), "uri": common::data_uri(&bin)});
+    doc
+}
+
+/// `COLOR_0`'s alpha is alpha's third factor: a BLEND cut-out whose factor is 1 and whose
+/// vertices carry alpha 0.25 lets 0.75 of the emitter through, as a factor of 0.25 does; a
+/// MASK one at cutoff 0.5 becomes a hole everywhere (0.4 < 0.5), and stays whole at cutoff
+/// 0.3; without vertex colours the same files are opaque.
+#[test]
+fn vertex_color_alpha_multiplies_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, cutout: Value, alpha: Option<f32>| {
+        let doc = gltf(
+            &[
+                Square {
+                    z: 0.0,
+                    half: 1.0,
+                    material: 0,
+                },
+                Square {
+                    z: -1.0,
+                    half: 3.0,
+                    material: 1,
+                },
+            ],
+            vec![cutout, emitter_material()],
+        );
+        let doc = match alpha {
+            Some(a) => with_vertex_alpha(doc, 0, a),
+            None => doc,
+        };
+        let path = dir.path().join(name);
+        std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+        path
+    };
+    let (size, spp) = (32u32, 16u32);
+    let mean_red = |path: &Path, backend| {
+        let film = render_film(path, backend, size, spp, 7, 2);
+        let px = film.pixels();
+        px.iter().map(|p| p.x as f64).sum::<f64>() / px.len() as f64 / EMITTER.x as f64
+    };
+    let blend = write(
+        "blend.gltf",
+        cutout_material("BLEND", None, 1.0, false),
+        Some(0.25),
+    );
+    let opaque = write(
+        "plain.gltf",
+        cutout_material("BLEND", None, 1.0, false),
+        None,
+    );
+    let mask_hole = write(
+        "mask.gltf",
+        cutout_material("MASK", Some(0.5), 1.0, false),
+        Some(0.4),
+    );
+    let mask_whole = write(
+        "mask3.gltf",
+        cutout_material("MASK", Some(0.3), 1.0, false),
+        Some(0.4),
+    );
+    let tolerance = 5.0 * (0.25f64 * 0.75 / (size * size * spp) as f64).sqrt();
+    for backend in BACKENDS {
+        let through = mean_red(&blend, backend);
+        assert!((through - 0.75).abs() < tolerance, "{backend:?}: {through}");
+        assert_eq!(mean_red(&opaque, backend), 0.0, "{backend:?}");
+        assert_eq!(mean_red(&mask_hole, backend), 1.0, "{backend:?}");
+        assert_eq!(mean_red(&mask_whole, backend), 0.0, "{backend:?}");
+    }
+    let scene = load(&blend);
+    assert_eq!(scene.summary.alpha_tested_triangles, 2);
+    assert_eq!(load(&opaque).summary.alpha_tested_triangles, 0);
+}

@@ -2,9 +2,9 @@
 //!
 //! A triangle's alpha at a point is `baseColorFactor.a × baseColorTexture.a`, the texture read
 //! at the point's TEXCOORD_0 exactly as the base colour is (the texture transform, the
-//! sampler's wrap modes, bilinear filtering; [`crate::shading::Materials`]). COLOR_0's alpha
-//! multiplies in as a third factor once the scene keeps vertex colours: the loader does not
-//! yet (the hook is in `Rule::alpha`). By the material's `alphaMode`:
+//! sampler's wrap modes, bilinear filtering; [`crate::shading::Materials`]), times the
+//! interpolated `COLOR_0` alpha where the scene has vertex colours. By the material's
+//! `alphaMode`:
 //!
 //! | mode            | the surface stops a ray                                          |
 //! |-----------------|------------------------------------------------------------------|
@@ -64,6 +64,20 @@ struct TestedTriangle {
     rule: u32,
     /// TEXCOORD_0 of its three vertices.
     uv: [Vec2; 3],
+    /// `COLOR_0` alpha of its three vertices (1 without vertex colours).
+    vertex_alpha: [f32; 3],
+}
+
+impl TestedTriangle {
+    /// Alpha at barycentrics (u, v): the rule's factor × texture, times the interpolated
+    /// `COLOR_0` alpha.
+    #[inline]
+    fn alpha(&self, rule: &Rule, images: &[Image<f32>], u: f32, v: f32) -> f32 {
+        let w = 1.0 - u - v;
+        let uv = w * self.uv[0] + u * self.uv[1] + v * self.uv[2];
+        let vertex = w * self.vertex_alpha[0] + u * self.vertex_alpha[1] + v * self.vertex_alpha[2];
+        rule.alpha(images, uv) * vertex
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,9 +102,7 @@ impl Rule {
     /// Alpha at texture coordinates `uv`.
     #[inline]
     fn alpha(&self, images: &[Image<f32>], uv: Vec2) -> f32 {
-        // COLOR_0 hook: once the scene keeps vertex colours, `TestedTriangle` carries its
-        // vertices' COLOR_0 alpha beside `uv`, and their interpolation multiplies in here
-        // (and `Material::may_cut_holes` counts triangles whose COLOR_0 alpha is below 1).
+        // COLOR_0's alpha, the third factor, multiplies in per triangle (`AlphaCoverage::alpha`).
         match &self.texture {
             Some(t) => {
                 self.factor * images[t.image].bilinear(transform_uv(t, uv), t.wrap_s, t.wrap_t)
@@ -147,8 +159,15 @@ impl AlphaCoverage {
         // Each material's index into `rules`, or NOT_TESTED.
         let mut material_rule = vec![NOT_TESTED; scene.materials.len()];
         let mut rules = Vec::new();
+        // Materials some of whose triangles have a vertex alpha below 1 (under MASK or BLEND).
+        let mut vertex_alpha = vec![false; scene.materials.len()];
+        for (&m, &tri) in scene.triangle_materials.iter().zip(&scene.triangles) {
+            if !vertex_alpha[m as usize] && scene.vertex_alpha_below_one(tri) {
+                vertex_alpha[m as usize] = true;
+            }
+        }
         for (i, m) in scene.materials.iter().enumerate() {
-            if !used[i] || !m.may_cut_holes() {
+            if !used[i] || !(m.may_cut_holes() || vertex_alpha[i]) {
                 continue;
             }
             let cut = match m.alpha_mode {
@@ -189,7 +208,7 @@ impl AlphaCoverage {
                 factor: m.base_color.w,
                 texture,
             };
-            if rule.always_covers(alpha_is_one) {
+            if rule.always_covers(alpha_is_one) && !vertex_alpha[i] {
                 continue;
             }
             material_rule[i] = rules.len() as u32;
@@ -211,6 +230,7 @@ impl AlphaCoverage {
             tested.push(TestedTriangle {
                 rule,
                 uv: tri.map(|v| scene.uvs.get(v as usize).copied().unwrap_or(Vec2::ZERO)),
+                vertex_alpha: tri.map(|v| scene.colors.get(v as usize).map_or(1.0, |c| c.w)),
             });
         }
         if tested.is_empty() {
@@ -245,8 +265,7 @@ impl AlphaCoverage {
         let &slot = self.slot.get(prim as usize)?;
         let t = self.tested.get(slot as usize)?;
         let rule = &self.rules[t.rule as usize];
-        let uv = (1.0 - u - v) * t.uv[0] + u * t.uv[1] + v * t.uv[2];
-        Some(rule.alpha(&self.images, uv))
+        Some(t.alpha(rule, &self.images, u, v))
     }
 
     /// True when the hit of `ray` with triangle `prim` at barycentrics (u, v) stops the ray;
@@ -262,8 +281,7 @@ impl AlphaCoverage {
             return true;
         };
         let rule = &self.rules[t.rule as usize];
-        let uv = (1.0 - u - v) * t.uv[0] + u * t.uv[1] + v * t.uv[2];
-        let alpha = rule.alpha(&self.images, uv);
+        let alpha = t.alpha(rule, &self.images, u, v);
         match rule.cut {
             Cut::Mask(cutoff) => alpha >= cutoff,
             Cut::Blend => blend_coin(prim, ray) < alpha,

@@ -294,6 +294,20 @@ impl Scene {
         frames
     }
 
+    /// True when triangle `t`'s alpha may leave holes: its material's factor or texture may
+    /// ([`Material::may_cut_holes`]), or, under MASK or BLEND, a vertex's `COLOR_0` alpha is
+    /// below 1 (alpha = factor × texture × COLOR_0).
+    pub fn may_cut_holes(&self, t: usize) -> bool {
+        let m = &self.materials[self.triangle_materials[t] as usize];
+        m.may_cut_holes()
+            || (m.alpha_mode != AlphaMode::Opaque && self.vertex_alpha_below_one(self.triangles[t]))
+    }
+
+    /// True when a vertex of `tri` has a `COLOR_0` alpha below 1.
+    pub fn vertex_alpha_below_one(&self, tri: [u32; 3]) -> bool {
+        !self.colors.is_empty() && tri.iter().any(|&v| self.colors[v as usize].w < 1.0)
+    }
+
     /// Positions of the three vertices of triangle `prim`.
     #[inline]
     pub fn triangle_positions(&self, prim: u32) -> [Vec3; 3] {
@@ -341,10 +355,8 @@ impl Scene {
             occlusion: count(|m| m.occlusion_texture.is_some()),
         };
         let textures = texture_roles.rendered();
-        let alpha_tested_triangles = self
-            .triangle_materials
-            .iter()
-            .filter(|&&m| self.materials[m as usize].may_cut_holes())
+        let alpha_tested_triangles = (0..self.triangles.len())
+            .filter(|&t| self.may_cut_holes(t))
             .count();
         self.summary = SceneSummary {
             triangles: self.triangles.len(),
