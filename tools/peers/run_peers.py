@@ -69,7 +69,10 @@ def mitsuba_worker(variant, job, threads):
     ref = manifest_entry(job)
     w, h = ref["resolution"]
     mode = "ao" if ref["integrator"] == "ao" else "shaded"
-    scene_dict, _ = mitsuba_refs.convert(os.path.join(REPO, ref["scene"]), mode, (w, h), ref["mitsuba_max_depth"])
+    # The reference's material model (the glTF BRDF plugin for the glTF references).
+    materials = ref.get("materials", {}).get("model", "lambertian")
+    scene_dict, _ = mitsuba_refs.convert(os.path.join(REPO, ref["scene"]), mode, (w, h), ref["mitsuba_max_depth"],
+                                         materials)
     scene_dict["integrator"]["rr_depth"] = MITSUBA_RR_DEPTH
     scene = mi.load_dict(scene_dict)
     t0 = time.perf_counter()
@@ -193,6 +196,11 @@ def start(name, job, args, logdir):
         argv = [sys.executable, os.path.abspath(__file__), "--mitsuba-worker", variant, job, str(args.threads)]
         return Worker(name, argv, os.path.join(logdir, f"{job}.{name}.log"))
     if name == "cycles":
+        if ref.get("materials", {}).get("model", "lambertian") != "lambertian":
+            # cycles_worker renders every material Lambertian; Principled BSDF is not the glTF
+            # specification's BRDF, so a glossy job needs Cycles measured against its own
+            # converged image (ROADMAP, issue 28).
+            raise RuntimeError(f"cycles: {job} renders the glTF BRDF, which cycles_worker does not set up yet")
         w, h = ref["resolution"]
         # Cycles' max_bounces counts bounces after the first hit: strata's B - 1 (0 = direct
         # light only, which is what AO needs); checked against the references (README.md).
