@@ -33,10 +33,11 @@ pub struct Args {
     )]
     pub backend: Backend,
 
-    /// Light transport algorithm: ambient occlusion, direct lighting, or path tracing.
+    /// Light transport algorithm: path tracing (the image a user expects), direct lighting,
+    /// or ambient occlusion.
     #[arg(
         long,
-        default_value = "ao",
+        default_value = "path",
         value_name = "ao|direct|path",
         hide_possible_values = true
     )]

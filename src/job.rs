@@ -527,7 +527,7 @@ mod tests {
             (fixed.spp, fixed.min_spp),
             (DEFAULT_SPP, Stopping::DEFAULT_MIN_SPP)
         );
-        assert_eq!(fixed.integrator.kind(), IntegratorKind::Ao);
+        assert_eq!(fixed.integrator.kind(), IntegratorKind::Path);
         assert!(fixed.png && fixed.robust && fixed.quads);
         assert_eq!(fixed.experiments, Experiments::default());
         assert!(fixed.warnings.iter().all(|w| !w.contains("--sampler")));
@@ -578,7 +578,15 @@ mod tests {
             (3, false, false)
         );
 
-        let ao = job(&["--ao-distance", "2.5", "--ao-samples", "4"]).unwrap();
+        let ao = job(&[
+            "--integrator",
+            "ao",
+            "--ao-distance",
+            "2.5",
+            "--ao-samples",
+            "4",
+        ])
+        .unwrap();
         let Integrator::Ao(a) = ao.integrator else {
             panic!("not AO")
         };

@@ -597,7 +597,7 @@ fn texture_that_does_not_decode_is_not_read_by_ao() {
     let scene = tmp.path().join("scene.gltf");
     std::fs::write(&scene, json_bytes(&doc)).unwrap();
     let out = tmp.path().join("out.exr");
-    let mut args = vec![s(&scene), "-o", s(&out), "--no-png"];
+    let mut args = vec![s(&scene), "-o", s(&out), "--no-png", "--integrator", "ao"];
     args.extend_from_slice(&SMALL);
     let run = render(tmp.path(), &args);
     assert!(run.status.success(), "{}", run.stderr);

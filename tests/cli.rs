@@ -483,7 +483,8 @@ fn exr_header_holds_settings() {
             .trim_matches('"')
             .to_string()
     };
-    assert_eq!(attr("strata:integrator"), "ao");
+    // Path tracing is the default integrator.
+    assert_eq!(attr("strata:integrator"), "path");
     assert_eq!(attr("strata:sampler"), "stratified");
     assert_eq!(attr("strata:spp"), "4");
     assert_eq!(attr("strata:seed"), "12345");

@@ -363,6 +363,8 @@ fn noisy_args<'a>(scene: &'a str, out: &'a str, spp: &'a str) -> Vec<&'a str> {
         scene,
         "-o",
         out,
+        "--integrator",
+        "ao",
         "--resolution",
         "256x256",
         "--spp",

@@ -185,9 +185,9 @@ pub struct Features {
 /// Which integrator renders the image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum IntegratorKind {
-    #[default]
     Ao,
     Direct,
+    #[default]
     Path,
 }
 

@@ -370,7 +370,7 @@ mod tests {
             "strata:seed",
             "strata:backend",
         ];
-        let ao = names(&[]);
+        let ao = names(&["--integrator", "ao"]);
         assert_eq!(ao[..6], common);
         assert_eq!(
             ao[6..],

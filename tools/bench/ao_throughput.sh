@@ -19,7 +19,7 @@ measure() {
     local totals=() aos=() secs=()
     for _ in $(seq "$runs"); do
         local log
-        log="$("$bin" "$scene" -o "$out/b.exr" --no-png --spp 64 --resolution 640x480 --stats "$@")"
+        log="$("$bin" "$scene" -o "$out/b.exr" --no-png --integrator ao --spp 64 --resolution 640x480 --stats "$@")"
         local s total ao
         s=$(sed -n 's/^time: .* render \([0-9.]*\) s.*/\1/p' <<<"$log")
         total=$(sed -n 's/^rays: .* \([0-9]*\) total.*/\1/p' <<<"$log")
