@@ -151,10 +151,10 @@ fn emitter_material() -> Value {
         "emissiveFactor": EMITTER.to_array()})
 }
 
-/// The cut-out (triangles 0 and 1) at z = 0 filling the camera's view, and the emitter
-/// (triangles 2 and 3) at z = −1, three times as wide, behind it.
-fn cutout_scene(dir: &Path, name: &str, cutout: Value) -> PathBuf {
-    let doc = gltf(
+/// The cut-out (triangles 0 and 1, mesh 0) at z = 0 filling the camera's view, and the
+/// emitter (triangles 2 and 3) at z = −1, three times as wide, behind it.
+fn cutout_doc(cutout: Value) -> Value {
+    gltf(
         &[
             Square {
                 z: 0.0,
@@ -168,7 +168,12 @@ fn cutout_scene(dir: &Path, name: &str, cutout: Value) -> PathBuf {
             },
         ],
         vec![cutout, emitter_material()],
-    );
+    )
+}
+
+/// [`cutout_doc`] written to `dir/name`.
+fn cutout_scene(dir: &Path, name: &str, cutout: Value) -> PathBuf {
+    let doc = cutout_doc(cutout);
     let path = dir.join(name);
     std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
     path
@@ -727,21 +732,7 @@ fn with_vertex_alpha(mut doc: Value, mesh: usize, alpha: f32) -> Value {
 fn vertex_color_alpha_multiplies_in() {
     let dir = tempfile::tempdir().unwrap();
     let write = |name: &str, cutout: Value, alpha: Option<f32>| {
-        let doc = gltf(
-            &[
-                Square {
-                    z: 0.0,
-                    half: 1.0,
-                    material: 0,
-                },
-                Square {
-                    z: -1.0,
-                    half: 3.0,
-                    material: 1,
-                },
-            ],
-            vec![cutout, emitter_material()],
-        );
+        let doc = cutout_doc(cutout);
         let doc = match alpha {
             Some(a) => with_vertex_alpha(doc, 0, a),
             None => doc,

@@ -178,13 +178,7 @@ impl AlphaCoverage {
             let (texture, alpha_is_one) = match &m.base_color_texture {
                 None => (None, true),
                 Some(t) => {
-                    let src = scene.images.get(t.image).ok_or_else(|| {
-                        format!(
-                            "{}: texture image {} does not exist",
-                            scene_path.display(),
-                            t.image
-                        )
-                    })?;
+                    let src = scene.image_source(t.image, scene_path)?;
                     let slot = match image_slot[t.image] {
                         Some(s) => s,
                         None => {

@@ -294,6 +294,21 @@ impl Scene {
         frames
     }
 
+    /// Image `index`'s source, or an error naming the scene file (loaded from `scene_path`)
+    /// when a texture points at an image the file does not have.
+    pub fn image_source(
+        &self,
+        index: usize,
+        scene_path: &std::path::Path,
+    ) -> Result<&ImageSource, String> {
+        self.images.get(index).ok_or_else(|| {
+            format!(
+                "{}: texture image {index} does not exist",
+                scene_path.display()
+            )
+        })
+    }
+
     /// True when triangle `t`'s alpha may leave holes: its material's factor or texture may
     /// ([`Material::may_cut_holes`]), or, under MASK or BLEND, a vertex's `COLOR_0` alpha is
     /// below 1 (alpha = factor × texture × COLOR_0).

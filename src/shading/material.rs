@@ -156,13 +156,7 @@ impl Materials {
                         images: &mut Vec<Image>|
          -> Result<Option<Binding>, String> {
             let Some(t) = t else { return Ok(None) };
-            let src = scene.images.get(t.image).ok_or_else(|| {
-                format!(
-                    "{}: texture image {} does not exist",
-                    scene_path.display(),
-                    t.image
-                )
-            })?;
+            let src = scene.image_source(t.image, scene_path)?;
             let slot = match image_slot.get(&(t.image, encoding)) {
                 Some(&s) => s,
                 None => {
