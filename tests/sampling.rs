@@ -18,6 +18,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use strata::sampling::onb::Onb;
 use strata::sampling::sampler::{PixelSampler, SamplerKind};
 use strata::sampling::warps;
+use strata::shading::LocalBsdf;
 
 // ---------------------------------------------------------------------------------------------
 // A test-local PRNG: PCG32 (XSH-RR 64/32), M. E. O'Neill, "PCG: A Family of Simple Fast

@@ -578,7 +578,7 @@ fn edge_values_exhaustively() {
 #[test]
 fn lambertian_rejects_rim_samples() {
     use strata::shading::interaction::SurfaceInteraction;
-    use strata::shading::{Bsdf, SurfaceBsdf};
+    use strata::shading::{Bsdf, Lambertian, SurfaceBsdf};
     let edges = [0.0, 0.3, 0.5, BELOW_ONE, 1.0];
     for n in [Vec3::Z, Vec3::NEG_Z, Vec3::new(0.6, 0.0, 0.8)] {
         let si = SurfaceInteraction {
@@ -592,12 +592,7 @@ fn lambertian_rejects_rim_samples() {
             u: 0.0,
             v: 0.0,
         };
-        let bsdf = SurfaceBsdf::new(
-            Bsdf::Diffuse {
-                albedo: Vec3::splat(0.5),
-            },
-            &si,
-        );
+        let bsdf = SurfaceBsdf::new(Bsdf::Diffuse(Lambertian::new(Vec3::splat(0.5))), &si);
         for &x in &edges {
             for &y in &edges {
                 let u = Vec2::new(x, y);

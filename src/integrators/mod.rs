@@ -12,10 +12,10 @@ use crate::accel::{Accel, Hit, Ray, PACKET};
 use crate::experiments::Experiments;
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
-use crate::shading::SurfaceInteraction;
 use crate::shading::{
     BackgroundSampling, Environment, LightSet, MaterialOptions, Materials, Need, TriangleSampling,
 };
+use crate::shading::{LocalBsdf, SurfaceInteraction};
 
 pub use ao::{AoSettings, Hemisphere};
 pub use path::{PathSettings, Strategy};

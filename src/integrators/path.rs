@@ -47,7 +47,7 @@ use glam::{Vec2, Vec3};
 use super::{Context, RayCounts};
 use crate::accel::{Hit, Ray};
 use crate::sampling::PixelSampler;
-use crate::shading::SurfaceInteraction;
+use crate::shading::{Bsdf, Lambertian, ShadeAs, SurfaceInteraction};
 
 /// Which sampling techniques contribute direct light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -98,7 +98,24 @@ fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
 }
 
 /// One estimate of the radiance along the camera ray, whose closest hit is `camera_hit`.
+#[inline]
 pub fn li(
+    ctx: &Context,
+    ray: &Ray,
+    camera_hit: Option<Hit>,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+    rays: &mut RayCounts,
+) -> Vec3 {
+    match ctx.materials.lambertian() {
+        true => li_as::<Lambertian>(ctx, ray, camera_hit, sampler, settings, rays),
+        false => li_as::<Bsdf>(ctx, ray, camera_hit, sampler, settings, rays),
+    }
+}
+
+/// [`li`] compiled for the BSDF type `B` that materials give ([`ShadeAs`]): one source, an
+/// instance per material model.
+fn li_as<B: ShadeAs>(
     ctx: &Context,
     ray: &Ray,
     camera_hit: Option<Hit>,
@@ -168,7 +185,7 @@ pub fn li(
         }
         depth += 1;
 
-        let bsdf = materials.bsdf(scene, &si, uv);
+        let bsdf = materials.bsdf_as::<B>(scene, &si, uv);
         // The slots of the bounce (see the module docs).
         let (u_bsdf, u_light_next) = if ctx.experiments.paired_bounces {
             if depth == 1 {

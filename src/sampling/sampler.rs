@@ -162,7 +162,7 @@ impl PixelSampler {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn next_1d(&mut self) -> f32 {
         let (key, sequence) = self.next_slot();
         match self.kind {

@@ -336,7 +336,7 @@ impl Scene {
 
     /// The shading normal at barycentrics (u, v) of triangle `prim`, or `None` when the
     /// triangle has no usable vertex normals (flat shading).
-    #[inline]
+    #[inline(always)]
     pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Option<Vec3> {
         let [a, b, c] = self.triangles[prim as usize];
         let n = (1.0 - u - v) * self.normals[a as usize]

@@ -1,10 +1,12 @@
 //! BSDFs: how a surface scatters light, in the local frame of its shading normal.
 //!
 //! [`Bsdf`] is a closed set dispatched by `match` (pbrt-v4's tagged `BxDF`, Mitsuba's BSDF
-//! plugins): Lambertian reflection, sampled by the cosine or, for comparisons, uniformly; and
-//! the glTF 2.0 metallic-roughness model (Appendix B of the specification); dielectrics and
-//! layers join it as variants.
-//! Each variant answers three questions about directions in its local frame (z along the
+//! plugins): Lambertian reflection ([`Lambertian`], sampled by the cosine or, for comparisons,
+//! uniformly) and the glTF 2.0 metallic-roughness model (Appendix B of the specification);
+//! dielectrics and layers join it as variants. Both it and [`Lambertian`] alone implement
+//! [`LocalBsdf`], so that an integrator can be compiled for a scene whose every surface is
+//! Lambertian without the other lobes' code ([`super::material::ShadeAs`]).
+//! Each answers three questions about directions in its local frame (z along the
 //! shading normal, `wo` toward the viewer, `wi` toward the light, both pointing away from the
 //! surface):
 //!
@@ -87,80 +89,54 @@ pub struct BsdfSample {
     pub flags: BsdfFlags,
 }
 
-/// A BSDF in its local frame (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bsdf {
-    /// Lambertian reflection f = ρ/π, directions cosine-weighted (pdf cos θ/π, proportional
-    /// to f·cos θ).
-    Diffuse { albedo: Vec3 },
-    /// The same reflection with directions uniform over the hemisphere (pdf 1/2π): more
-    /// variance for the same mean, kept for comparisons (`--hemisphere uniform`).
-    DiffuseUniform { albedo: Vec3 },
-    /// The glTF 2.0 metallic-roughness BRDF ([`GltfBrdf`]).
-    MetallicRoughness(GltfBrdf),
+/// How Lambertian reflection draws its directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DiffuseSampling {
+    /// Cosine-weighted: the pdf follows f·cos θ.
+    #[default]
+    Cosine,
+    /// Uniform over the hemisphere: more variance for the same mean, kept for comparisons
+    /// (`--hemisphere uniform`).
+    Uniform,
 }
 
-impl Bsdf {
+/// What every BSDF in its local frame answers (see the module documentation); [`SurfaceBsdf`]
+/// places one at a surface point. Implemented by [`Bsdf`], the closed set materials choose
+/// from, and by [`Lambertian`] alone, for callers compiled for a scene whose every surface is
+/// Lambertian (the clay model): they see no other lobe's code.
+pub trait LocalBsdf: Copy {
     /// True when `eval` and `pdf` read cos θ of `wi` alone and ignore `wo` (Lambertian
     /// reflection): the shading frame then needs no tangent or bitangent components.
-    #[inline(always)]
-    pub fn depends_on_cos_theta_only(&self) -> bool {
-        matches!(self, Bsdf::Diffuse { .. } | Bsdf::DiffuseUniform { .. })
-    }
+    fn depends_on_cos_theta_only(&self) -> bool;
+
+    /// The BSDF with the terms that depend on `wo` alone computed once (every query of a
+    /// surface point's BSDF is from its one `wo`).
+    fn at(self, wo: Vec3) -> Self;
 
     /// The lobes this BSDF has.
-    #[inline]
-    pub fn flags(&self) -> BsdfFlags {
-        match *self {
-            Bsdf::Diffuse { .. } | Bsdf::DiffuseUniform { .. } => BsdfFlags::DIFFUSE_REFLECTION,
-            Bsdf::MetallicRoughness(brdf) => brdf.flags(),
-        }
-    }
+    fn flags(&self) -> BsdfFlags;
 
-    /// The directional-hemispherical reflectance a denoiser's albedo pass takes: ρ for
-    /// Lambertian reflection.
-    #[inline]
-    pub fn albedo(&self) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } | Bsdf::DiffuseUniform { albedo } => albedo,
-            // A metal's specular colour is its base colour, a dielectric's diffuse one.
-            Bsdf::MetallicRoughness(brdf) => brdf.base_color,
-        }
-    }
+    /// The directional-hemispherical reflectance a denoiser's albedo pass takes.
+    fn albedo(&self) -> Vec3;
 
     /// f(wo, wi)·|cos θi| for local directions.
-    #[inline]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } | Bsdf::DiffuseUniform { albedo } => {
-                let cos = wi.z;
-                if cos <= 0.0 {
-                    return Vec3::ZERO;
-                }
-                albedo * (cos * std::f32::consts::FRAC_1_PI)
-            }
-            Bsdf::MetallicRoughness(brdf) => brdf.eval(wo, wi),
-        }
-    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
 
-    /// The solid-angle pdf with which [`Bsdf::sample`] draws local direction `wi`.
-    #[inline]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let cos = wi.z;
-        if cos <= 0.0 {
-            return 0.0;
-        }
-        match *self {
-            Bsdf::Diffuse { .. } => cos * std::f32::consts::FRAC_1_PI,
-            Bsdf::DiffuseUniform { .. } => 0.5 * std::f32::consts::FRAC_1_PI,
-            Bsdf::MetallicRoughness(brdf) => brdf.pdf(wo, wi),
-        }
-    }
+    /// The solid-angle pdf with which `sample` draws local direction `wi`.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+
+    /// The direction `sample` draws with `u` and the lobe it comes from, before its value
+    /// and pdf are known to be non-zero.
+    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)>;
+
+    /// The sample of a delta lobe in direction `wi`, with its weight and the probability of
+    /// having chosen the lobe.
+    fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample>;
 
     /// A local direction drawn with 2D point `u`, with its value and pdf; None where the
     /// point maps to no direction the BSDF scatters into (the hemisphere's rim).
     #[inline]
-    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         let (wi, flags) = self.sample_direction(wo, u)?;
         if flags.is_specular() {
             return self.sample_delta(wo, wi, flags);
@@ -173,25 +149,152 @@ impl Bsdf {
             flags,
         })
     }
+}
 
-    /// The direction [`Bsdf::sample`] draws with `u` and the lobe it comes from, before its
-    /// value and pdf are known to be non-zero.
+/// Lambertian reflection f = ρ/π, its directions drawn as `sampling` says (cosine-weighted:
+/// pdf cos θ/π, proportional to f·cos θ; uniform: pdf 1/2π).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lambertian {
+    pub albedo: Vec3,
+    pub sampling: DiffuseSampling,
+}
+
+impl Lambertian {
+    /// Reflectance `albedo`, cosine-sampled.
+    pub fn new(albedo: Vec3) -> Lambertian {
+        Lambertian {
+            albedo,
+            sampling: DiffuseSampling::Cosine,
+        }
+    }
+}
+
+impl LocalBsdf for Lambertian {
+    #[inline(always)]
+    fn depends_on_cos_theta_only(&self) -> bool {
+        true
+    }
+
+    #[inline(always)]
+    fn at(self, _wo: Vec3) -> Lambertian {
+        self
+    }
+
+    #[inline(always)]
+    fn flags(&self) -> BsdfFlags {
+        BsdfFlags::DIFFUSE_REFLECTION
+    }
+
+    #[inline]
+    fn albedo(&self) -> Vec3 {
+        self.albedo
+    }
+
+    #[inline]
+    fn eval(&self, _wo: Vec3, wi: Vec3) -> Vec3 {
+        let cos = wi.z;
+        if cos <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.albedo * (cos * std::f32::consts::FRAC_1_PI)
+    }
+
+    #[inline]
+    fn pdf(&self, _wo: Vec3, wi: Vec3) -> f32 {
+        let cos = wi.z;
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        match self.sampling {
+            DiffuseSampling::Cosine => cos * std::f32::consts::FRAC_1_PI,
+            DiffuseSampling::Uniform => 0.5 * std::f32::consts::FRAC_1_PI,
+        }
+    }
+
+    #[inline(always)]
+    fn sample_direction(&self, _wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        let wi = match self.sampling {
+            DiffuseSampling::Cosine => square_to_cosine_hemisphere(u),
+            DiffuseSampling::Uniform => square_to_uniform_hemisphere(u),
+        };
+        Some((wi, BsdfFlags::DIFFUSE_REFLECTION))
+    }
+
+    #[inline(always)]
+    fn sample_delta(&self, _wo: Vec3, _wi: Vec3, _flags: BsdfFlags) -> Option<BsdfSample> {
+        None
+    }
+}
+
+/// The BSDFs materials choose from, a closed set dispatched by `match`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian reflection ([`Lambertian`]).
+    Diffuse(Lambertian),
+    /// The glTF 2.0 metallic-roughness BRDF ([`GltfBrdf`]).
+    MetallicRoughness(GltfBrdf),
+}
+
+impl LocalBsdf for Bsdf {
+    #[inline(always)]
+    fn depends_on_cos_theta_only(&self) -> bool {
+        matches!(self, Bsdf::Diffuse(_))
+    }
+
+    #[inline]
+    fn at(self, wo: Vec3) -> Bsdf {
+        match self {
+            Bsdf::MetallicRoughness(brdf) => Bsdf::MetallicRoughness(brdf.at(wo)),
+            other => other,
+        }
+    }
+
+    #[inline]
+    fn flags(&self) -> BsdfFlags {
+        match self {
+            Bsdf::Diffuse(b) => b.flags(),
+            Bsdf::MetallicRoughness(brdf) => brdf.flags(),
+        }
+    }
+
+    #[inline]
+    fn albedo(&self) -> Vec3 {
+        match self {
+            Bsdf::Diffuse(b) => b.albedo,
+            // A metal's specular colour is its base colour, a dielectric's diffuse one.
+            Bsdf::MetallicRoughness(brdf) => brdf.base_color,
+        }
+    }
+
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match self {
+            Bsdf::Diffuse(b) => b.eval(wo, wi),
+            Bsdf::MetallicRoughness(brdf) => brdf.eval(wo, wi),
+        }
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(b) => b.pdf(wo, wi),
+            Bsdf::MetallicRoughness(brdf) => brdf.pdf(wo, wi),
+        }
+    }
+
     #[inline(always)]
     fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        match *self {
-            Bsdf::Diffuse { .. } => Some((square_to_cosine_hemisphere(u), self.flags())),
-            Bsdf::DiffuseUniform { .. } => Some((square_to_uniform_hemisphere(u), self.flags())),
+        match self {
+            Bsdf::Diffuse(b) => b.sample_direction(wo, u),
             Bsdf::MetallicRoughness(brdf) => brdf.sample_direction(wo, u),
         }
     }
 
-    /// The sample of a delta lobe in direction `wi`, with its weight and the probability of
-    /// having chosen the lobe.
     #[inline]
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
         match self {
             Bsdf::MetallicRoughness(brdf) => brdf.sample_delta(wo, wi, flags),
-            Bsdf::Diffuse { .. } | Bsdf::DiffuseUniform { .. } => None,
+            Bsdf::Diffuse(_) => None,
         }
     }
 }
@@ -204,26 +307,23 @@ impl Bsdf {
 /// direction below it, which an interpolated shading normal can allow, would leave through
 /// the surface and is given zero.
 #[derive(Clone, Copy, Debug)]
-pub struct SurfaceBsdf {
-    pub bsdf: Bsdf,
+pub struct SurfaceBsdf<B = Bsdf> {
+    pub bsdf: B,
     frame: Onb,
     ng: Vec3,
     wo: Vec3,
 }
 
-impl SurfaceBsdf {
+impl<B: LocalBsdf> SurfaceBsdf<B> {
     #[inline]
-    pub fn new(bsdf: Bsdf, si: &SurfaceInteraction) -> SurfaceBsdf {
+    pub fn new(bsdf: B, si: &SurfaceInteraction) -> SurfaceBsdf<B> {
         let frame = Onb::from_normal(si.ns);
         let wo = match bsdf.depends_on_cos_theta_only() {
             true => Vec3::Z,
             false => frame.to_local(si.wo),
         };
         // Every query of a surface point's BSDF is from its one wo: the terms of wo once.
-        let bsdf = match bsdf {
-            Bsdf::MetallicRoughness(brdf) => Bsdf::MetallicRoughness(brdf.at(wo)),
-            other => other,
-        };
+        let bsdf = bsdf.at(wo);
         SurfaceBsdf {
             bsdf,
             frame,
@@ -250,7 +350,7 @@ impl SurfaceBsdf {
     }
 
     /// f(wo, wi)·|cos θi| for world direction `wi`.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
         let local = self.local(wi);
         if wi.dot(self.ng) <= 0.0 {
@@ -260,7 +360,7 @@ impl SurfaceBsdf {
     }
 
     /// The solid-angle pdf of [`SurfaceBsdf::sample`] drawing world direction `wi`.
-    #[inline]
+    #[inline(always)]
     pub fn pdf(&self, wi: Vec3) -> f32 {
         let local = self.local(wi);
         if wi.dot(self.ng) <= 0.0 {
@@ -276,7 +376,7 @@ impl SurfaceBsdf {
     /// [`SurfaceBsdf::pdf`] give the world direction as it will be traced (after its
     /// rotation out of the local frame has rounded it): an emitter that direction reaches is
     /// then weighted by MIS with exactly the pdf that sampled it.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: Vec2) -> Option<BsdfSample> {
         let (local, flags) = self.bsdf.sample_direction(self.wo, u)?;
         let wi = self.frame.to_world(local);
@@ -319,7 +419,14 @@ mod tests {
     fn every_variant_samples_what_it_evaluates_and_reflects_its_albedo() {
         let albedo = Vec3::new(0.6, 0.3, 0.1);
         let n = Vec3::new(0.36, 0.48, 0.8);
-        for bsdf in [Bsdf::Diffuse { albedo }, Bsdf::DiffuseUniform { albedo }] {
+        let uniform = Lambertian {
+            albedo,
+            sampling: DiffuseSampling::Uniform,
+        };
+        for bsdf in [
+            Bsdf::Diffuse(Lambertian::new(albedo)),
+            Bsdf::Diffuse(uniform),
+        ] {
             // (The glTF model's reflectance is checked against quadrature below.)
             let surface = SurfaceBsdf::new(bsdf, &interaction(n));
             let grid = 256;
@@ -354,7 +461,7 @@ mod tests {
     fn directions_below_the_geometric_surface_get_nothing() {
         let mut si = interaction(Vec3::Z);
         si.ns = Vec3::new(0.6, 0.0, 0.8);
-        let surface = SurfaceBsdf::new(Bsdf::Diffuse { albedo: Vec3::ONE }, &si);
+        let surface = SurfaceBsdf::new(Bsdf::Diffuse(Lambertian::new(Vec3::ONE)), &si);
         // Above the shading normal's horizon, below the geometric one.
         let wi = Vec3::new(0.99, 0.0, -0.141).normalize();
         assert!(wi.dot(si.ns) > 0.0);

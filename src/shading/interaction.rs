@@ -114,7 +114,7 @@ impl SurfaceInteraction {
     /// [`Self::spawn_ray_to`], or with `ray_offset = false` the same ray from the hit point
     /// itself (no error-bound offset): a deliberately wrong mode that shows self-intersection
     /// ("acne"), kept so tests can prove they detect it (see `experiments::Experiments::ray_offset`).
-    #[inline]
+    #[inline(always)]
     pub fn spawn_ray_to_with(&self, target: Vec3, ray_offset: bool) -> Ray {
         let org = self.origin(target - self.p, ray_offset);
         Ray {

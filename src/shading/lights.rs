@@ -540,7 +540,7 @@ impl LightSet {
     /// gives stratified points on each emitter, where a separate choice would scatter the
     /// points of an emitter made of several triangles (a quad light's two halves) at random
     /// between them. Returns the sample and the selection probability.
-    #[inline]
+    #[inline(always)]
     pub fn sample(
         &self,
         scene: &Scene,

@@ -23,7 +23,8 @@ use std::collections::HashMap;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::bsdf::{Bsdf, BsdfFlags, SurfaceBsdf};
+pub use super::bsdf::DiffuseSampling;
+use super::bsdf::{Bsdf, BsdfFlags, Lambertian, LocalBsdf, SurfaceBsdf};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use super::microfacet::AlbedoTable;
@@ -44,16 +45,6 @@ struct Binding {
     texture: TextureRef,
     /// Index into `Materials::images`.
     image: usize,
-}
-
-/// How diffuse reflection draws its directions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum DiffuseSampling {
-    /// Cosine-weighted: the pdf follows f·cos θ ([`Bsdf::Diffuse`]).
-    #[default]
-    Cosine,
-    /// Uniform over the hemisphere ([`Bsdf::DiffuseUniform`]), for comparisons.
-    Uniform,
 }
 
 /// The scattering model every material is rendered with (`--materials`).
@@ -114,6 +105,46 @@ struct Prepared {
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
+}
+
+/// A BSDF type that [`Materials`] can give a surface point as ([`Materials::bsdf_as`]): an
+/// integrator generic over it is compiled once per material model from one source, and the
+/// instance for [`Lambertian`] holds no other lobe's code (the Lambertian model's path
+/// tracer as it was before the glTF BRDF; BENCHMARKS.md, "glTF materials").
+pub trait ShadeAs: LocalBsdf {
+    /// The BSDF at the surface point.
+    fn shade(
+        materials: &Materials,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        uv: Vec2,
+    ) -> SurfaceBsdf<Self>;
+}
+
+impl ShadeAs for Bsdf {
+    #[inline(always)]
+    fn shade(
+        materials: &Materials,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        uv: Vec2,
+    ) -> SurfaceBsdf<Bsdf> {
+        materials.bsdf(scene, si, uv)
+    }
+}
+
+impl ShadeAs for Lambertian {
+    /// Only for a render whose materials are all Lambertian ([`Materials::lambertian`]).
+    #[inline(always)]
+    fn shade(
+        materials: &Materials,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        uv: Vec2,
+    ) -> SurfaceBsdf<Lambertian> {
+        debug_assert!(materials.lambertian());
+        materials.surface(scene, si, uv, |_, base| materials.lambertian_of(base))
+    }
 }
 
 /// Materials ready for shading.
@@ -255,9 +286,54 @@ impl Materials {
             + v * scene.uvs[c as usize]
     }
 
+    /// True when every material renders as Lambertian reflection ([`MaterialModel::Lambertian`]).
+    #[inline]
+    pub fn lambertian(&self) -> bool {
+        self.options.model == MaterialModel::Lambertian
+    }
+
     /// The BSDF at the surface point (`uv`: its texture coordinates, [`Materials::uv`]).
-    #[inline(always)]
+    #[inline]
     pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
+        self.surface(scene, si, uv, |m, base| match self.options.model {
+            MaterialModel::Lambertian => Bsdf::Diffuse(self.lambertian_of(base)),
+            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv),
+        })
+    }
+
+    /// The BSDF at the surface point as type `B`: [`Bsdf`] ([`Materials::bsdf`]) under any
+    /// model, or [`Lambertian`] when every material is ([`Materials::lambertian`]), for a
+    /// caller compiled for that model alone ([`ShadeAs`]).
+    #[inline(always)]
+    pub fn bsdf_as<B: ShadeAs>(
+        &self,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        uv: Vec2,
+    ) -> SurfaceBsdf<B> {
+        B::shade(self, scene, si, uv)
+    }
+
+    /// The Lambertian model's reflection of base colour `base`.
+    #[inline(always)]
+    fn lambertian_of(&self, base: Vec3) -> Lambertian {
+        Lambertian {
+            albedo: base,
+            sampling: self.options.diffuse_sampling,
+        }
+    }
+
+    /// The BSDF that `local` makes of the material at the surface point and its base colour
+    /// (factor × texture × COLOR_0), placed in the frame of its shading normal, bent by the
+    /// material's normal map if it has one.
+    #[inline(always)]
+    fn surface<B: LocalBsdf>(
+        &self,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        uv: Vec2,
+        local: impl FnOnce(&Prepared, Vec3) -> B,
+    ) -> SurfaceBsdf<B> {
         let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
         let mut base = m.base_color;
         if let Some(b) = &m.base_texture {
@@ -266,10 +342,7 @@ impl Materials {
         if self.vertex_colors {
             base *= vertex_color(scene, si.prim, si.u, si.v).truncate();
         }
-        let bsdf = match self.options.model {
-            MaterialModel::Lambertian => self.bsdf_with(base, 0.0, 1.0),
-            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv),
-        };
+        let bsdf = local(m, base);
         match &m.normal_texture {
             None => SurfaceBsdf::new(bsdf, si),
             Some(b) => {
@@ -345,12 +418,9 @@ impl Materials {
     /// a variant.
     #[inline]
     fn bsdf_with(&self, base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
-        match (self.options.model, self.options.diffuse_sampling) {
-            (MaterialModel::Lambertian, DiffuseSampling::Cosine) => Bsdf::Diffuse { albedo: base },
-            (MaterialModel::Lambertian, DiffuseSampling::Uniform) => {
-                Bsdf::DiffuseUniform { albedo: base }
-            }
-            (MaterialModel::Gltf, _) => {
+        match self.options.model {
+            MaterialModel::Lambertian => Bsdf::Diffuse(self.lambertian_of(base)),
+            MaterialModel::Gltf => {
                 let brdf = GltfBrdf::new(base, metallic, roughness);
                 Bsdf::MetallicRoughness(match self.options.energy_compensation {
                     true => brdf,

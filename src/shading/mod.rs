@@ -25,10 +25,10 @@ pub mod material;
 pub mod microfacet;
 pub mod texture;
 
-pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, SurfaceBsdf};
+pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};
 pub use environment::Environment;
 pub use envmap::EnvMap;
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
-pub use material::{DiffuseSampling, MaterialModel, MaterialOptions, Materials, Need};
+pub use material::{DiffuseSampling, MaterialModel, MaterialOptions, Materials, Need, ShadeAs};

@@ -53,6 +53,9 @@ workloads=(
     "helmet, ao, 1 ray per hit|strata|scenes/flight-helmet.gltf 640 480 64 --integrator ao"
     "helmet, ao, 16 rays per hit|strata|scenes/flight-helmet.gltf 640 480 16 --integrator ao --ao-samples 16"
     "Cornell box, path|strata|scenes/cornell-box.gltf 256 256 32 --integrator path"
+    "Cornell box, path, Lambertian|strata|scenes/cornell-box.gltf 256 256 32 --integrator path --materials lambertian"
+    "sphere grid, path, glTF BRDF|strata|scenes/sphere-grid.gltf 256 256 16 --integrator path"
+    "helmet, path, textures, normal maps, alpha|strata|scenes/flight-helmet.gltf 640 480 16 --integrator path"
 )
 if [ -f "$sphere/sphere_plane.gltf" ]; then
     sph="$sphere/sphere_plane.gltf"
