@@ -1,19 +1,34 @@
 """Blender/Cycles side of tools/peers/run_peers.py: run as
 
-    blender -b --factory-startup -P tools/peers/cycles_worker.py -- SCENE.gltf MODE WxH BOUNCES THREADS
+    blender -b --factory-startup -P tools/peers/cycles_worker.py -- \
+        SCENE.gltf MODE WxH BOUNCES THREADS [MATERIALS]
 
-MODE is 'ao' or 'shaded'; BOUNCES is Cycles' max_bounces. The scene is imported and set up
+MODE is 'ao' or 'shaded'; BOUNCES is Cycles' max_bounces; MATERIALS is the reference job's
+material model, 'lambertian' (the default) or 'gltf'. The scene is imported and set up
 once (strata's contract, see below); then the worker reads one request per stdin line,
 "SPP SEED OUT.exr", renders, writes a linear float32 EXR and answers with one line
 "PEER_JSON {...}" holding the wall-clock and CPU seconds of the render call alone.
 
 Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
-- every material becomes a Lambertian Diffuse BSDF (roughness 0) with the glTF base colour
-  factor, plus, for emissive materials, an Emission of emissiveFactor x emissive strength
-  that is zeroed on back faces (Geometry > Backfacing) unless the material is doubleSided:
-  Cycles' mesh emission is two-sided, glTF's (and strata's) is front-face only;
+- MATERIALS 'lambertian': every material becomes a Lambertian Diffuse BSDF (roughness 0)
+  with the glTF base colour factor, plus, for emissive materials, an Emission of
+  emissiveFactor x emissive strength that is zeroed on back faces (Geometry > Backfacing)
+  unless the material is doubleSided: Cycles' mesh emission is two-sided, glTF's (and
+  strata's) is front-face only;
+- MATERIALS 'gltf': the importer's Principled BSDF is kept (what a Blender user gets from the
+  file: Specular 0.5, i.e. F0 = 0.04, IOR 1.5), with its microfacet distribution set to plain
+  "GGX" (single scattering, as strata's --energy-compensation off and the Mitsuba glTF
+  reference; Cycles' "Multiscatter GGX" adds back the energy that GGX loses). The importer
+  sets Emission = emissiveFactor and Emission Strength = KHR_materials_emissive_strength, the
+  same radiance as the Lambertian set-up's Emission; the strength is zeroed on back faces as
+  above. Principled is not the glTF BRDF (its diffuse part has a retro-reflection term, its
+  metal and specular mixing differ), so Cycles converges to its own image: run_peers.py
+  measures it against its own converged render. Textures and non-OPAQUE alpha are refused
+  (not checked for this use);
 - camera: the imported glTF camera with the vertical field of view forced (sensor fit
   VERTICAL, angle_y = yfov), the requested resolution at 100 %;
+- max_bounces and the diffuse, glossy and transmission bounces = BOUNCES (Cycles' default
+  of 4 glossy bounces would cut glossy paths short of strata's depth);
 - box pixel filter of width 1 (a sample counts in its own pixel), no adaptive sampling,
   no denoising, no clamping, light threshold 0, no motion blur, CPU, fixed thread count;
 - the scene is scaled uniformly to a unit bounding box (largest |coordinate| 1): Cycles 3.4
@@ -43,6 +58,21 @@ def cpu_seconds():
     return r.ru_utime + r.ru_stime
 
 
+def front_face_only(nt, strength):
+    """Drives an unlinked emission strength socket by strength x (1 - Backfacing): Cycles'
+    mesh emission leaves both faces, glTF's leaves the front face only."""
+    geo = nt.nodes.new("ShaderNodeNewGeometry")
+    front = nt.nodes.new("ShaderNodeMath")
+    front.operation = "SUBTRACT"  # 1 - backfacing
+    front.inputs[0].default_value = 1.0
+    nt.links.new(geo.outputs["Backfacing"], front.inputs[1])
+    scaled = nt.nodes.new("ShaderNodeMath")
+    scaled.operation = "MULTIPLY"
+    scaled.inputs[0].default_value = strength.default_value
+    nt.links.new(front.outputs["Value"], scaled.inputs[1])
+    nt.links.new(scaled.outputs["Value"], strength)
+
+
 def diffuse_material(name, rgb, emission=None, double_sided=False):
     """Diffuse(rgb) [+ Emission(emission), front face only unless double_sided]."""
     m = bpy.data.materials.new(name)
@@ -59,13 +89,7 @@ def diffuse_material(name, rgb, emission=None, double_sided=False):
         em.inputs["Color"].default_value = (*emission, 1.0)
         em.inputs["Strength"].default_value = 1.0
         if not double_sided:
-            # strength = 1 - backfacing: the back face emits nothing
-            geo = nt.nodes.new("ShaderNodeNewGeometry")
-            inv = nt.nodes.new("ShaderNodeMath")
-            inv.operation = "SUBTRACT"
-            inv.inputs[0].default_value = 1.0
-            nt.links.new(geo.outputs["Backfacing"], inv.inputs[1])
-            nt.links.new(inv.outputs["Value"], em.inputs["Strength"])
+            front_face_only(nt, em.inputs["Strength"])
         add = nt.nodes.new("ShaderNodeAddShader")
         nt.links.new(shader, add.inputs[0])
         nt.links.new(em.outputs["Emission"], add.inputs[1])
@@ -91,6 +115,63 @@ def gltf_materials(doc, mode):
         out[name] = diffuse_material("peer_" + name, rgb, e if any(c > 0 for c in e) else None,
                                      mat.get("doubleSided", False))
     return out
+
+
+def principled_default_material():
+    """glTF's default material (no material on a primitive): base colour 1, metallic 1,
+    roughness 1, as a Principled BSDF like the importer's."""
+    m = bpy.data.materials.new("peer_gltf_default")
+    m.use_nodes = True
+    p = m.node_tree.nodes["Principled BSDF"]
+    p.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    p.inputs["Metallic"].default_value = 1.0
+    p.inputs["Roughness"].default_value = 1.0
+    p.inputs["IOR"].default_value = 1.5
+    return m
+
+
+def keep_principled(doc, s, distribution="GGX"):
+    """MATERIALS 'gltf': keeps the importer's Principled BSDF materials, sets their
+    distribution, makes emission front-face only unless doubleSided, and gives primitives
+    without a material glTF's default one. Returns a summary for the worker's report."""
+    gltf = {m.get("name", f"material{i}"): m for i, m in enumerate(doc.get("materials", []))}
+    for name, mat in gltf.items():
+        pbr = mat.get("pbrMetallicRoughness", {})
+        if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "emissiveTexture" in mat \
+                or "normalTexture" in mat or mat.get("alphaMode", "OPAQUE") != "OPAQUE":
+            sys.exit(f"cycles_worker: material '{name}': textures and alpha are not checked for 'gltf' materials")
+    default = None  # made when a primitive has no material
+    seen, emissive = set(), {}
+    for ob in s.objects:
+        if ob.type != "MESH":
+            continue
+        if not ob.material_slots:
+            default = default or principled_default_material()
+            ob.data.materials.append(default)
+        for slot in ob.material_slots:
+            if slot.material is None:
+                default = default or principled_default_material()
+                slot.material = default
+            m = slot.material
+            if m.name in seen:
+                continue
+            seen.add(m.name)
+            if m.name not in gltf and m is not default:
+                sys.exit(f"cycles_worker: no glTF material named '{m.name}'")
+            nodes = [n for n in m.node_tree.nodes if n.type == "BSDF_PRINCIPLED"]
+            if len(nodes) != 1:
+                sys.exit(f"cycles_worker: material '{m.name}': expected one Principled BSDF, found {len(nodes)}")
+            p = nodes[0]
+            p.distribution = distribution
+            # emitted radiance = Emission x Emission Strength (the importer's factor x strength)
+            strength = p.inputs["Emission Strength"]
+            radiance = [c * strength.default_value for c in p.inputs["Emission"].default_value[:3]]
+            if any(c > 0 for c in radiance):
+                emissive[m.name] = {"radiance": [round(c, 6) for c in radiance]}
+                if not gltf.get(m.name, {}).get("doubleSided", False):
+                    front_face_only(m.node_tree, strength)
+                    emissive[m.name]["front_face_only"] = True
+    return {"distribution": distribution, "emissive": emissive, "default_material_used": default is not None}
 
 
 def normalise_scale(s):
@@ -137,6 +218,8 @@ def render_settings(s, width, height, bounces, threads):
     cy.filter_width = 1.0
     cy.max_bounces = bounces
     cy.diffuse_bounces = bounces
+    cy.glossy_bounces = bounces  # Cycles' default is 4: glossy paths would end early
+    cy.transmission_bounces = bounces
     cy.caustics_reflective = True
     cy.caustics_refractive = True
     cy.blur_glossy = 0.0
@@ -159,16 +242,9 @@ def render_settings(s, width, height, bounces, threads):
     im.exr_codec = "ZIP"
 
 
-def setup(scene_path, mode, width, height, bounces, threads):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
-    with open(scene_path) as f:
-        doc = json.load(f)
-    if doc.get("extensions", {}).get("KHR_lights_punctual") and mode != "ao":
-        sys.exit("cycles_worker: punctual lights are not set up here (only emissive meshes)")
-    s = bpy.context.scene
-
-    # materials: replace what the importer made (Principled) by ours, matched by name
+def replace_materials(doc, s, mode):
+    """MATERIALS 'lambertian' (and AO): every slot gets our diffuse material of the same glTF
+    name; primitives without a material get white (glTF's default base colour)."""
     ours = gltf_materials(doc, mode)
     white = diffuse_material("peer_default", (1.0, 1.0, 1.0))  # glTF's default material
     for ob in s.objects:
@@ -183,6 +259,27 @@ def setup(scene_path, mode, width, height, bounces, threads):
                 slot.material = ours[slot.material.name]
             elif not slot.material.name.startswith("peer_"):
                 sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
+
+
+def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian"):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
+    with open(scene_path) as f:
+        doc = json.load(f)
+    if doc.get("extensions", {}).get("KHR_lights_punctual") and mode != "ao":
+        sys.exit("cycles_worker: punctual lights are not set up here (only emissive meshes)")
+    s = bpy.context.scene
+
+    # materials: the importer's Principled BSDF for the glTF model (made GGX, emission front
+    # face only); otherwise (and for AO, whatever the model) replace what the importer made
+    # by ours, matched by name
+    if materials not in ("lambertian", "gltf"):
+        sys.exit(f"cycles_worker: unknown material model '{materials}'")
+    if materials == "gltf" and mode != "ao":
+        s["peer_materials"] = json.dumps(keep_principled(doc, s))
+    else:
+        replace_materials(doc, s, mode)
+        s["peer_materials"] = json.dumps({"diffuse": "Lambertian override (see the docstring)"})
 
     # camera: the first glTF camera; force the vertical fov (aspect from the resolution)
     cams = [o for o in s.objects if o.type == "CAMERA"]
@@ -221,14 +318,16 @@ def setup(scene_path, mode, width, height, bounces, threads):
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:]
     scene_path, mode, res, bounces, threads = argv[0], argv[1], argv[2], int(argv[3]), int(argv[4])
+    materials = argv[5] if len(argv) > 5 else "lambertian"
     width, height = (int(v) for v in res.split("x"))
-    s = setup(scene_path, mode, width, height, bounces, threads)
+    s = setup(scene_path, mode, width, height, bounces, threads, materials)
     s.cycles.samples = 1
     t0 = time.perf_counter()
     bpy.ops.render.render()  # warm-up: kernels, scene sync, BVH (kept: persistent data)
     warmup = time.perf_counter() - t0
     info = {"blender": bpy.app.version_string, "sampling_pattern": s.cycles.sampling_pattern,
-            "max_bounces": s.cycles.max_bounces, "threads": s.render.threads,
+            "max_bounces": s.cycles.max_bounces, "glossy_bounces": s.cycles.glossy_bounces,
+            "threads": s.render.threads, "materials": json.loads(s["peer_materials"]),
             "scale": s["peer_scale"], "warmup_seconds": warmup}
     print("PEER_JSON " + json.dumps({"ready": True, **info}), flush=True)
     for line in sys.stdin:

@@ -23,8 +23,12 @@ the ladder after a render slower than --time-cap. Every renderer uses --threads 
 
 Error = RMSE over all pixels and channels against the reference (as target/release/convergence
 computes it), plus the same with the reference's own noise removed (MSE - mean reference
-variance). Writes, under --out: <job>.csv (the raw curves) and RESULTS.md (tables; equal-time
-RMSE and time-to-equal-RMSE by log-log interpolation between rungs).
+variance). The reference is the job's Mitsuba reference, except for Cycles on glTF-model jobs
+(e.g. sphere-grid.path): Cycles' Principled BSDF is not the glTF BRDF, so it converges to its
+own image, and it is measured against its own converged render (--cycles-ref-spp, two
+independent halves whose difference estimates its variance; cached under --cache). Writes,
+under --out: <job>.csv (the raw curves) and RESULTS.md (tables; equal-time RMSE and
+time-to-equal-RMSE by log-log interpolation between rungs).
 """
 import argparse
 import csv
@@ -49,6 +53,7 @@ REPO = os.path.dirname(os.path.dirname(HERE))
 sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.join(REPO, "tools", "references"))
 import mitsuba_refs  # noqa: E402  (the glTF -> Mitsuba conversion of the references)
+import scene_hash  # noqa: E402  (the manifest's scene_sha256: the scene and the files it names)
 import mitsuba as mi  # noqa: E402
 
 RENDERERS = ["strata", "strata-adaptive", "mitsuba-scalar", "mitsuba-llvm", "cycles"]
@@ -180,6 +185,16 @@ class StrataAdaptive(Strata):
         return ["--error-metric", "absolute", "--target-error", "1e-4", "--time-limit", f"{limit:.6g}"]
 
 
+def cycles_settings(job):
+    """What cycles_worker.py is told about a job (all of it changes the image; threads do not)."""
+    ref = manifest_entry(job)
+    w, h = ref["resolution"]
+    # Cycles' max_bounces counts bounces after the first hit: strata's B - 1 (0 = direct
+    # light only, which is what AO needs); checked against the references (README.md).
+    return {"mode": "ao" if ref["integrator"] == "ao" else "shaded", "resolution": f"{w}x{h}",
+            "bounces": 0 if ref["integrator"] == "ao" else ref["max_depth"] - 1, "materials": material_model(job)}
+
+
 def cpu_seconds(who):
     r = resource.getrusage(who)
     return r.ru_utime + r.ru_stime
@@ -196,18 +211,10 @@ def start(name, job, args, logdir):
         argv = [sys.executable, os.path.abspath(__file__), "--mitsuba-worker", variant, job, str(args.threads)]
         return Worker(name, argv, os.path.join(logdir, f"{job}.{name}.log"))
     if name == "cycles":
-        if ref.get("materials", {}).get("model", "lambertian") != "lambertian":
-            # cycles_worker renders every material Lambertian; Principled BSDF is not the glTF
-            # specification's BRDF, so a glossy job needs Cycles measured against its own
-            # converged image (ROADMAP, issue 28).
-            raise RuntimeError(f"cycles: {job} renders the glTF BRDF, which cycles_worker does not set up yet")
-        w, h = ref["resolution"]
-        # Cycles' max_bounces counts bounces after the first hit: strata's B - 1 (0 = direct
-        # light only, which is what AO needs); checked against the references (README.md).
-        bounces = 0 if ref["integrator"] == "ao" else ref["max_depth"] - 1
-        mode = "ao" if ref["integrator"] == "ao" else "shaded"
+        c = cycles_settings(job)
         argv = [args.blender, "-b", "--factory-startup", "-P", os.path.join(HERE, "cycles_worker.py"), "--",
-                os.path.join(REPO, ref["scene"]), mode, f"{w}x{h}", str(bounces), str(args.threads)]
+                os.path.join(REPO, ref["scene"]), c["mode"], c["resolution"], str(c["bounces"]), str(args.threads),
+                c["materials"]]
         return Worker(name, argv, os.path.join(logdir, f"{job}.{name}.log"))
     raise ValueError(name)
 
@@ -227,13 +234,102 @@ def manifest_entry(job):
     return _manifest[job]
 
 
+def material_model(job):
+    """The job's material model: 'lambertian' (every material diffuse) or 'gltf' (the glTF
+    metallic-roughness BRDF, which only strata and the Mitsuba plugin implement exactly)."""
+    return manifest_entry(job).get("materials", {}).get("model", "lambertian")
+
+
 def read_rgb(path):
     return np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
 
 
-def errors(img, ref, ref_var):
-    mse = float(np.mean((img - ref) ** 2))
-    corrected = mse - float(np.mean(ref_var))
+class Reference:
+    """What a renderer's RMSE is measured against: the converged image, the per-pixel variance
+    of that image's mean (its own Monte Carlo noise, subtracted in rmse_corrected), and words
+    for the tables."""
+
+    def __init__(self, key, label, img, var):
+        self.key, self.label, self.img, self.var = key, label, img, var
+        # RMS over pixels and channels of the reference's standard error: the floor below
+        # which a renderer's raw RMSE cannot go, whatever its spp
+        self.noise_rms = math.sqrt(float(np.mean(var)))
+
+
+def mitsuba_reference(job):
+    e = manifest_entry(job)
+    return Reference("mitsuba", f"the Mitsuba reference `{e['reference']}` ({e['spp']} spp, {e['variant']}; variance "
+                     f"from its {e['passes']} passes)",
+                     read_rgb(os.path.join(REPO, e["reference"])), read_rgb(os.path.join(REPO, e["variance"])))
+
+
+CYCLES_REF_SEEDS = (2000, 2001)  # the two halves; clear of the ladder's SEED
+
+
+def cycles_own_reference(worker, job, spp, cache_root, workdir):
+    """Cycles' converged image of a glTF-model job: Principled BSDF is not the glTF BRDF, so
+    Cycles converges to its own image and its RMSE is measured against this, not against
+    Mitsuba's reference.
+
+    Rendered as two independent halves of spp/2 each (seeds CYCLES_REF_SEEDS) and averaged:
+    the mean of two independent estimates A, B has per-pixel variance E[(A - B)^2] / 4, so
+    (A - B)^2 / 4 is an unbiased (if noisy per pixel) variance image, whose mean over the
+    image is what rmse_corrected subtracts, as the Mitsuba references' var.exr is.
+
+    Cached under cache_root/<job>.cycles.<key>/, the key hashing everything that changes the
+    image: the scene (the manifest's scene_sha256), the job's settings as the worker receives
+    them, spp and seeds, Blender's version and cycles_worker.py itself (any edit of the set-up
+    renders afresh; threads are left out: they do not change Cycles' image)."""
+    e = manifest_entry(job)
+    with open(os.path.join(HERE, "cycles_worker.py"), "rb") as f:
+        worker_sha = hashlib.sha256(f.read()).hexdigest()
+    settings = {"scene_sha256": scene_hash.scene_sha256(os.path.join(REPO, e["scene"])), **cycles_settings(job),
+                "spp": spp, "seeds": list(CYCLES_REF_SEEDS), "blender": worker.info.get("blender"),
+                "cycles_worker_sha256": worker_sha}
+    key = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+    folder = os.path.join(cache_root, f"{job}.cycles.{key}")
+    halves = [os.path.join(folder, f"half{i}.exr") for i in (0, 1)]
+    meta_path = os.path.join(folder, "meta.json")
+    if os.path.exists(meta_path):
+        print(f"[{job}] cycles: own reference from the cache, {folder}", file=sys.stderr, flush=True)
+        with open(meta_path) as f:
+            meta = json.load(f)
+    else:
+        tmp = tempfile.mkdtemp(prefix="cycles-ref-", dir=workdir)
+        seconds = 0.0
+        for i, seed in enumerate(CYCLES_REF_SEEDS):
+            print(f"[{job}] cycles: rendering its own reference, half {i + 1} of 2 ({spp // 2} spp)",
+                  file=sys.stderr, flush=True)
+            seconds += worker.render(spp // 2, seed, os.path.join(tmp, f"half{i}.exr"))["seconds"]
+        meta = {"settings": settings, "render_seconds": round(seconds, 2),
+                "made": time.strftime("%Y-%m-%d %H:%M:%S")}
+        with open(os.path.join(tmp, "meta.json"), "w") as f:
+            json.dump(meta, f, indent=1)
+        os.makedirs(cache_root, exist_ok=True)
+        shutil.rmtree(folder, ignore_errors=True)
+        shutil.move(tmp, folder)  # complete folders only: meta.json is written last
+    a, b = (read_rgb(p) for p in halves)
+    return Reference("cycles-own", f"Cycles' own converged render ({spp} spp, two halves of seeds "
+                    f"{CYCLES_REF_SEEDS[0]} and {CYCLES_REF_SEEDS[1]}, variance estimated from their difference; "
+                    f"cached in `{folder}`, {meta['render_seconds']:.0f} s to render)", (a + b) / 2, (a - b) ** 2 / 4)
+
+
+def references_for(job, names, workers, args, workdir):
+    """Each renderer's reference, and Mitsuba's: Mitsuba's for all, except Cycles on a
+    glTF-model job (its Principled BSDF converges elsewhere), which gets its own converged
+    render."""
+    mitsuba = mitsuba_reference(job)
+    refs = {name: mitsuba for name in names}
+    if "cycles" in workers and material_model(job) != "lambertian":
+        refs["cycles"] = cycles_own_reference(workers["cycles"], job, args.cycles_ref_spp, args.cache, workdir)
+    return refs, mitsuba
+
+
+def errors(img, ref):
+    """RMSE against a Reference, raw and with the reference's own noise removed: for independent
+    noise, E[MSE] = (the render's error)^2 + mean variance of the reference."""
+    mse = float(np.mean((img - ref.img) ** 2))
+    corrected = mse - ref.noise_rms ** 2
     return math.sqrt(mse), math.sqrt(corrected) if corrected > 0 else 0.0
 
 
@@ -271,11 +367,12 @@ def rmse_at(rows, seconds, key="seconds"):
     return None
 
 
-def time_to(rows, target, key="seconds"):
-    """Seconds to reach an RMSE: where the ladder first crosses it."""
+def time_to(rows, target, key="seconds", metric="rmse"):
+    """Seconds to reach an RMSE (or rmse_corrected): where the ladder first crosses it."""
+    rows = [r for r in rows if r[metric] > 0]  # a corrected RMSE can reach 0 (noise estimate)
     for a, b in zip(rows, rows[1:]):
-        if b["rmse"] <= target <= a["rmse"] and a["rmse"] != b["rmse"]:
-            return interp_log(a["rmse"], a[key], b["rmse"], b[key], target)
+        if b[metric] <= target <= a[metric] and a[metric] != b[metric]:
+            return interp_log(a[metric], a[key], b[metric], b[key], target)
     return None
 
 
@@ -305,9 +402,6 @@ def fmt(v, digits=3):
 # ---------------------------------------------------------------------------------------
 
 def run_job(job, args, workdir):
-    ref_entry = manifest_entry(job)
-    ref = read_rgb(os.path.join(REPO, ref_entry["reference"]))
-    ref_var = read_rgb(os.path.join(REPO, ref_entry["variance"]))
     workers, infos = {}, {}
     for name in args.renderers:
         print(f"[{job}] starting {name}", file=sys.stderr, flush=True)
@@ -317,6 +411,7 @@ def run_job(job, args, workdir):
         except Exception as e:  # a peer that cannot run is reported, the others go on
             print(f"[{job}] {name} CANNOT RUN: {e}", file=sys.stderr, flush=True)
             infos[name] = {"error": str(e)}
+    refs, mitsuba = references_for(job, list(workers), workers, args, workdir)
     rows, last = [], {}
     active = list(workers)
     spp = 1
@@ -331,12 +426,14 @@ def run_job(job, args, workdir):
         for name in list(active):
             t = times[name]
             img = read_rgb(os.path.join(workdir, f"{job}.{name}.{spp}.exr"))
-            rmse, corrected = errors(img, ref, ref_var)
+            ref = refs[name]
+            rmse, corrected = errors(img, ref)
             seconds = min(x["seconds"] for x in t)  # the least disturbed of the repeats
             rows.append({"job": job, "renderer": name, "spp": spp, "seconds": round(seconds, 5),
                          "cpu_seconds": round(min(x["cpu_seconds"] for x in t), 4),
                          "mean_spp": round(min(x.get("mean_spp", spp) for x in t), 2),
-                         "rmse": rmse, "rmse_corrected": corrected, "mean_ratio": float(img.mean() / ref.mean()),
+                         "rmse": rmse, "rmse_corrected": corrected, "mean_ratio": float(img.mean() / ref.img.mean()),
+                         "reference": ref.key, "reference_noise_rms": ref.noise_rms,
                          "all_seconds": ";".join(f"{x['seconds']:.4g}" for x in t),
                          "first_call_seconds": round(t[0].get("first_call_seconds", t[0]["seconds"]), 5)})
             last[name] = (spp, img)
@@ -346,8 +443,13 @@ def run_job(job, args, workdir):
         spp *= 2
     for name in workers:
         workers[name].close()
-    checks = {name: dict(spp=s, **agreement(img, ref)) for name, (s, img) in last.items()}
-    return rows, infos, checks
+    checks = {name: dict(spp=s, **agreement(img, refs[name].img)) for name, (s, img) in last.items()}
+    # how far a peer's own converged image is from the Mitsuba reference: the model's
+    # difference (e.g. Principled BSDF against the glTF BRDF), not noise
+    for name, ref in refs.items():
+        if ref.key != "mitsuba":
+            checks[name]["own_reference_vs_mitsuba"] = agreement(ref.img, mitsuba.img)
+    return rows, infos, checks, refs
 
 
 def write_csv(path, rows):
@@ -358,28 +460,45 @@ def write_csv(path, rows):
             w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
 
 
-def job_tables(job, rows, checks, renderers):
+def job_tables(job, rows, checks, refs, renderers):
     by = {n: [r for r in rows if r["renderer"] == n] for n in renderers}
     by = {n: v for n, v in by.items() if v}
     ours = [n for n in by if n.startswith("strata")]
     peers = [n for n in by if n not in ours]
     lines = [f"### {job}", ""]
     ref_entry = manifest_entry(job)
-    lines += [f"Reference `{ref_entry['reference']}` ({ref_entry['spp']} spp Mitsuba, "
-              f"{ref_entry['resolution'][0]}×{ref_entry['resolution'][1]}); strata `{' '.join(ref_entry['strata_args'])}`.", ""]
-    lines += ["Converged agreement (each renderer's highest-spp render against the reference):", "",
-              "| renderer | spp | seconds | mean ratio | mean ratio, surfaces | RMSE of 8×8 block means | RMSE |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [f"Scene `{ref_entry['scene']}`, {ref_entry['resolution'][0]}×{ref_entry['resolution'][1]}, material "
+              f"model `{material_model(job)}`; strata `{' '.join(ref_entry['strata_args'])}`.", ""]
+    # which reference each curve is measured against, and that reference's own noise
+    lines += ["Each renderer's RMSE is measured against its reference (noise: the reference's standard error, RMS "
+              "over pixels and channels; the raw RMSE cannot fall below it, `rmse_corrected` removes it):", ""]
+    for ref in {r.key: r for n, r in refs.items() if n in by}.values():
+        names = ", ".join(n for n in by if refs[n].key == ref.key)
+        lines.append(f"- {names}: {ref.label}; noise {ref.noise_rms:.3g}.")
+    lines.append("")
+    lines += ["Converged agreement (each renderer's highest-spp render against its reference):", "",
+              "| renderer | against | spp | seconds | mean ratio | mean ratio, surfaces | RMSE of 8×8 block means "
+              "| RMSE | RMSE, reference noise removed |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for n, rs in by.items():
         c, top = checks[n], rs[-1]
-        lines.append(f"| {n} | {c['spp']} | {top['seconds']:.2f} | {c['mean_ratio']:.4f} | {c['surface_mean_ratio']:.4f} "
-                     f"| {c['block8_rmse']:.4g} | {top['rmse']:.4g} |")
-    lines += equal_time(by, ours, peers, "seconds", "RMSE at equal wall-clock time (log-log interpolation between "
-                        "rungs; ratio < 1: strata is better):")
-    lines += equal_error(by, ours, peers, "seconds", "Wall-clock seconds to reach an RMSE (ratio < 1: strata is "
-                         "faster):")
-    lines += equal_error(by, ours, peers, "cpu_seconds", "The same in CPU seconds (user + system, all threads; less "
-                         "sensitive to other work on the machine):")
+        lines.append(f"| {n} | {refs[n].key} | {c['spp']} | {top['seconds']:.2f} | {c['mean_ratio']:.4f} "
+                     f"| {c['surface_mean_ratio']:.4f} | {c['block8_rmse']:.4g} | {top['rmse']:.4g} "
+                     f"| {top['rmse_corrected']:.4g} |")
+    for n in by:
+        if "own_reference_vs_mitsuba" in checks[n]:
+            o = checks[n]["own_reference_vs_mitsuba"]
+            lines += ["", f"{n}'s own reference against the Mitsuba reference (what its material model changes; "
+                      f"not an error of the timing): mean ratio {o['mean_ratio']:.4f}, surfaces "
+                      f"{o['surface_mean_ratio']:.4f}, RMSE of 8×8 block means {o['block8_rmse']:.4g}."]
+    lines += equal_time(by, ours, peers, "seconds", "RMSE at equal wall-clock time, each against its reference "
+                        "(log-log interpolation between rungs; ratio < 1: strata is better):")
+    lines += equal_error(by, ours, peers, "seconds", "Wall-clock seconds to reach an RMSE, each against its "
+                         "reference (ratio < 1: strata is faster):")
+    lines += equal_error(by, ours, peers, "seconds", "The same with each reference's own noise removed "
+                         "(`rmse_corrected`; the fair one where the references' noise differs):", "rmse_corrected")
+    lines += equal_error(by, ours, peers, "cpu_seconds", "Seconds to reach an RMSE in CPU seconds (user + system, "
+                         "all threads; less sensitive to other work on the machine):")
     lines += ["", "Fitted slope of log RMSE against log seconds (rungs of 0.1 s or more): "
               + ", ".join(f"{n} {fmt(slope(rs), 3)}" for n, rs in by.items()) + ".", ""]
     return lines
@@ -407,13 +526,16 @@ def equal_time(by, ours, peers, key, title):
     return lines
 
 
-def equal_error(by, ours, peers, key, title):
-    """Targets (1-2-5 values) inside every renderer's range of RMSE."""
-    lo = max(min(r["rmse"] for r in rs) for rs in by.values())
-    hi = min(max(r["rmse"] for r in rs) for rs in by.values())
-    lines = ["", title, ""] + header(by, ours, peers, "RMSE")
+def equal_error(by, ours, peers, key, title, metric="rmse"):
+    """Targets (1-2-5 values) inside every renderer's range of RMSE (or rmse_corrected)."""
+    positive = {n: [r[metric] for r in rs if r[metric] > 0] for n, rs in by.items()}
+    if not all(positive.values()):
+        return ["", title, "", "(no renderer range to compare)"]
+    lo = max(min(v) for v in positive.values())
+    hi = min(max(v) for v in positive.values())
+    lines = ["", title, ""] + header(by, ours, peers, metric.replace("_", " "))
     for t in (sorted(nice_values(lo, hi), reverse=True) if lo < hi else []):
-        v = {n: time_to(rs, t, key) for n, rs in by.items()}
+        v = {n: time_to(rs, t, key, metric) for n, rs in by.items()}
         lines.append(f"| {t:g} | " + " | ".join(fmt(v[n], 3) for n in by) + " | "
                      + " | ".join(fmt(x, 3) for x in ratio_cells(v, ours, peers)) + " |")
     return lines
@@ -459,12 +581,18 @@ def main():
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
     ap.add_argument("--keep-images", action="store_true", help="keep the EXRs (in OUT/images)")
+    ap.add_argument("--cycles-ref-spp", type=int, default=8192,
+                    help="spp of Cycles' own reference on glTF-model jobs (two halves; even)")
+    ap.add_argument("--cache", default=os.path.join(os.path.expanduser("~"), ".cache", "strata", "peers"),
+                    help="where Cycles' own references are kept between runs")
     args = ap.parse_args()
     if args.mitsuba_worker:
         variant, job, threads = args.mitsuba_worker
         return mitsuba_worker(variant, job, int(threads))
     mi.set_variant("scalar_rgb")  # for reading EXRs only
     args.renderers = args.renderers.split(",")
+    if args.cycles_ref_spp < 2 or args.cycles_ref_spp % 2:
+        ap.error("--cycles-ref-spp must be even (it is rendered as two halves)")
     os.makedirs(args.out, exist_ok=True)
     # renders and worker logs go to a private folder (or OUT/images with --keep-images), and so
     # does a copy of strata's binary: others may rebuild target/release during the run
@@ -479,10 +607,10 @@ def main():
     started = time.strftime("%Y-%m-%d %H:%M:%S")
     all_infos, sections = {}, []
     for job in args.jobs.split(","):
-        rows, infos, checks = run_job(job, args, workdir)
+        rows, infos, checks, refs = run_job(job, args, workdir)
         write_csv(os.path.join(args.out, f"{job}.csv"), rows)
         all_infos.update({k: v for k, v in infos.items() if "error" not in v})
-        sections += job_tables(job, rows, checks, args.renderers)
+        sections += job_tables(job, rows, checks, refs, args.renderers)
         for name, info in infos.items():
             if "error" in info:
                 sections += [f"**{name} could not run on {job}:** {info['error']}", ""]
@@ -500,8 +628,10 @@ def main():
             "Seconds are the wall-clock time of the render alone (strata: the `render` phase of `--stats`; "
             "Mitsuba: the `mi.render` call after a warm-up render; llvm: the replay of a render already recorded "
             "at that spp (the first call, which traces and compiles, is in the CSV as first_call_seconds); Cycles: the `bpy.ops.render.render` call "
-            "after a warm-up render, with persistent data). RMSE is over all pixels and channels against the "
-            "reference. Raw curves: the CSV files beside this one.", ""]
+            "after a warm-up render, with persistent data). RMSE is over all pixels and channels against each "
+            "renderer's reference, named in each job's section (the `reference` column of the CSV): the Mitsuba "
+            "reference, except for Cycles on glTF-model jobs, measured against its own converged render because "
+            "its Principled BSDF is not the glTF BRDF. Raw curves: the CSV files beside this one.", ""]
     with open(os.path.join(args.out, "RESULTS.md"), "w") as f:
         f.write("\n".join(head + sections))
     print(f"wrote {args.out}/RESULTS.md and {len(args.jobs.split(','))} CSV files", file=sys.stderr)
