@@ -1,19 +1,20 @@
 //! Environment maps end to end: a map of one colour lights a scene as the same constant
 //! background does (the map's importance sampling against the constant's BSDF sampling, both
-//! unbiased); .hdr and .exr files load with their orientation; bad input is refused with the
-//! file named.
+//! unbiased); under a map that is 1 above the horizon and 0 below, a white Lambertian floor
+//! reads 1 and a white wall 1/2 (closed forms); .hdr and .exr files load with their
+//! orientation; bad input is refused with the file named.
 
 mod common;
 
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3, Vec4};
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions};
 use strata::render::RenderSettings;
 use strata::sampling::SamplerKind;
-use strata::scene::{self, LoadOptions};
-use strata::shading::{EnvMap, Environment};
+use strata::scene::{self, LoadOptions, Material, Scene};
+use strata::shading::{EnvMap, Environment, MaterialOptions};
 
 /// The Suzanne scene path-traced at 32 × 24, 64 spp, under `environment`, with the camera
 /// seeing `camera_background` behind it where given.
@@ -176,5 +177,196 @@ fn bad_environment_options_are_refused_naming_the_problem() {
             );
         }
         assert!(!out.exists(), "{extra:?} wrote an image");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The sky of radiance 1 above the horizon and 0 below: closed forms.
+//
+// A white Lambertian surface (ρ = 1, f = 1/π) that nothing occludes reflects L_o = E/π, E the
+// irradiance. A floor (normal +Y) sees the whole upper hemisphere lit: E = π, L_o = 1. A
+// vertical wall sees a hemisphere that the horizon cuts in half, symmetric in elevation, so
+// the lit half carries half the cosine-weighted solid angle: E = π/2, L_o = 1/2.
+//
+// The map is looked up bilinearly, so within half a texel row of the horizon (δ/2, δ = π/H)
+// the radiance ramps from 0 to 1. For the wall the ramp is odd about the horizon and the
+// cosine even: no error. The floor misses 2π∫₀^{δ/2} (1/2 − e/δ)·e de = πδ²/24 of its
+// irradiance: L_o = 1 − δ²/24, 1.0e-4 for H = 64 rows, allowed for beside the noise.
+// ---------------------------------------------------------------------------------------------
+
+/// Rows of the sky maps: an even count, so the horizon falls between two rows.
+const SKY_ROWS: usize = 64;
+
+/// Writes a 2H × H .hdr map whose rows above `horizon_row` are 1 and the rest 0 (or the
+/// reverse when `upside_down`), into `dir`.
+fn write_sky(
+    dir: &std::path::Path,
+    name: &str,
+    horizon_row: usize,
+    upside_down: bool,
+) -> std::path::PathBuf {
+    let (w, h) = (2 * SKY_ROWS as u32, SKY_ROWS as u32);
+    let mut buffer = image::Rgb32FImage::new(w, h);
+    for (_, y, p) in buffer.enumerate_pixels_mut() {
+        let lit = ((y as usize) < horizon_row) != upside_down;
+        *p = image::Rgb([if lit { 1.0 } else { 0.0 }; 3]);
+    }
+    let path = dir.join(name);
+    image::DynamicImage::ImageRgb32F(buffer)
+        .save(&path)
+        .unwrap();
+    path
+}
+
+/// A 200 × 200 white square centred at the origin, facing `normal` (+Y or +X), alone.
+fn white_square(normal: Vec3) -> Scene {
+    let s = 100.0;
+    let (a, b) = if normal == Vec3::Y {
+        (Vec3::Z, Vec3::X)
+    } else {
+        (Vec3::Y, Vec3::Z)
+    };
+    let positions = vec![(-a - b) * s, (a - b) * s, (a + b) * s, (-a + b) * s];
+    let mut scene = Scene {
+        normals: vec![Vec3::ZERO; 4],
+        uvs: vec![Vec2::ZERO; 4],
+        positions,
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        triangle_materials: vec![1; 2],
+        materials: vec![
+            Material::default(),
+            Material {
+                base_color: Vec4::ONE,
+                metallic: 0.0,
+                ..Default::default()
+            },
+        ],
+        ..Default::default()
+    };
+    scene.update_summary();
+    scene
+}
+
+/// The mean of the pixels of `scene` seen from `eye` (looking at the origin) under the map
+/// at `map`, and its standard error, rendered with independent random samples (so pixels are
+/// independent estimates), Lambertian materials.
+fn mean_radiance(
+    scene: &Scene,
+    eye: Vec3,
+    map: &std::path::Path,
+    integrator: Integrator,
+) -> (f64, f64) {
+    let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
+    let environment = Environment::Map(Arc::new(EnvMap::load(map, 0.0, 1.0).unwrap()));
+    let options = ShadingOptions {
+        environment,
+        materials: MaterialOptions::lambertian(),
+        ..Default::default()
+    };
+    let prepared = Prepared::with_options(
+        scene,
+        std::path::Path::new("white square"),
+        &integrator,
+        &options,
+    )
+    .unwrap();
+    let ctx = prepared.context(scene, &accel);
+    let settings = RenderSettings {
+        camera: common::camera_looking(eye, -eye, Vec3::Y, 0.5),
+        crop: None,
+        stopping: Default::default(),
+        width: 16,
+        height: 16,
+        spp: 64,
+        seed: 7,
+        sampler: SamplerKind::Random,
+        integrator,
+        tile_size: 8,
+        min_pass_seconds: 0.0,
+    };
+    let result = common::render_quietly(&ctx, &settings);
+    assert_eq!(result.stats.bad_samples, 0);
+    let v: Vec<f64> = result.film.pixels().iter().map(|p| p.x as f64).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+/// Whether `mean ± sem` agrees with `expected`: within 5 standard errors plus the map's
+/// interpolation bias bound (see above).
+fn agrees(mean: f64, sem: f64, expected: f64) -> bool {
+    let bias = (std::f64::consts::PI / SKY_ROWS as f64).powi(2) / 24.0;
+    (mean - expected).abs() < 5.0 * sem + bias
+}
+
+fn direct_and_path() -> [(&'static str, Integrator); 2] {
+    [
+        (
+            "direct",
+            Integrator::Direct(PathSettings {
+                max_depth: 1,
+                ..Default::default()
+            }),
+        ),
+        ("path", Integrator::Path(PathSettings::default())),
+    ]
+}
+
+#[test]
+fn under_a_sky_lit_above_the_horizon_a_floor_reads_1_and_a_wall_one_half() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = write_sky(dir.path(), "sky.hdr", SKY_ROWS / 2, false);
+    let floor = white_square(Vec3::Y);
+    let wall = white_square(Vec3::X);
+    for (name, integrator) in direct_and_path() {
+        let (mean, sem) = mean_radiance(&floor, Vec3::new(0.0, 3.0, 0.5), &sky, integrator);
+        eprintln!("{name}: floor {mean} ± {sem}");
+        assert!(sem > 0.0 && sem < 0.01, "{name}: floor noise {sem}");
+        assert!(
+            agrees(mean, sem, 1.0),
+            "{name}: floor {mean} ± {sem}, expected 1"
+        );
+        let (mean, sem) = mean_radiance(&wall, Vec3::new(3.0, 0.5, 0.2), &sky, integrator);
+        eprintln!("{name}: wall {mean} ± {sem}");
+        assert!(sem < 0.01, "{name}: wall noise {sem}");
+        assert!(
+            agrees(mean, sem, 0.5),
+            "{name}: wall {mean} ± {sem}, expected 1/2"
+        );
+    }
+}
+
+/// Negative controls: the same checks reject the map upside down (the floor then reads 0)
+/// and a horizon two rows too low (α = 5.6° below it lit: the wall then reads
+/// 1/2 + (α + sin 2α / 2)/π = 0.562).
+#[test]
+fn the_floor_and_wall_checks_reject_a_wrong_sky() {
+    let dir = tempfile::tempdir().unwrap();
+    let flipped = write_sky(dir.path(), "flipped.hdr", SKY_ROWS / 2, true);
+    let low = write_sky(dir.path(), "low.hdr", SKY_ROWS / 2 + 2, false);
+    for (name, integrator) in direct_and_path() {
+        let (mean, sem) = mean_radiance(
+            &white_square(Vec3::Y),
+            Vec3::new(0.0, 3.0, 0.5),
+            &flipped,
+            integrator,
+        );
+        eprintln!("{name}: floor under the flipped map {mean} ± {sem}");
+        assert!(
+            !agrees(mean, sem, 1.0),
+            "{name}: the flipped map passed: {mean} ± {sem}"
+        );
+        let (mean, sem) = mean_radiance(
+            &white_square(Vec3::X),
+            Vec3::new(3.0, 0.5, 0.2),
+            &low,
+            integrator,
+        );
+        eprintln!("{name}: wall under the low horizon {mean} ± {sem}");
+        assert!(
+            !agrees(mean, sem, 0.5),
+            "{name}: the low horizon passed: {mean} ± {sem}"
+        );
     }
 }

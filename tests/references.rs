@@ -61,6 +61,8 @@ struct Reference {
     command: String,
     /// `<scene>.mask.exr` (scenes/references/README.md, "Masks"), where the manifest has one.
     mask: Option<PathBuf>,
+    /// The environment map that lights the scene (`--env`) and its SHA-256, where there is one.
+    environment: Option<(String, String)>,
 }
 
 fn manifest() -> Vec<Reference> {
@@ -79,24 +81,38 @@ fn manifest() -> Vec<Reference> {
             };
             let scene = s("scene");
             let integrator = s("integrator");
-            let stem = Path::new(&scene)
-                .file_stem()
+            // `<name>.<integrator>.exr`: one scene file may have references under several
+            // environments (suzanne.path, suzanne-studio.path).
+            let reference = s("reference");
+            let name = Path::new(&reference)
+                .file_name()
                 .unwrap()
                 .to_string_lossy()
-                .into_owned();
+                .trim_end_matches(".exr")
+                .to_string();
+            let environment = e["environment"].as_object().map(|env| {
+                let field = |k: &str| {
+                    env[k]
+                        .as_str()
+                        .expect("environment file and sha256")
+                        .to_string()
+                };
+                (field("file"), field("sha256"))
+            });
             Reference {
-                name: format!("{stem}.{integrator}"),
+                name,
                 strata_args: e["strata_args"]
                     .as_array()
                     .unwrap()
                     .iter()
                     .map(|a| a.as_str().unwrap().to_string())
                     .collect(),
-                reference: repo().join(s("reference")),
+                reference: repo().join(reference),
                 variance: repo().join(s("variance")),
                 scene_sha256: s("scene_sha256"),
                 command: s("command"),
                 mask: e["mask"].as_str().map(|m| repo().join(m)),
+                environment,
                 scene,
                 integrator,
             }
@@ -509,6 +525,15 @@ fn every_reference_was_made_from_the_current_scene() {
                 r.name, r.scene, r.command
             ));
         }
+        if let Some((file, sha256)) = &r.environment {
+            let bytes = std::fs::read(repo().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+            if format!("{:x}", Sha256::digest(bytes)) != *sha256 {
+                stale.push(format!(
+                    "{} (environment map {file} changed; regenerate with `{}`)",
+                    r.name, r.command
+                ));
+            }
+        }
         assert!(
             r.reference.is_file() && r.variance.is_file(),
             "{}: missing image files",
@@ -520,8 +545,8 @@ fn every_reference_was_made_from_the_current_scene() {
 
 /// The negative controls on scenes whose images have structure (the analytic scenes are
 /// uniform: a shift or a different warp cannot change them): AO of the Cornell box and the
-/// flight helmet, direct light of the textured Suzanne, and path tracing of the Cornell box and
-/// of the glossy sphere grid.
+/// flight helmet, direct light of the textured Suzanne, and path tracing of the Cornell box, of
+/// the glossy sphere grid and of Suzanne under an HDR environment map.
 /// The wrong-warp control applies to AO only; the shaded ones must also reject strata's
 /// energy-compensated model and its Lambertian override.
 #[test]
@@ -533,6 +558,7 @@ fn comparisons_fail_on_wrong_images() {
         "suzanne.direct",
         "cornell-box.path",
         "sphere-grid.path",
+        "suzanne-studio.path",
     ] {
         let r = manifest().into_iter().find(|r| r.name == name).expect(name);
         let (img, path, _) = render_strata(&r, &[], "");
@@ -599,6 +625,53 @@ fn comparisons_fail_on_wrong_images() {
             compare(&r, &wrong, &p, ".unweighted", use_idiff).is_err(),
             "{name}: AO without the cosine weight passed"
         );
+    }
+}
+
+/// The references lit by an environment map (`--env`, Mitsuba's `envmap`) pin the map's
+/// orientation: strata's image with the map turned a quarter turn away from the reference's, or
+/// turned the other way (the sign of `--env-rotate` flipped), must fail the comparison that the
+/// true rotation passes. Under studio_small_05 nearly all the light comes from one half of the
+/// map, so a wrong turn moves the light.
+#[test]
+fn environment_references_fail_with_the_map_turned_wrong() {
+    let use_idiff = idiff_available();
+    let refs: Vec<Reference> = manifest()
+        .into_iter()
+        .filter(|r| r.environment.is_some())
+        .collect();
+    assert!(
+        refs.len() >= 2,
+        "the manifest has no environment-lit references"
+    );
+    for r in &refs {
+        let at = r
+            .strata_args
+            .iter()
+            .position(|a| a == "--env-rotate")
+            .unwrap_or_else(|| panic!("{}: no --env-rotate in strata_args", r.name));
+        let degrees: f64 = r.strata_args[at + 1].parse().unwrap();
+        let (img, path, _) = render_strata(r, &[], "");
+        compare(r, &img, &path, "", use_idiff)
+            .unwrap_or_else(|e| panic!("the true rotation must pass first: {e}"));
+        let mut turns = vec![(degrees + 90.0, ".quarter-turn")];
+        if degrees != 0.0 {
+            turns.push((-degrees, ".sign-flipped"));
+        }
+        for (wrong, tag) in turns {
+            // One argument, `--env-rotate=-30`: a separate "-30" would read as an option.
+            let mut turned = r.clone();
+            turned.strata_args[at] = format!("--env-rotate={wrong}");
+            turned.strata_args.remove(at + 1);
+            let (img, path, _) = render_strata(&turned, &[], tag);
+            let outcome = compare(r, &img, &path, tag, use_idiff);
+            eprintln!("{} with --env-rotate {wrong}: {outcome:?}", r.name);
+            assert!(
+                outcome.is_err(),
+                "{}: the map turned to {wrong}° passed",
+                r.name
+            );
+        }
     }
 }
 

@@ -3,7 +3,8 @@
 //! 1. χ² goodness-of-fit tests of the direction warps against analytic pdfs written here
 //!    (the method of Mitsuba 3's `ChiSquareTest` and pbrt's `sampling_test`), with negative
 //!    controls showing that the test rejects a wrong pdf, plus checks of the warps' pdf
-//!    functions;
+//!    functions; the same test of the environment map's sampler against its own pdf, on a
+//!    real HDRI and on a map with one hot texel, and rejecting a sampler without sin θ;
 //! 2. orthonormality and handedness of `Onb::from_normal` over the sphere and at the
 //!    numerically hard normals (n.z → −1, signed zeros, denormals);
 //! 3. stratification of the per-pixel samplers (correlated multi-jittered n-rooks cells,
@@ -1971,4 +1972,156 @@ fn chi2_rejects_gltf_brdf_samples_against_a_wrong_pdf() {
         let result = bsdf_chi2(bsdf, wo, pdf, 16, 100 + k as u64);
         assert!(rejected(&result), "{name} accepted: {result:?}");
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// χ² goodness of fit of the environment map's sampler: `EnvMap::sample` against `EnvMap::pdf`.
+// ---------------------------------------------------------------------------------------------
+
+/// Two tests of correct sampling (a real HDR map, a map with one hot texel): Bonferroni.
+const ENV_CHI2_ALPHA: f64 = 0.01 / 2.0;
+
+/// The map coordinates (u, v) in [0, 1)² of direction `d` (rotation 0), written here from
+/// DESIGN.md's convention (Blender's): u = 0.5 + atan2(d.z, d.x)/2π, v = acos(d.y)/π.
+fn env_uv(d: Vec3) -> (f64, f64) {
+    let d = d.as_dvec3().normalize();
+    let u = (0.5 + d.z.atan2(d.x) / TAU).rem_euclid(1.0);
+    (u, d.y.clamp(-1.0, 1.0).acos() / PI)
+}
+
+/// The direction of map coordinates (u, v), the inverse of [`env_uv`].
+fn env_direction(u: f64, v: f64) -> Vec3 {
+    let (phi, theta) = (TAU * (u - 0.5), PI * v);
+    Vec3::new(
+        (theta.sin() * phi.cos()) as f32,
+        theta.cos() as f32,
+        (theta.sin() * phi.sin()) as f32,
+    )
+}
+
+/// Draws [`CHI2_SAMPLES`] directions from `sampler` and bins them on cells of `cell` × `cell`
+/// texels of a `w` × `h` map; the expected counts come from `pdf`. A map's pdf is constant
+/// over each texel (its density in (u, v) is piecewise constant, divided by the Jacobian
+/// 2π² sin θ), so a texel's probability is pdf at its centre times its exact solid angle,
+/// (2π/w)·(cos θ₀ − cos θ₁): no quadrature error.
+fn env_chi2(
+    sampler: &strata::shading::EnvMap,
+    pdf: &strata::shading::EnvMap,
+    (w, h): (usize, usize),
+    cell: usize,
+    seed: u64,
+) -> Result<Chi2Outcome, String> {
+    assert!(w % cell == 0 && h % cell == 0);
+    let (cw, ch) = (w / cell, h / cell);
+    let mut probabilities = vec![0.0f64; cw * ch];
+    for y in 0..h {
+        let (t0, t1) = (PI * y as f64 / h as f64, PI * (y + 1) as f64 / h as f64);
+        let solid_angle = TAU / w as f64 * (t0.cos() - t1.cos());
+        for x in 0..w {
+            let centre = env_direction((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
+            probabilities[(y / cell) * cw + x / cell] += pdf.pdf(centre) as f64 * solid_angle;
+        }
+    }
+    let total: f64 = probabilities.iter().sum();
+    assert!(
+        (total - 1.0).abs() < 1e-3,
+        "the pdf integrates to {total} over the sphere, not 1"
+    );
+    let mut observed = vec![0.0f64; cw * ch + 1];
+    let mut rng = Pcg32::new(seed, 0xe27);
+    for _ in 0..CHI2_SAMPLES {
+        let (d, _, p) = sampler.sample(rng.next_vec2());
+        if p <= 0.0 || !d.is_finite() {
+            // A direction the sampler itself calls impossible: count it as out of the domain.
+            observed[cw * ch] += 1.0;
+            continue;
+        }
+        let (u, v) = env_uv(d);
+        let x = ((u * w as f64) as usize).min(w - 1);
+        let y = ((v * h as f64) as usize).min(h - 1);
+        observed[(y / cell) * cw + x / cell] += 1.0;
+    }
+    let mut expected: Vec<f64> = probabilities
+        .iter()
+        .map(|p| p * CHI2_SAMPLES as f64)
+        .collect();
+    expected.push(0.0);
+    chi2_test(&observed, &expected)
+}
+
+/// The texels of a map divided by sin θ of their row: a map built from them samples as the
+/// original would if its distribution forgot the sin θ of the equirectangular Jacobian.
+fn without_sin_theta(texels: &[Vec3], w: usize, h: usize) -> Vec<Vec3> {
+    texels
+        .iter()
+        .enumerate()
+        .map(|(i, t)| *t / (PI * ((i / w) as f64 + 0.5) / h as f64).sin() as f32)
+        .collect()
+}
+
+/// The bundled HDRI (scenes/env/studio_small_05_1k: softboxes in a dark studio, 1024 × 512) as
+/// texels, read with the `image` crate.
+fn studio_texels() -> (usize, usize, Vec<Vec3>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/env/studio_small_05_1k/studio_small_05_1k.hdr");
+    let rgb = image::open(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgb32f();
+    let (w, h) = rgb.dimensions();
+    let texels = rgb.pixels().map(|p| Vec3::from_array(p.0)).collect();
+    (w as usize, h as usize, texels)
+}
+
+/// A 64 × 32 map of radiance 1 with one texel 10⁴ times as bright (a sun at θ ≈ 48°).
+fn hot_texel_map() -> (usize, usize, Vec<Vec3>) {
+    let (w, h) = (64, 32);
+    let mut texels = vec![Vec3::ONE; w * h];
+    texels[8 * w + 41] = Vec3::splat(1e4);
+    (w, h, texels)
+}
+
+#[test]
+fn chi2_environment_sampling_matches_its_pdf() {
+    use strata::shading::EnvMap;
+    let (w, h, texels) = studio_texels();
+    let studio = EnvMap::new(w, h, texels, 0.0, 1.0);
+    // 32 × 32-texel cells: 512 cells, about 2000 samples each on average.
+    let outcome = env_chi2(&studio, &studio, (w, h), 32, 11);
+    println!("studio_small_05: {outcome:?}");
+    let (w, h, texels) = hot_texel_map();
+    let hot = EnvMap::new(w, h, texels, 0.0, 1.0);
+    let hot_outcome = env_chi2(&hot, &hot, (w, h), 1, 12);
+    println!("hot texel: {hot_outcome:?}");
+    for (name, result) in [("studio_small_05", outcome), ("hot texel", hot_outcome)] {
+        match result {
+            Ok(o) => assert!(
+                o.p_value >= ENV_CHI2_ALPHA,
+                "{name}: χ² = {:.1} with {} dof, p = {:e} < α = {ENV_CHI2_ALPHA}",
+                o.statistic,
+                o.dof,
+                o.p_value
+            ),
+            Err(e) => panic!("{name}: {e}"),
+        }
+    }
+}
+
+/// Negative control: a sampler whose distribution drops the sin θ factor (it then draws too
+/// many directions near the poles) must be rejected against the true pdf, on both maps.
+#[test]
+fn chi2_rejects_environment_sampling_without_sin_theta() {
+    use strata::shading::EnvMap;
+    let (w, h, texels) = studio_texels();
+    let studio = EnvMap::new(w, h, texels.clone(), 0.0, 1.0);
+    let forgetful = EnvMap::new(w, h, without_sin_theta(&texels, w, h), 0.0, 1.0);
+    let result = env_chi2(&forgetful, &studio, (w, h), 32, 13);
+    assert!(
+        rejected(&result),
+        "studio_small_05: not rejected: {result:?}"
+    );
+    let (w, h, texels) = hot_texel_map();
+    let hot = EnvMap::new(w, h, texels.clone(), 0.0, 1.0);
+    let forgetful = EnvMap::new(w, h, without_sin_theta(&texels, w, h), 0.0, 1.0);
+    let result = env_chi2(&forgetful, &hot, (w, h), 1, 14);
+    assert!(rejected(&result), "hot texel: not rejected: {result:?}");
 }

@@ -7,7 +7,7 @@ Run through tools/references/make_references.sh (which makes the pinned virtuale
     make_references.sh cornell-box.path ao-wall.ao   # only these (the manifest is merged)
     make_references.sh --materials gltf        # shaded jobs with the glTF BRDF (see "material")
     python3 mitsuba_refs.py --list             # the job names
-    python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera) and radiometry tests
+    python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera), radiometry, environment map
 
 The conversion is written from the glTF alone (nothing is tuned per scene); the contract it
 implements is strata's (see scenes/references/README.md):
@@ -41,6 +41,16 @@ implements is strata's (see scenes/references/README.md):
   `directional` with irradiance = color x intensity; spot lights are refused.
 - background: the document's `extras.strata.background` (linear RGB radiance, black when
   absent) -> a `constant` emitter; camera rays that miss see it.
+- environment map (scenes of ENVIRONMENTS; strata --env FILE --env-rotate DEG): an `envmap`
+  emitter in place of the background, camera rays that miss see it. strata looks direction d up
+  at u = 0.5 + atan2(d.z, d.x)/2pi, v = acos(d.y)/pi (Blender's convention), bilinearly between
+  texel centres, u wrapping, v clamped at the poles; the map turned by DEG about +Y. Mitsuba's
+  envmap reads u = atan2(x, -z)/2pi in its local frame, so to_world = a turn of 90 + DEG degrees
+  about +Y; and it interpolates u between texel centres too but v between rows spread from pole
+  to pole (row k at v = k/(H - 1)). The map given to Mitsuba therefore has 2H + 1 rows, row k
+  strata's lookup at v = k/2H (the texel rows at odd k, the means of neighbouring rows between,
+  the first and last rows repeated at the poles): linear interpolation over those rows is
+  strata's lookup exactly. check_environment() (--check) pins this on an asymmetric random map.
 - integrators: `ao` = every surface white twosided diffuse (reflectance 1), a constant
   environment of radiance 1, no other emitter, `path` with max_depth 2 and hide_emitters (so
   misses are 0): the image is (1/pi) * integral of V cos over the hemisphere. `direct` = `path`
@@ -55,6 +65,7 @@ implements is strata's (see scenes/references/README.md):
 """
 import argparse
 import base64
+import hashlib
 import json
 import math
 import os
@@ -92,6 +103,17 @@ SCENES = {
     "suzanne": ("scenes/suzanne.gltf", (192, 144)),
     "emissive-strength": ("scenes/emissive-strength.gltf", (256, 128)),
     "sphere-grid": ("scenes/sphere-grid.gltf", (192, 144)),
+    # Lit by an environment map (ENVIRONMENTS) instead of their own background.
+    "ao-wall-studio": ("scenes/ao-wall.gltf", (64, 64)),
+    "suzanne-studio": ("scenes/suzanne.gltf", (128, 96)),
+}
+# Scenes lit by an HDR environment map: strata's --env FILE (repository-relative), --env-rotate
+# (degrees about +Y). Poly Haven's studio_small_05 (CC0) puts nearly all its light in half of
+# the map (u in [0.5, 1]: toward +X and +Z), so a turn of the map changes the image.
+STUDIO = "scenes/env/studio_small_05_1k/studio_small_05_1k.hdr"
+ENVIRONMENTS = {
+    "ao-wall-studio": {"file": STUDIO, "rotate": 30.0},
+    "suzanne-studio": {"file": STUDIO, "rotate": 30.0},
 }
 # strata integrator -> (Mitsuba max_depth, strata --max-depth or None)
 INTEGRATORS = {"ao": (2, None), "direct": (2, 1), "path": (9, 8)}
@@ -115,6 +137,10 @@ JOBS = [
     # The glossy scene: shaded jobs only, with --materials gltf.
     ("sphere-grid", "direct", 8192, 32),
     ("sphere-grid", "path", 8192, 32),
+    # Under an HDR environment map (ENVIRONMENTS), --materials gltf: a diffuse floor beside a
+    # wall (the wall hides half the map) and the glossy, textured Suzanne.
+    ("ao-wall-studio", "path", 8192, 32),
+    ("suzanne-studio", "path", 8192, 32),
 ]
 # Material models (--materials): what every glTF material of a shaded job becomes.
 MATERIAL_MODELS = {
@@ -470,9 +496,10 @@ def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
     return mesh
 
 
-def convert(path, mode, resolution, max_depth, materials="lambertian"):
+def convert(path, mode, resolution, max_depth, materials="lambertian", environment=None):
     """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'; materials 'lambertian' or 'gltf'
-    (MATERIAL_MODELS). Returns (dict, info)."""
+    (MATERIAL_MODELS); environment: an ENVIRONMENTS entry that lights a shaded scene in place of
+    its background, or None. Returns (dict, info)."""
     g = Gltf(path)
     doc = g.doc
     scene = {"type": "scene"}
@@ -565,6 +592,10 @@ def convert(path, mode, resolution, max_depth, materials="lambertian"):
         scene["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
         scene["integrator"] = {"type": "path", "max_depth": 2, "rr_depth": RR_DEPTH, "hide_emitters": True}
         info["background"] = None
+    elif environment is not None:
+        scene["env"] = envmap_dict(environment)
+        scene["integrator"] = {"type": "path", "max_depth": max_depth, "rr_depth": RR_DEPTH, "hide_emitters": False}
+        info["background"] = None
     else:
         if background is not None and any(c > 0 for c in background):
             scene["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [float(c) for c in background]}}
@@ -572,6 +603,62 @@ def convert(path, mode, resolution, max_depth, materials="lambertian"):
         info["background"] = [float(c) for c in background] if background is not None else [0.0, 0.0, 0.0]
     info["emissive_materials"] = sorted(info["emissive_materials"])
     return scene, info
+
+
+def read_environment(path):
+    """The map's linear RGB texels (H, W, 3) float32, row 0 the top, as strata reads them: .hdr
+    decoded as c * 2^(e - 136) (Mitsuba's Bitmap and the `image` crate agree bit for bit),
+    negative and non-finite texels zeroed."""
+    texels = np.array(mi.Bitmap(path), dtype=np.float32)[..., :3]
+    return np.where(np.isfinite(texels) & (texels > 0), texels, np.float32(0))
+
+
+def mitsuba_rows(texels):
+    """The (2H + 1)-row map whose linear interpolation from pole to pole (Mitsuba's envmap) is
+    strata's lookup (bilinear between texel centres, v clamped): row 2j + 1 is texel row j, row
+    2j its mean with row j - 1, rows 0 and 2H the first and last texel rows."""
+    h = texels.shape[0]
+    rows = np.empty((2 * h + 1,) + texels.shape[1:], dtype=np.float32)
+    rows[1::2] = texels
+    rows[2:-1:2] = 0.5 * (texels[:-1] + texels[1:])
+    rows[0], rows[-1] = texels[0], texels[-1]
+    return rows
+
+
+def envmap_to_world(rotate_degrees):
+    """Mitsuba's envmap frame for strata's map turned by `rotate_degrees` about +Y (right-handed)."""
+    return mi.ScalarTransform4f().rotate([0.0, 1.0, 0.0], 90.0 + rotate_degrees)
+
+
+def envmap_dict(environment, texels=None):
+    """Mitsuba `envmap` emitter equal to strata's --env FILE --env-rotate DEG (see the module
+    docstring): FILE is environment["file"] unless `texels` are given."""
+    if texels is None:
+        texels = read_environment(os.path.join(REPO, environment["file"]))
+    bitmap = mi.Bitmap(np.ascontiguousarray(mitsuba_rows(texels)), mi.Bitmap.PixelFormat.RGB)
+    return {"type": "envmap", "bitmap": bitmap, "to_world": envmap_to_world(environment.get("rotate", 0.0)),
+            "scale": float(environment.get("intensity", 1.0))}
+
+
+def strata_env_radiance(texels, rotate_degrees, d):
+    """strata's EnvMap::radiance written again in numpy (src/shading/envmap.rs): directions d
+    (N, 3) -> radiance (N, 3)."""
+    h, w = texels.shape[:2]
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    s, c = math.sin(math.radians(rotate_degrees)), math.cos(math.radians(rotate_degrees))
+    x = c * d[:, 0] - s * d[:, 2]  # R_y(-rotation) d
+    z = s * d[:, 0] + c * d[:, 2]
+    u = 0.5 + np.arctan2(z, x) / (2 * math.pi)
+    v = np.arccos(np.clip(d[:, 1], -1, 1)) / math.pi
+    fx, fy = u * w - 0.5, v * h - 0.5
+    x0, y0 = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+    tx, ty = (fx - x0)[:, None], (fy - y0)[:, None]
+
+    def at(i, j):
+        return texels[np.clip(j, 0, h - 1), np.mod(i, w)]
+
+    return ((1 - tx) * (1 - ty) * at(x0, y0) + tx * (1 - ty) * at(x0 + 1, y0)
+            + (1 - tx) * ty * at(x0, y0 + 1) + tx * ty * at(x0 + 1, y0 + 1))
 
 
 def check_flat_normals(g, normal_acc, tris, wpos, normal_m, label):
@@ -725,7 +812,7 @@ def job_name(scene, integrator):
     return f"{scene}.{integrator}"
 
 
-def strata_args(integrator, strata_depth, res, background, materials="lambertian"):
+def strata_args(integrator, strata_depth, res, background, materials="lambertian", environment=None):
     """The strata command-line options that match this reference (plus --spp, --seed, -o)."""
     args = ["--integrator", integrator]
     if strata_depth is not None:
@@ -737,6 +824,10 @@ def strata_args(integrator, strata_depth, res, background, materials="lambertian
                  "lambertian": ["--materials", "lambertian"]}[materials]
     if background is not None and any(c > 0 for c in background):
         args += ["--background", ",".join(f"{c:g}" for c in background)]
+    if environment is not None:
+        args += ["--env", environment["file"], "--env-rotate", f"{environment.get('rotate', 0.0):g}"]
+        if environment.get("intensity", 1.0) != 1.0:
+            args += ["--env-intensity", f"{environment['intensity']:g}"]
     return args + ["--resolution", f"{res[0]}x{res[1]}"]
 
 
@@ -747,7 +838,7 @@ def run_job(scene_name, integrator, spp, passes, seed_base=0, materials="lambert
     rel, res = SCENES[scene_name]
     mdepth, _ = INTEGRATORS[integrator]
     scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
-                               materials)
+                               materials, ENVIRONMENTS.get(scene_name))
     t0 = time.time()
     mean, var_mean = render_passes(scene_dict, spp, passes, seed_base)
     seconds = time.time() - t0
@@ -779,7 +870,8 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         "integrator": integrator,
         "max_depth": strata_depth,
         "mitsuba_max_depth": mdepth,
-        "strata_args": strata_args(integrator, strata_depth, res, info["background"], materials),
+        "strata_args": strata_args(integrator, strata_depth, res, info["background"], materials,
+                                   None if integrator == "ao" else ENVIRONMENTS.get(scene_name)),
         "renderer": "mitsuba",
         "renderer_version": mi.__version__,
         "variant": mi.variant(),
@@ -804,6 +896,17 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         "render_seconds": None if seconds is None else round(seconds, 1),
         "warnings": info["warnings"],
     }
+    environment = ENVIRONMENTS.get(scene_name)
+    if environment is not None and integrator != "ao":
+        env_path = os.path.join(REPO, environment["file"])
+        with open(env_path, "rb") as f:
+            env_sha256 = hashlib.sha256(f.read()).hexdigest()
+        entry["background"] = None
+        entry["environment"] = {
+            "file": environment["file"], "sha256": env_sha256,
+            "rotate_degrees": environment.get("rotate", 0.0), "intensity": environment.get("intensity", 1.0),
+            "mitsuba": "envmap, to_world = rotate +Y by 90 + rotate_degrees; the map resampled to 2H + 1 rows "
+                       "(mitsuba_rows() in tools/references/mitsuba_refs.py), camera rays see it"}
     if has_alpha_modes(os.path.join(REPO, rel)):
         # The conversion renders MASK and BLEND surfaces opaque; so does strata with --no-alpha.
         entry["strata_args"] = entry["strata_args"] + ["--no-alpha"]
@@ -835,7 +938,7 @@ def rebuild_entry(scene_name, integrator, spp, passes, old, materials="lambertia
     rel, res = SCENES[scene_name]
     mdepth, _ = INTEGRATORS[integrator]
     scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
-                               materials)
+                               materials, ENVIRONMENTS.get(scene_name))
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
     mean = np.array(mi.Bitmap(base + ".exr"), dtype=np.float64)[..., :3]
     var_mean = np.array(mi.Bitmap(base + ".var.exr"), dtype=np.float64)[..., :3]
@@ -1056,6 +1159,62 @@ def check_radiometry(out_dir):
     return ok, lines
 
 
+def envmap_eval(emitter_dict, dirs):
+    """Mitsuba's radiance of an environment emitter along world directions dirs (N, 3)."""
+    emitter = mi.load_dict(emitter_dict)
+    if mi.variant().startswith("scalar"):
+        out = []
+        for d in dirs:
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.wi = mi.Vector3f(-d)
+            out.append(np.array(emitter.eval(si), dtype=np.float64))
+        return np.array(out)
+    si = dr.zeros(mi.SurfaceInteraction3f, len(dirs))
+    si.wi = mi.Vector3f(*(-dirs.T.astype(np.float32)))
+    return np.array(emitter.eval(si), dtype=np.float64).T
+
+
+def check_environment():
+    """The envmap conversion against strata's lookup (strata_env_radiance, the formula of
+    src/shading/envmap.rs): a 16 x 8 map of random colours (no symmetry to hide a turn or a
+    mirror), 2000 random directions, rotations 0 and 30 degrees: Mitsuba's radiance must equal
+    strata's to 1e-4 relative. Negative controls that must differ by more than 1%: to_world
+    without the 90-degree turn, the rotation's sign flipped, the map given unresampled, and the
+    map upside down."""
+    rng = np.random.default_rng(29)
+    texels = (rng.random((8, 16, 3)) + 0.05).astype(np.float32)
+    dirs = rng.normal(size=(2000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    lines, ok = [], True
+
+    def error(emitter, rotate):
+        want = strata_env_radiance(texels, rotate, dirs)
+        return float(np.max(np.abs(envmap_eval(emitter, dirs) - want) / want))
+
+    for rotate in (0.0, 30.0):
+        env = {"rotate": rotate}
+        e = error(envmap_dict(env, texels), rotate)
+        good = e < 1e-4
+        ok &= good
+        lines.append(f"{'ok  ' if good else 'FAIL'} envmap = strata's lookup, rotation {rotate:g}: "
+                     f"max relative difference {e:.1e} over {len(dirs)} directions")
+        wrong = {
+            "to_world without the 90-degree turn": dict(envmap_dict(env, texels), to_world=mi.ScalarTransform4f().rotate(
+                [0.0, 1.0, 0.0], rotate)),
+            "map not resampled": dict(envmap_dict(env, texels), bitmap=mi.Bitmap(texels, mi.Bitmap.PixelFormat.RGB)),
+            "map upside down": envmap_dict(env, np.ascontiguousarray(texels[::-1])),
+        }
+        if rotate != 0:
+            wrong["rotation sign flipped"] = envmap_dict({"rotate": -rotate}, texels)
+        for what, emitter in wrong.items():
+            e = error(emitter, rotate)
+            good = e > 1e-2
+            ok &= good
+            lines.append(f"{'ok  ' if good else 'FAIL'} negative control, {what} (rotation {rotate:g}): "
+                         f"max relative difference {e:.2f} (must exceed 0.01)")
+    return ok, lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
@@ -1076,9 +1235,10 @@ def main():
     if args.check:
         ok1, lines1 = check_orientation(args.check)
         ok2, lines2 = check_radiometry(args.check)
-        print("\n".join(lines1 + lines2))
-        print("checks:", "passed" if ok1 and ok2 else "FAILED")
-        return 0 if ok1 and ok2 else 1
+        ok3, lines3 = check_environment()
+        print("\n".join(lines1 + lines2 + lines3))
+        print("checks:", "passed" if ok1 and ok2 and ok3 else "FAILED")
+        return 0 if ok1 and ok2 and ok3 else 1
     if args.list:
         for s, i, spp, k in JOBS:
             print(job_name(s, i), spp, k)
