@@ -479,74 +479,201 @@ fn print_the_albedo_table() {
     }
 }
 
+/// The sphere centres' grey metal (MetalRoughSpheresNoTextures' base colour) and the ring of
+/// light directions μi ∈ [0.2, 0.32] around the sun's cos 75°.
+const SPHERE_F0: f64 = 0.604;
+const RING: (f64, f64) = (0.2, 0.32);
+
+/// The BRDF averaged over the ring, ∫ f μ dω / ∫ μ dω, seen along the normal (μo = 1): the
+/// walk's (from the share of its walks entering along the normal that leave in the ring, ±
+/// its standard error), strata's single scattering and compensated model (quadrature of
+/// `eval`), and Turquin's scaling of the single-scattering lobe, 1 + f0 (1 − E(1)) / E(1).
+struct Ring {
+    walk: f64,
+    walk_se: f64,
+    single: f64,
+    strata: f64,
+    turquin: f64,
+}
+
+fn ring(roughness: f64, walks: usize) -> Ring {
+    let (lo, hi) = RING;
+    let ring_cos = std::f64::consts::PI * (hi * hi - lo * lo);
+    let alpha = roughness * roughness;
+    let surface = Microsurface { alpha };
+    let mut rng = Rng(5);
+    let (mut sum, mut sum2) = (0.0, 0.0);
+    for _ in 0..walks {
+        let end = surface.walk(DVec3::Z, [SPHERE_F0], &mut rng);
+        if end.order > 0 && (lo..hi).contains(&end.wi.z) {
+            sum += end.weight[0];
+            sum2 += end.weight[0] * end.weight[0];
+        }
+    }
+    let mean = sum / walks as f64;
+    let se = ((sum2 / walks as f64 - mean * mean) / walks as f64).sqrt();
+    // f·μ integrated over the ring by the midpoint rule in μ and φ.
+    let integrate = |bsdf: &Bsdf| {
+        let (nm, np) = (64, 256);
+        let mut total = 0.0;
+        for i in 0..nm {
+            let mu = lo + (hi - lo) * (i as f64 + 0.5) / nm as f64;
+            for j in 0..np {
+                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / np as f64;
+                let s = (1.0 - mu * mu).sqrt();
+                let wi = DVec3::new(s * phi.cos(), s * phi.sin(), mu).as_vec3();
+                total += bsdf.eval(Vec3::Z, wi).x as f64;
+            }
+        }
+        total * (hi - lo) * std::f64::consts::TAU / (nm * np) as f64 / ring_cos
+    };
+    let brdf = metal(SPHERE_F0 as f32, roughness as f32);
+    let single = integrate(&Bsdf::MetallicRoughness(brdf.single_scattering()));
+    let e1 = AlbedoTable::get().e(1.0, alpha as f32) as f64;
+    Ring {
+        walk: mean / ring_cos,
+        walk_se: se / ring_cos,
+        single,
+        strata: integrate(&Bsdf::MetallicRoughness(brdf)),
+        turquin: single * (1.0 + SPHERE_F0 * (1.0 - e1) / e1),
+    }
+}
+
 /// The BRDF where the spheres of docs/khronos.md's MetalRoughSpheresNoTextures differ most
-/// from Cycles: seen along the normal (the sphere's centre, μo = 1) and lit from near the
-/// horizon (the sun 75° high over a sphere seen from the side, μi ≈ 0.26), for their grey
-/// metal (base colour 0.604). Each value is f averaged over the ring μi ∈ [0.2, 0.32],
-/// ∫ f μ dω / ∫ μ dω: the walk's from the share of its walks (entering along the normal) that
-/// leave in the ring, strata's from quadrature of its `eval`, Kulla & Conty's lobe
-/// f_ss + F_ms (1 − E(1))(1 − E(μi)) / (π (1 − E_avg)) the same way.
+/// from Cycles: seen along the normal (the sphere's centre) and lit from near the horizon
+/// (the sun 75° high over a sphere seen from the side, μi ≈ 0.26), their grey metal, as
+/// [`ring`] measures it.
 #[test]
 #[ignore = "prints the second table of docs/khronos.md; a few seconds"]
 fn print_the_brdf_at_the_sphere_centres() {
-    let (f0, lo, hi) = (0.604f64, 0.2f64, 0.32f64);
-    let ring_cos = std::f64::consts::PI * (hi * hi - lo * lo);
-    let t = AlbedoTable::get();
-    println!("| roughness | walk | ± | walk, first bounce | single | strata | Kulla-Conty |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| roughness | walk | ± | single | strata | Turquin |");
+    println!("|---|---|---|---|---|---|");
     for roughness in [0.67f64, 0.83, 1.0] {
+        let r = ring(roughness, 4_000_000);
+        println!(
+            "| {roughness} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            r.walk, r.walk_se, r.single, r.strata, r.turquin
+        );
+    }
+}
+
+/// Where the light leaves: the energy reflected into bands of μi (0–0.2, …, 0.8–1, all
+/// azimuths) by the walk, and the relative error of Turquin's scaled single-scattering lobe
+/// and of Kulla & Conty's (strata's compensated model), with the RMS of each over every band.
+#[test]
+#[ignore = "prints the third table of docs/khronos.md; half a minute"]
+fn print_the_energy_by_exit_cosine() {
+    let t = AlbedoTable::get();
+    println!("| roughness | μo | f0 | each band of μi: walk: Turquin, Kulla-Conty |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let (mut square_turquin, mut square_strata, mut count) = (0.0f64, 0.0f64, 0);
+    for roughness in [0.5f64, 0.75, 1.0] {
         let alpha = roughness * roughness;
         let surface = Microsurface { alpha };
-        let mut rng = Rng(5);
-        let n = 4_000_000;
-        let (mut sum, mut sum2, mut first) = (0.0, 0.0, 0.0);
-        for _ in 0..n {
-            let end = surface.walk(DVec3::Z, [f0], &mut rng);
-            if end.order > 0 && (lo..hi).contains(&end.wi.z) {
-                sum += end.weight[0];
-                sum2 += end.weight[0] * end.weight[0];
-                if end.order == 1 {
-                    first += end.weight[0];
+        for mu_o in [1.0f64, 0.5, 0.2] {
+            let f0 = [0.2, 0.6, 0.9];
+            let mut rng = Rng(9);
+            let n = 1_000_000;
+            let mut bands = [[0.0f64; 5]; 3];
+            for _ in 0..n {
+                let end = surface.walk(direction(mu_o), f0, &mut rng);
+                if end.order > 0 {
+                    let b = ((end.wi.z * 5.0) as usize).min(4);
+                    for k in 0..3 {
+                        bands[k][b] += end.weight[k] / n as f64;
+                    }
                 }
+            }
+            let e_o = t.e(mu_o as f32, alpha as f32) as f64;
+            for (k, f0) in f0.into_iter().enumerate() {
+                let brdf = metal(f0 as f32, roughness as f32);
+                let single = Bsdf::MetallicRoughness(brdf.single_scattering());
+                let compensated = Bsdf::MetallicRoughness(brdf);
+                let wo = direction(mu_o).as_vec3();
+                let mut line = format!("| {roughness} | {mu_o} | {f0} |");
+                for (b, walk) in bands[k].iter().enumerate() {
+                    // ∫ f μ dω over the band by the midpoint rule in μ and φ.
+                    let (nm, np) = (40, 200);
+                    let (mut e_single, mut e_strata) = (0.0, 0.0);
+                    for i in 0..nm {
+                        let mu = 0.2 * (b as f64 + (i as f64 + 0.5) / nm as f64);
+                        for j in 0..np {
+                            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / np as f64;
+                            let s = (1.0 - mu * mu).sqrt();
+                            let wi = DVec3::new(s * phi.cos(), s * phi.sin(), mu).as_vec3();
+                            e_single += single.eval(wo, wi).x as f64;
+                            e_strata += compensated.eval(wo, wi).x as f64;
+                        }
+                    }
+                    let cell = 0.2 * std::f64::consts::TAU / (nm * np) as f64;
+                    let turquin = e_single * cell * (1.0 + f0 * (1.0 - e_o) / e_o);
+                    let strata = e_strata * cell;
+                    let (dt, ds) = (turquin / walk - 1.0, strata / walk - 1.0);
+                    line += &format!(" {walk:.4}: {:+.1}%, {:+.1}% |", dt * 100.0, ds * 100.0);
+                    square_turquin += dt * dt;
+                    square_strata += ds * ds;
+                    count += 1;
+                }
+                println!("{line}");
             }
         }
-        let mean = sum / n as f64;
-        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
-        // strata's f·μ integrated over the ring (midpoint rule in μ and φ).
-        let brdf = metal(f0 as f32, roughness as f32);
-        let ring = |f: &dyn Fn(Vec3) -> f64| {
-            let (nm, np) = (64, 256);
-            let mut total = 0.0;
-            for i in 0..nm {
-                let mu = lo + (hi - lo) * (i as f64 + 0.5) / nm as f64;
-                for j in 0..np {
-                    let phi = std::f64::consts::TAU * (j as f64 + 0.5) / np as f64;
-                    let s = (1.0 - mu * mu).sqrt();
-                    let wi = DVec3::new(s * phi.cos(), s * phi.sin(), mu).as_vec3();
-                    total += f(wi);
-                }
+    }
+    println!(
+        "RMS relative error: Turquin {:.3}, Kulla-Conty {:.3}",
+        (square_turquin / count as f64).sqrt(),
+        (square_strata / count as f64).sqrt()
+    );
+}
+
+/// strata's compensated grey metals against the walk, the pin of its model. The measured
+/// agreement (docs/khronos.md, `print_the_albedo_table` and `print_the_brdf_at_the_sphere_centres`):
+/// Kulla & Conty's lobe is at most 5.6% below the walk's directional albedo at roughness
+/// ≤ 0.75 and 8.3% at roughness 1 (its series of F_avg^k underestimates the energy that
+/// leaves after two or three bounces), and 1–2% off the sphere centres' BRDF. The bounds, 7%,
+/// 10% and 4%, leave room for the estimates' noise (about 0.3% here) and fail on a model that
+/// errs more. Turquin's scaled single-scattering lobe, the model strata had before, fails
+/// them: its albedo is 15.8% high at roughness 1, μo = 1, f0 = 0.5, and its sphere-centre BRDF
+/// 17% and 54% high at roughness 0.83 and 1 (the negative control, from its closed form).
+#[test]
+fn the_compensated_metal_follows_the_random_walk() {
+    let relative = |model: f64, walk: f64| (model / walk - 1.0).abs();
+    let mut turquin_worst = 0.0f64;
+    for (r, roughness) in ROUGHNESS.into_iter().enumerate() {
+        let alpha = roughness * roughness;
+        let bound = if roughness < 1.0 { 0.07 } else { 0.10 };
+        for (m, mu) in MU.into_iter().enumerate() {
+            let walk = walk_albedo(alpha, mu, F0, 200_000, 2000 + (r * 10 + m) as u64);
+            for (k, f0) in F0.into_iter().enumerate() {
+                let brdf = Bsdf::MetallicRoughness(metal(f0 as f32, roughness as f32));
+                let strata = strata_albedo(&brdf, mu);
+                assert!(
+                    relative(strata, walk.total[k]) < bound,
+                    "roughness {roughness} μo {mu} f0 {f0}: strata {strata}, walk {}",
+                    walk.total[k]
+                );
+                let turquin = turquin_albedo(f0, alpha, mu);
+                turquin_worst = turquin_worst.max(relative(turquin, walk.total[k]) / bound);
             }
-            total * (hi - lo) * std::f64::consts::TAU / (nm * np) as f64 / ring_cos
-        };
-        let single = Bsdf::MetallicRoughness(brdf.single_scattering());
-        let compensated = Bsdf::MetallicRoughness(brdf);
-        let f_single = ring(&|wi| single.eval(Vec3::Z, wi).x as f64);
-        let f_strata = ring(&|wi| compensated.eval(Vec3::Z, wi).x as f64);
-        let e_avg = t.averages(alpha as f32)[0] as f64;
-        let f_avg = f0 + (1.0 - f0) / 21.0;
-        let f_ms = f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg));
-        let e1 = t.e(1.0, alpha as f32) as f64;
-        let f_kc = f_single
-            + ring(&|wi| {
-                let ei = t.e(wi.z, alpha as f32) as f64;
-                f_ms * (1.0 - e1) * (1.0 - ei) / (std::f64::consts::PI * (1.0 - e_avg))
-                    * wi.z as f64
-            });
-        println!(
-            "| {roughness} | {:.4} | {:.4} | {:.4} | {f_single:.4} | {f_strata:.4} | {f_kc:.4} |",
-            mean / ring_cos,
-            se / ring_cos,
-            first / n as f64 / ring_cos,
+        }
+    }
+    assert!(
+        turquin_worst > 1.0,
+        "Turquin's albedo passes ({turquin_worst} of the bound)"
+    );
+    for roughness in [0.83, 1.0] {
+        let r = ring(roughness, 1_000_000);
+        assert!(
+            relative(r.strata, r.walk) < 0.04,
+            "sphere centre, roughness {roughness}: strata {}, walk {} ± {}",
+            r.strata,
+            r.walk,
+            r.walk_se
+        );
+        assert!(
+            relative(r.turquin, r.walk) > 0.1,
+            "sphere centre, roughness {roughness}: Turquin {} passes, walk {}",
+            r.turquin,
+            r.walk
         );
     }
 }
