@@ -579,8 +579,8 @@ fn print_the_energy_by_exit_cosine() {
                 let end = surface.walk(direction(mu_o), f0, &mut rng);
                 if end.order > 0 {
                     let b = ((end.wi.z * 5.0) as usize).min(4);
-                    for k in 0..3 {
-                        bands[k][b] += end.weight[k] / n as f64;
+                    for (band, w) in bands.iter_mut().zip(end.weight) {
+                        band[b] += w / n as f64;
                     }
                 }
             }

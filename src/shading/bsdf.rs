@@ -513,7 +513,8 @@ mod tests {
 
     /// With energy compensation, a metal stays reciprocal (Kulla & Conty's multiple-scattering
     /// lobe is symmetric in μo and μi), grey and coloured, rough and half-rough, half-metal
-    /// excepted (the dielectric's Turquin scaling reads μo alone).
+    /// excepted (the dielectric's Turquin scaling reads μo alone). (Turquin's scaling of the
+    /// metal, strata's model before, was not.)
     #[test]
     fn a_compensated_metal_is_reciprocal() {
         for (base, roughness) in [(Vec3::splat(0.5), 1.0), (Vec3::new(0.9, 0.6, 0.3), 0.6)] {
