@@ -188,9 +188,10 @@ pub struct Args {
     )]
     pub materials: MaterialModel,
 
-    /// Multiple-scattering energy compensation of the glTF BRDF (Turquin 2019 for the
-    /// specular lobe, Kulla & Conty 2017 for the diffuse layer below it): rough metals keep
-    /// their brightness. `off` renders the specification's single-scattering model exactly,
+    /// Multiple-scattering energy compensation of the glTF BRDF (Kulla & Conty 2017's
+    /// multiple-scattering lobe for metals and their layering for the diffuse below the
+    /// dielectric's specular layer, Turquin 2019 for that layer): rough metals keep their
+    /// brightness. `off` renders the specification's single-scattering model exactly,
     /// as the reference images do.
     #[arg(
         long,

@@ -618,6 +618,26 @@ mod tests {
         }
     }
 
+    /// With energy compensation, a metal stays reciprocal (Kulla & Conty's multiple-scattering
+    /// lobe is symmetric in μo and μi), grey and coloured, rough and half-rough, half-metal
+    /// excepted (the dielectric's Turquin scaling reads μo alone). (Turquin's scaling of the
+    /// metal, strata's model before, was not.)
+    #[test]
+    fn a_compensated_metal_is_reciprocal() {
+        for (base, roughness) in [(Vec3::splat(0.5), 1.0), (Vec3::new(0.9, 0.6, 0.3), 0.6)] {
+            let bsdf = Bsdf::MetallicRoughness(GltfBrdf::new(base, 1.0, roughness));
+            for (to, ti, dphi) in [(0.2, 1.1, 2.0), (1.4, 0.3, 0.5), (0.9, 0.9, 3.1)] {
+                let (wo, wi) = (at(to, 0.0), at(ti, dphi));
+                let a = bsdf.eval(wo, wi) / wi.z;
+                let b = bsdf.eval(wi, wo) / wo.z;
+                assert!(
+                    (a - b).abs().max_element() <= 1e-5 * a.max_element(),
+                    "{base} roughness {roughness}: {a} against {b}"
+                );
+            }
+        }
+    }
+
     /// Sampling estimates the directional albedo ∫ f cos dωi that quadrature gives (a
     /// 600 × 600 midpoint rule over (cos θ, φ)), for metals and dielectrics from normal to
     /// grazing incidence; single scattering never reflects more than comes in, and a rough

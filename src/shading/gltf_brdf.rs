@@ -20,13 +20,24 @@
 //! h lies between wo and each wi, gives a white dielectric more than comes in at grazing
 //! incidence (1.26 at 77° and roughness 0.1). With energy compensation, the default:
 //!
-//! - the specular lobe is scaled by 1 + f0 (1 − E(μo)) / E(μo), E the single-scattering albedo
-//!   of GGX with F = 1 (Turquin 2019, "Practical multiple scattering compensation for
-//!   microfacet models", eq. 8): a white metal then returns all the light, and the lobe keeps
-//!   its shape, so sampling is unchanged (not reciprocal: it reads μo alone, as Turquin notes).
-//!   The metal's lobe and the dielectric's are each compensated with their own f0 and then
-//!   mixed by metallic: F·(1 + f0 k) is not affine in f0, and compensating the mixed f0 would
-//!   leave a white half-metal of roughness 1 at 0.84;
+//! - the metal's lobe gains Kulla & Conty's multiple-scattering lobe (2017, "Revisiting
+//!   Physically Based Shading at Imageworks", §2.2 and the Fresnel term of its slides):
+//!   F_ms (1 − E(μo))(1 − E(μi)) / (π (1 − E_avg)), E the single-scattering albedo of GGX with
+//!   F = 1 and E_avg its cosine-weighted average ([`AlbedoTable`]), which returns 1 − E(μo),
+//!   the energy single scattering loses, and F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)) the
+//!   Fresnel of a walk of two or more bounces, F_avg = f0 + (1 − f0)/21 Schlick's
+//!   cosine-weighted average. A white metal (F_ms = 1) returns all the light, and the lobe is
+//!   reciprocal; it is drawn with the cosine, its share of the sampling being its energy. On
+//!   grey metals it follows a random walk on the microsurface (Heitz et al. 2016) where
+//!   Turquin's scaling of the single-scattering lobe did not (tests/multiple_scattering.rs,
+//!   docs/khronos.md): the extra light leaves more evenly than the single-scattering lobe, and
+//!   the Fresnel factor of k bounces tends to F_avg^k, not f0;
+//! - the dielectric's specular lobe (f0 = 0.04, where the multiple scattering is a fraction of
+//!   a percent) is scaled by 1 + f0 (1 − E(μo)) / E(μo) (Turquin 2019, "Practical multiple
+//!   scattering compensation for microfacet models", eq. 8): it keeps its shape, so sampling
+//!   is unchanged (not reciprocal: it reads μo alone, as Turquin notes). The metal's lobe and
+//!   the dielectric's are each compensated with their own f0 and then mixed by metallic:
+//!   compensating the mixed f0 would leave a white half-metal of roughness 1 dark;
 //! - the diffuse lobe takes what the specular layer leaves, c_diff/π · (1 − A(μo))(1 − A(μi))
 //!   / (1 − A_avg), A(μ) that layer's albedo (f0·E + (1 − f0)·E_s, compensated) and A_avg its
 //!   cosine-weighted average (the energy-conserving layering of Kulla & Conty 2017, §5.3): a
@@ -72,8 +83,11 @@ struct Outgoing {
     wo: Vec3,
     /// The probability of choosing the specular lobe.
     p_specular: f32,
-    /// Turquin's (1 − E(μo)) / E(μo); 0 without compensation.
+    /// Turquin's (1 − E(μo)) / E(μo) for the dielectric's lobe; 0 without compensation.
     k: f32,
+    /// The metal's multiple-scattering lobe's factor of μo, weighted by metallic:
+    /// metallic F_ms (1 − E(μo)) / (π (1 − E_avg)) (zero without compensation).
+    multiple: Vec3,
     /// The layered diffuse lobe's factor of μo: c_diff / π · (1 − A(μo)) / (1 − A_avg), A the
     /// dielectric layer's compensated albedo (unused without compensation).
     diffuse: Vec3,
@@ -137,11 +151,27 @@ impl GltfBrdf {
                 wo,
                 p_specular,
                 k: 0.0,
+                multiple: Vec3::ZERO,
                 diffuse: Vec3::ZERO,
             };
         }
         let table = AlbedoTable::get();
-        let (a_o, k) = self.dielectric_albedo(table, wo.z);
+        let (a_o, k, e_o) = self.dielectric_albedo(table, wo.z);
+        let multiple = self.multiple_scattering(table, e_o);
+        // The multiple-scattering lobe is drawn with the cosine: its energy joins the
+        // diffuse lobe's in the choice of lobe.
+        let p_specular = {
+            let specular = luminance(schlick(f0, wo.z));
+            let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
+            let spread = luminance((Vec3::ONE - f_d) * c_diff)
+                + luminance(multiple)
+                    * std::f32::consts::PI
+                    * (1.0 - table.averages_in(self.row)[0]);
+            match spread <= 0.0 {
+                true => 1.0,
+                false => specular / (specular + spread),
+            }
+        };
         let diffuse = match c_diff == Vec3::ZERO {
             true => Vec3::ZERO,
             false => {
@@ -153,8 +183,24 @@ impl GltfBrdf {
             wo,
             p_specular,
             k,
+            multiple,
             diffuse,
         }
+    }
+
+    /// The metal's multiple-scattering lobe's factor of μo (Kulla & Conty 2017):
+    /// metallic F_ms (1 − E(μo)) / (π (1 − E_avg)), per channel of f0 = base colour, with
+    /// F_avg = f0 + (1 − f0)/21 and F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)); zero for a
+    /// mirror (its delta lobe loses nothing) or a dielectric.
+    fn multiple_scattering(&self, table: &AlbedoTable, e_o: f32) -> Vec3 {
+        if self.metallic <= 0.0 || self.ggx().is_smooth() {
+            return Vec3::ZERO;
+        }
+        let e_avg = table.averages_in(self.row)[0];
+        let f_avg = self.base_color + (Vec3::ONE - self.base_color) * (1.0 / 21.0);
+        let f_ms = f_avg * f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg));
+        f_ms * (self.metallic * (1.0 - e_o).max(0.0) * std::f32::consts::FRAC_1_PI
+            / (1.0 - e_avg).max(1e-4))
     }
 
     fn ggx(&self) -> Ggx {
@@ -203,34 +249,33 @@ impl GltfBrdf {
                 (Vec3::ONE - f_d) * c_diff * std::f32::consts::FRAC_1_PI
             }
             true => {
-                let (a_i, _) = self.dielectric_albedo(AlbedoTable::get(), wi.z);
-                o.diffuse * (1.0 - a_i).max(0.0)
+                let (a_i, _, e_i) = self.dielectric_albedo(AlbedoTable::get(), wi.z);
+                o.diffuse * (1.0 - a_i).max(0.0) + o.multiple * (1.0 - e_i).max(0.0)
             }
         };
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
             false => {
-                // The metal's and the dielectric's Fresnel weights, each scaled by Turquin's
-                // 1 + f0 (1 − E(μo)) / E(μo) with its own f0 (k = 0 without compensation),
-                // mixed by metallic: F of the mixed f0 when uncompensated.
+                // The dielectric's Fresnel weight scaled by Turquin's 1 + f0 (1 − E(μo)) / E(μo)
+                // (k = 0 without compensation) and the metal's, mixed by metallic: F of the
+                // mixed f0 when uncompensated. (The metal's compensation is its own lobe.)
                 let dielectric = f_d * (1.0 + DIELECTRIC_F0 * o.k);
-                let metal = f_metal * (Vec3::ONE + self.base_color * o.k);
-                dielectric.lerp(metal, self.metallic) * (ggx.d(h) * ggx.v(wo, wi))
+                dielectric.lerp(f_metal, self.metallic) * (ggx.d(h) * ggx.v(wo, wi))
             }
         };
         (diffuse + specular) * wi.z
     }
 
     /// The dielectric specular layer's albedo A(μ) = (0.04 E + 0.96 E_s)(1 + 0.04 k) seen from
-    /// direction cosine `mu`, compensated, and Turquin's k = (1 − E(μ)) / E(μ).
+    /// direction cosine `mu`, compensated, Turquin's k = (1 − E(μ)) / E(μ), and E(μ).
     #[inline]
-    fn dielectric_albedo(&self, table: &AlbedoTable, mu: f32) -> (f32, f32) {
+    fn dielectric_albedo(&self, table: &AlbedoTable, mu: f32) -> (f32, f32, f32) {
         let (e, e_s) = table.e_and_e_s(mu, self.row);
         let e = e.max(1e-3);
         let k = (1.0 - e) / e;
         let f0 = DIELECTRIC_F0;
-        ((f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k), k)
+        ((f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k), k, e)
     }
 
     /// The cosine-weighted average of [`GltfBrdf::dielectric_albedo`] over μ: the table's
