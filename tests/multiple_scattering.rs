@@ -21,7 +21,7 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use strata::shading::microfacet::AlbedoTable;
-use strata::shading::{Bsdf, GltfBrdf};
+use strata::shading::{Bsdf, GltfBrdf, LocalBsdf};
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a small generator with good equidistribution,
 /// enough for a million independent walks.
