@@ -282,6 +282,27 @@ impl AlphaCoverage {
         }
     }
 
+    /// The probability that a ray meeting triangle `prim` at barycentrics (u, v) stops there
+    /// ([`AlphaCoverage::covers`] over rays): 1 where the triangle is not alpha-tested, MASK's
+    /// 0 or 1, BLEND's alpha (its coin is uniform in (0, 1)). Light sampling weighs an
+    /// alpha-tested emitter's radiance by it, so that it agrees in expectation with the rays
+    /// that meet the emitter, whose holes let them through.
+    #[inline]
+    pub fn stopping_fraction(&self, prim: u32, u: f32, v: f32) -> f32 {
+        let Some(&slot) = self.slot.get(prim as usize) else {
+            return 1.0;
+        };
+        let Some(t) = self.tested.get(slot as usize) else {
+            return 1.0;
+        };
+        let rule = &self.rules[t.rule as usize];
+        let alpha = t.alpha(rule, &self.images, u, v);
+        match rule.cut {
+            Cut::Mask(cutoff) => f32::from(u8::from(alpha >= cutoff)),
+            Cut::Blend => alpha.clamp(0.0, 1.0),
+        }
+    }
+
     /// Bytes the coverage holds (alpha images and per-triangle data).
     pub fn memory(&self) -> usize {
         use std::mem::size_of_val;

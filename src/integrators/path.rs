@@ -124,6 +124,11 @@ fn li_as<B: ShadeAs>(
     rays: &mut RayCounts,
 ) -> Vec3 {
     let (scene, lights, materials) = (ctx.scene, ctx.lights, ctx.materials);
+    // What light sampling needs to see the holes of alpha-tested emitters.
+    let coverage = ctx
+        .accel
+        .coverage()
+        .filter(|_| lights.has_alpha_tested_emitters());
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut ray = *ray;
@@ -208,7 +213,7 @@ fn li_as<B: ShadeAs>(
         // Next-event estimation: sample a light, test visibility, weight against the BSDF
         // (not through delta lobes, which no light sample can hit).
         let light = match bsdf.flags().has_non_specular() {
-            true => lights.sample(scene, materials, &si, u_light),
+            true => lights.sample(scene, materials, coverage, &si, u_light),
             false => None,
         };
         if let Some((ls, pmf)) = light {

@@ -28,6 +28,7 @@ use glam::{Vec2, Vec3};
 use super::environment::Environment;
 use super::interaction::{gamma, SurfaceInteraction};
 use super::material::Materials;
+use crate::accel::AlphaCoverage;
 use crate::sampling::warps::{
     spherical_triangle_area, square_to_spherical_triangle, square_to_uniform_triangle,
 };
@@ -225,6 +226,9 @@ pub struct LightSet {
     /// The environment's index in `emitters` (its selection probability, 0 when light
     /// sampling leaves it to BSDF sampling); None for a black environment.
     environment_light: Option<usize>,
+    /// True when some emissive triangle may cut holes by alpha
+    /// ([`Scene::may_cut_holes`]): light sampling then reads the alpha coverage.
+    alpha_tested_emitters: bool,
 }
 
 impl LightSet {
@@ -291,6 +295,7 @@ impl LightSet {
             }
         }
         let mut triangle_light = Vec::new();
+        let mut alpha_tested_emitters = false;
         if scene.summary.emissive_triangles > 0 {
             // Each material's mean emission (a texture's mean reads every texel), once.
             let mut emission: Vec<Option<(Vec3, bool)>> = vec![None; scene.materials.len()];
@@ -310,6 +315,7 @@ impl LightSet {
                         triangle_light = vec![u32::MAX; scene.triangles.len()];
                     }
                     triangle_light[prim] = emitters.len() as u32;
+                    alpha_tested_emitters |= scene.may_cut_holes(prim);
                     let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
                     let point_error =
                         gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
@@ -347,7 +353,15 @@ impl LightSet {
             environment,
             camera_background: None,
             environment_light,
+            alpha_tested_emitters,
         }
+    }
+
+    /// True when some emissive triangle may cut holes by alpha: light sampling must then be
+    /// given the alpha coverage ([`LightSet::sample`]).
+    #[inline]
+    pub fn has_alpha_tested_emitters(&self) -> bool {
+        self.alpha_tested_emitters
     }
 
     pub fn is_empty(&self) -> bool {
@@ -473,6 +487,38 @@ impl LightSet {
         p: Vec3,
         u: Vec2,
     ) -> Option<LightSample> {
+        self.triangle_point(scene, materials, triangle, p, u)
+            .map(|(ls, _)| ls)
+    }
+
+    /// [`LightSet::sample_triangle`] of an alpha-tested emitter: its radiance weighed by
+    /// `coverage`'s stopping fraction at the point. An alpha-tested emitter shines where it
+    /// stops rays: through its holes a ray that meets it goes on, so its light reaches no one
+    /// from there. (Apart, so that emitters without alpha pay nothing.)
+    fn sample_cut_triangle(
+        &self,
+        scene: &Scene,
+        materials: &Materials,
+        coverage: &AlphaCoverage,
+        triangle: &TriangleLight,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let (mut ls, bary) = self.triangle_point(scene, materials, triangle, p, u)?;
+        ls.li *= coverage.stopping_fraction(triangle.prim, bary.x, bary.y);
+        Some(ls)
+    }
+
+    /// The work of [`LightSet::sample_triangle`], with the point's barycentrics.
+    #[inline(always)]
+    fn triangle_point(
+        &self,
+        scene: &Scene,
+        materials: &Materials,
+        triangle: &TriangleLight,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<(LightSample, Vec2)> {
         let &TriangleLight {
             prim,
             area,
@@ -525,26 +571,30 @@ impl LightSet {
         // Offset the light point off its triangle toward the receiver, past the triangle's
         // error bound.
         let p_light = crate::shading::interaction::offset_ray_origin(q, point_error, n, -wi);
-        Some(LightSample {
+        let sample = LightSample {
             wi,
             li,
             pdf: pdf_solid_angle.unwrap_or(dist2 / (cos_l.abs() * area)),
             is_delta: false,
             p_light,
             infinite: false,
-        })
+        };
+        Some((sample, bary))
     }
 
     /// Chooses an emitter with `u.x` and samples a direction to it from `si` with `u`, its
     /// first dimension reused ([`AliasTable::sample_remapped`]): a stratified set of `u` then
     /// gives stratified points on each emitter, where a separate choice would scatter the
     /// points of an emitter made of several triangles (a quad light's two halves) at random
-    /// between them. Returns the sample and the selection probability.
+    /// between them. An alpha-tested emitter's radiance is weighed by `coverage` (the
+    /// acceleration structure's, [`AlphaCoverage::stopping_fraction`]). Returns the sample
+    /// and the selection probability.
     #[inline(always)]
     pub fn sample(
         &self,
         scene: &Scene,
         materials: &Materials,
+        coverage: Option<&AlphaCoverage>,
         si: &SurfaceInteraction,
         u: Vec2,
     ) -> Option<(LightSample, f32)> {
@@ -608,9 +658,10 @@ impl LightSet {
                     infinite: true,
                 }
             }
-            Emitter::Triangle(triangle) => {
-                self.sample_triangle(scene, materials, triangle, p, u)?
-            }
+            Emitter::Triangle(triangle) => match coverage {
+                None => self.sample_triangle(scene, materials, triangle, p, u)?,
+                Some(c) => self.sample_cut_triangle(scene, materials, c, triangle, p, u)?,
+            },
         };
         Some((s, pmf))
     }
