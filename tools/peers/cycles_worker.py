@@ -23,8 +23,11 @@ Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
   same radiance as the Lambertian set-up's Emission; the strength is zeroed on back faces as
   above. Principled is not the glTF BRDF (its diffuse part has a retro-reflection term, its
   metal and specular mixing differ), so Cycles converges to its own image: run_peers.py
-  measures it against its own converged render. Textures and non-OPAQUE alpha are refused
-  (not checked for this use);
+  measures it against its own converged render. Base colour and metallic-roughness
+  textures are kept after checking that the importer wired them as glTF says (base colour
+  sRGB; metallic = B, roughness = G, linear: check_texture_wiring); emissive, normal and
+  occlusion textures, non-OPAQUE alpha, texture transforms and factors beside a texture are
+  refused (not checked for this use);
 - camera: the imported glTF camera with the vertical field of view forced (sensor fit
   VERTICAL, angle_y = yfov), the requested resolution at 100 %;
 - max_bounces and the diffuse, glossy and transmission bounces = BOUNCES (Cycles' default
@@ -130,16 +133,85 @@ def principled_default_material():
     return m
 
 
+def refuse_unchecked(name, mat):
+    """MATERIALS 'gltf': exits on what the importer's output was not checked for here:
+    emissive, normal and occlusion textures, non-OPAQUE alpha, texture transforms or a second
+    UV set, and a factor beside a texture (the importer then adds multiply nodes)."""
+    pbr = mat.get("pbrMetallicRoughness", {})
+    unchecked = [k for k in ("emissiveTexture", "normalTexture", "occlusionTexture") if k in mat]
+    if mat.get("alphaMode", "OPAQUE") != "OPAQUE":
+        unchecked.append(f"alphaMode {mat['alphaMode']}")
+    for key, factors in (("baseColorTexture", {"baseColorFactor": [1, 1, 1, 1]}),
+                         ("metallicRoughnessTexture", {"metallicFactor": 1, "roughnessFactor": 1})):
+        info = pbr.get(key)
+        if info is None:
+            continue
+        if info.get("texCoord", 0) != 0 or info.get("extensions"):
+            unchecked.append(f"{key} with texCoord or extensions")
+        unchecked += [f"{f} beside {key}" for f, one in factors.items() if pbr.get(f, one) != one]
+    if unchecked:
+        sys.exit(f"cycles_worker: material '{name}': not checked for 'gltf' materials: {', '.join(unchecked)}")
+
+
+def check_texture_wiring(m, mat, doc):
+    """Verifies that the importer wired the material's textures as glTF 2.0 means them
+    (DESIGN.md's material model) and returns what it found; exits otherwise:
+    - baseColorTexture: an Image Texture in sRGB, its Color straight into Base Color;
+    - metallicRoughnessTexture: an Image Texture in Non-Color (linear data) into a Separate
+      Color in RGB mode, Blue into Metallic, Green into Roughness;
+    - both: the default UV map (TEXCOORD_0), flat projection, linear interpolation and the
+      extension that the glTF sampler's wrap asks for (REPEAT for repeat; others not checked).
+    Images get the alpha mode "Channel Packed": glTF's colour is not premultiplied by its
+    alpha, and with Blender's default ("Straight") Cycles darkens colour where alpha < 1."""
+    pbr = mat.get("pbrMetallicRoughness", {})
+    nt = m.node_tree
+    p = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+
+    def source(socket):
+        return (socket.links[0].from_node, socket.links[0].from_socket.name) if socket.is_linked else (None, None)
+
+    def image_node(node, info, colorspace):
+        texture = doc["textures"][info["index"]]
+        sampler = doc["samplers"][texture["sampler"]] if "sampler" in texture else {}  # none: repeat
+        wrap = {sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)}
+        ok = (node is not None and node.type == "TEX_IMAGE" and node.image is not None
+              and node.image.colorspace_settings.name == colorspace and not node.inputs["Vector"].is_linked
+              and node.projection == "FLAT" and node.interpolation == "Linear"
+              and wrap == {10497} and node.extension == "REPEAT")
+        if ok:
+            node.image.alpha_mode = "CHANNEL_PACKED"
+        return ok
+
+    found = {}
+    if "baseColorTexture" in pbr:
+        node, out = source(p.inputs["Base Color"])
+        if out != "Color" or not image_node(node, pbr["baseColorTexture"], "sRGB"):
+            sys.exit(f"cycles_worker: material '{m.name}': base colour texture not wired as glTF asks")
+        found["base_color"] = f"{node.image.name} (sRGB) -> Base Color"
+    if "metallicRoughnessTexture" in pbr:
+        sep_m, out_m = source(p.inputs["Metallic"])
+        sep_r, out_r = source(p.inputs["Roughness"])
+        ok = (sep_m is not None and sep_m == sep_r and sep_m.type == "SEPARATE_COLOR" and sep_m.mode == "RGB"
+              and (out_m, out_r) == ("Blue", "Green"))
+        if ok:
+            node, out = source(sep_m.inputs["Color"])
+            ok = out == "Color" and image_node(node, pbr["metallicRoughnessTexture"], "Non-Color")
+        if not ok:
+            sys.exit(f"cycles_worker: material '{m.name}': metallic-roughness texture not wired as glTF asks "
+                     "(B -> Metallic, G -> Roughness, linear)")
+        found["metallic_roughness"] = f"{node.image.name} (Non-Color) -> B: Metallic, G: Roughness"
+    return found
+
+
 def keep_principled(doc, s, distribution="GGX"):
     """MATERIALS 'gltf': keeps the importer's Principled BSDF materials, sets their
-    distribution, makes emission front-face only unless doubleSided, and gives primitives
-    without a material glTF's default one. Returns a summary for the worker's report."""
+    distribution, checks their textures' wiring (check_texture_wiring), makes emission
+    front-face only unless doubleSided, and gives primitives without a material glTF's
+    default one. Returns a summary for the worker's report."""
     gltf = {m.get("name", f"material{i}"): m for i, m in enumerate(doc.get("materials", []))}
     for name, mat in gltf.items():
-        pbr = mat.get("pbrMetallicRoughness", {})
-        if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "emissiveTexture" in mat \
-                or "normalTexture" in mat or mat.get("alphaMode", "OPAQUE") != "OPAQUE":
-            sys.exit(f"cycles_worker: material '{name}': textures and alpha are not checked for 'gltf' materials")
+        refuse_unchecked(name, mat)
+    textures = {}
     default = None  # made when a primitive has no material
     seen, emissive = set(), {}
     for ob in s.objects:
@@ -163,6 +235,10 @@ def keep_principled(doc, s, distribution="GGX"):
                 sys.exit(f"cycles_worker: material '{m.name}': expected one Principled BSDF, found {len(nodes)}")
             p = nodes[0]
             p.distribution = distribution
+            if m.name in gltf:
+                wiring = check_texture_wiring(m, gltf[m.name], doc)
+                if wiring:
+                    textures[m.name] = wiring
             # emitted radiance = Emission x Emission Strength (the importer's factor x strength)
             strength = p.inputs["Emission Strength"]
             radiance = [c * strength.default_value for c in p.inputs["Emission"].default_value[:3]]
@@ -171,7 +247,8 @@ def keep_principled(doc, s, distribution="GGX"):
                 if not gltf.get(m.name, {}).get("doubleSided", False):
                     front_face_only(m.node_tree, strength)
                     emissive[m.name]["front_face_only"] = True
-    return {"distribution": distribution, "emissive": emissive, "default_material_used": default is not None}
+    return {"distribution": distribution, "emissive": emissive, "textures": textures,
+            "default_material_used": default is not None}
 
 
 def normalise_scale(s):
