@@ -1,10 +1,11 @@
 """Blender/Cycles side of tools/peers/run_peers.py: run as
 
     blender -b --factory-startup -P tools/peers/cycles_worker.py -- \
-        SCENE.gltf MODE WxH BOUNCES THREADS [MATERIALS]
+        SCENE.gltf MODE WxH BOUNCES THREADS [MATERIALS] [--env MAP.hdr --env-rotate DEG --env-intensity S]
 
 MODE is 'ao' or 'shaded'; BOUNCES is Cycles' max_bounces; MATERIALS is the reference job's
-material model, 'lambertian' (the default) or 'gltf'. The scene is imported and set up
+material model, 'lambertian' (the default) or 'gltf'; --env and its options light a 'shaded'
+scene with an environment map as strata's options of the same names. The scene is imported and set up
 once (strata's contract, see below); then the worker reads one request per stdin line,
 "SPP SEED OUT.exr", renders, writes a linear float32 EXR and answers with one line
 "PEER_JSON {...}" holding the wall-clock and CPU seconds of the render call alone.
@@ -39,11 +40,17 @@ Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
   direct light on surfaces near its ceiling light came out 2-5 % dark, 0.7 % over the image;
   BSDF sampling alone agreed within its noise, the scene scaled by 1e-3 to 0.01 %). Radiance
   is invariant under a uniform scale while there are no punctual lights (refused here);
-- 'shaded': black world unless extras.strata.background; 'ao': every surface white
+- 'shaded': with --env, the map as the world, turned and scaled as strata's --env-rotate and
+  --env-intensity, seen by the camera (environment_world: the rotation's sign is derived
+  there and was checked against strata); otherwise a black world unless
+  extras.strata.background; 'ao': every surface white
   diffuse (rho = 1), no emission, a world of constant radiance 1 hidden from camera rays,
   so a pixel is (1/pi) * integral of V cos (the Mitsuba AO contract).
 """
+import argparse
 import json
+import math
+import os
 import resource
 import sys
 import time
@@ -277,6 +284,39 @@ def normalise_scale(s):
     return k
 
 
+def environment_world(path, rotate_degrees, intensity):
+    """A world lit and seen through the equirectangular map at `path` as strata's --env FILE
+    --env-rotate DEG --env-intensity S: Texture Coordinate (Generated: the ray's direction) ->
+    Mapping -> Environment Texture (linear interpolation, the map's linear radiance as stored:
+    colour space "Linear", i.e. no conversion) -> Background of strength S. Camera rays see it
+    (Cycles' default; strata's too when --background is not given).
+
+    Rotation. The importer turns glTF (x, y, z) into Blender (x, -z, y), a proper rotation, so a
+    turn by a about glTF +Y is the turn by a about Blender +Z, both counter-clockwise by the
+    right-hand rule. Unrotated, both look a direction up at the same texel (envmap.rs: strata
+    follows Blender). strata turns the map by +DEG: the radiance along d is the unrotated map's
+    along R(-DEG) d. A Mapping node of type POINT hands the texture R(angle) d, so its Z angle
+    is -DEG. Verified against strata by rendering both signs (tools/peers/README.md)."""
+    world = bpy.data.worlds.new("peer_env_world")
+    world.use_nodes = True
+    nt = world.node_tree
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.vector_type = "POINT"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, -math.radians(rotate_degrees))
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(path)
+    tex.image.colorspace_settings.name = "Linear"  # scene linear Rec.709: radiance unchanged
+    tex.interpolation = "Linear"
+    tex.projection = "EQUIRECTANGULAR"
+    nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    bg = nt.nodes["Background"]
+    nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = intensity
+    return world
+
+
 def render_settings(s, width, height, bounces, threads):
     """Cycles set up to strata's contract: CPU path tracing with max_bounces = strata's
     --max-depth - 1, a box filter of one pixel, no adaptive sampling, denoising, clamping,
@@ -338,7 +378,7 @@ def replace_materials(doc, s, mode):
                 sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
 
 
-def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian"):
+def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian", environment=None):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
     with open(scene_path) as f:
@@ -372,18 +412,22 @@ def setup(scene_path, mode, width, height, bounces, threads, materials="lamberti
     if len(cams) > 1:
         print("cycles_worker: several cameras; using", cams[0].name, file=sys.stderr)
 
-    # world
-    world = bpy.data.worlds.new("peer_world")
-    world.use_nodes = True
-    bg = world.node_tree.nodes["Background"]
-    if mode == "ao":
-        bg.inputs["Color"].default_value = (1, 1, 1, 1)
-        world.cycles_visibility.camera = False  # camera rays that miss give 0
+    # world: for 'shaded' with an environment map, the map in place of the document's
+    # background (as strata's --env and the Mitsuba reference's envmap)
+    if mode == "shaded" and environment is not None:
+        s.world = environment_world(*environment)
     else:
-        c = doc.get("extras", {}).get("strata", {}).get("background", [0, 0, 0])
-        bg.inputs["Color"].default_value = (*c, 1)
-    bg.inputs["Strength"].default_value = 1.0
-    s.world = world
+        world = bpy.data.worlds.new("peer_world")
+        world.use_nodes = True
+        bg = world.node_tree.nodes["Background"]
+        if mode == "ao":
+            bg.inputs["Color"].default_value = (1, 1, 1, 1)
+            world.cycles_visibility.camera = False  # camera rays that miss give 0
+        else:
+            c = doc.get("extras", {}).get("strata", {}).get("background", [0, 0, 0])
+            bg.inputs["Color"].default_value = (*c, 1)
+        bg.inputs["Strength"].default_value = 1.0
+        s.world = world
 
     # renderer
     render_settings(s, width, height, bounces, threads)
@@ -393,11 +437,20 @@ def setup(scene_path, mode, width, height, bounces, threads, materials="lamberti
 
 
 def main():
-    argv = sys.argv[sys.argv.index("--") + 1:]
-    scene_path, mode, res, bounces, threads = argv[0], argv[1], argv[2], int(argv[3]), int(argv[4])
-    materials = argv[5] if len(argv) > 5 else "lambertian"
-    width, height = (int(v) for v in res.split("x"))
-    s = setup(scene_path, mode, width, height, bounces, threads, materials)
+    ap = argparse.ArgumentParser(prog="cycles_worker.py")
+    ap.add_argument("scene")
+    ap.add_argument("mode", choices=["ao", "shaded"])
+    ap.add_argument("resolution", help="WxH")
+    ap.add_argument("bounces", type=int)
+    ap.add_argument("threads", type=int)
+    ap.add_argument("materials", nargs="?", default="lambertian")
+    ap.add_argument("--env", help="equirectangular map lighting a 'shaded' scene (strata's --env)")
+    ap.add_argument("--env-rotate", type=float, default=0.0, help="degrees about glTF +Y (strata's --env-rotate)")
+    ap.add_argument("--env-intensity", type=float, default=1.0, help="radiance scale (strata's --env-intensity)")
+    args = ap.parse_args(sys.argv[sys.argv.index("--") + 1:])
+    width, height = (int(v) for v in args.resolution.split("x"))
+    environment = None if args.env is None else (os.path.abspath(args.env), args.env_rotate, args.env_intensity)
+    s = setup(args.scene, args.mode, width, height, args.bounces, args.threads, args.materials, environment)
     s.cycles.samples = 1
     t0 = time.perf_counter()
     bpy.ops.render.render()  # warm-up: kernels, scene sync, BVH (kept: persistent data)
@@ -405,7 +458,10 @@ def main():
     info = {"blender": bpy.app.version_string, "sampling_pattern": s.cycles.sampling_pattern,
             "max_bounces": s.cycles.max_bounces, "glossy_bounces": s.cycles.glossy_bounces,
             "threads": s.render.threads, "materials": json.loads(s["peer_materials"]),
-            "scale": s["peer_scale"], "warmup_seconds": warmup}
+            "scale": s["peer_scale"], "warmup_seconds": warmup,
+            "environment": None if environment is None else {
+                "file": environment[0], "rotate_degrees": environment[1], "intensity": environment[2],
+                "mapping_rotation_z_degrees": -environment[1]}}
     print("PEER_JSON " + json.dumps({"ready": True, **info}), flush=True)
     for line in sys.stdin:
         if not line.strip():
