@@ -1,10 +1,11 @@
 """Blender/Cycles side of tools/peers/run_peers.py: run as
 
     blender -b --factory-startup -P tools/peers/cycles_worker.py -- \
-        SCENE.gltf MODE WxH BOUNCES THREADS [MATERIALS]
+        SCENE.gltf MODE WxH BOUNCES THREADS [MATERIALS] [--env MAP.hdr --env-rotate DEG --env-intensity S]
 
 MODE is 'ao' or 'shaded'; BOUNCES is Cycles' max_bounces; MATERIALS is the reference job's
-material model, 'lambertian' (the default) or 'gltf'. The scene is imported and set up
+material model, 'lambertian' (the default) or 'gltf'; --env and its options light a 'shaded'
+scene with an environment map as strata's options of the same names. The scene is imported and set up
 once (strata's contract, see below); then the worker reads one request per stdin line,
 "SPP SEED OUT.exr", renders, writes a linear float32 EXR and answers with one line
 "PEER_JSON {...}" holding the wall-clock and CPU seconds of the render call alone.
@@ -23,8 +24,11 @@ Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
   same radiance as the Lambertian set-up's Emission; the strength is zeroed on back faces as
   above. Principled is not the glTF BRDF (its diffuse part has a retro-reflection term, its
   metal and specular mixing differ), so Cycles converges to its own image: run_peers.py
-  measures it against its own converged render. Textures and non-OPAQUE alpha are refused
-  (not checked for this use);
+  measures it against its own converged render. Base colour and metallic-roughness
+  textures are kept after checking that the importer wired them as glTF says (base colour
+  sRGB; metallic = B, roughness = G, linear: check_texture_wiring); emissive, normal and
+  occlusion textures, non-OPAQUE alpha, texture transforms and factors beside a texture are
+  refused (not checked for this use);
 - camera: the imported glTF camera with the vertical field of view forced (sensor fit
   VERTICAL, angle_y = yfov), the requested resolution at 100 %;
 - max_bounces and the diffuse, glossy and transmission bounces = BOUNCES (Cycles' default
@@ -36,11 +40,17 @@ Set-up (strata's conventions, DESIGN.md / scenes/references/README.md):
   direct light on surfaces near its ceiling light came out 2-5 % dark, 0.7 % over the image;
   BSDF sampling alone agreed within its noise, the scene scaled by 1e-3 to 0.01 %). Radiance
   is invariant under a uniform scale while there are no punctual lights (refused here);
-- 'shaded': black world unless extras.strata.background; 'ao': every surface white
+- 'shaded': with --env, the map as the world, turned and scaled as strata's --env-rotate and
+  --env-intensity, seen by the camera (environment_world: the rotation's sign is derived
+  there and was checked against strata); otherwise a black world unless
+  extras.strata.background; 'ao': every surface white
   diffuse (rho = 1), no emission, a world of constant radiance 1 hidden from camera rays,
   so a pixel is (1/pi) * integral of V cos (the Mitsuba AO contract).
 """
+import argparse
 import json
+import math
+import os
 import resource
 import sys
 import time
@@ -130,16 +140,85 @@ def principled_default_material():
     return m
 
 
+def refuse_unchecked(name, mat):
+    """MATERIALS 'gltf': exits on what the importer's output was not checked for here:
+    emissive, normal and occlusion textures, non-OPAQUE alpha, texture transforms or a second
+    UV set, and a factor beside a texture (the importer then adds multiply nodes)."""
+    pbr = mat.get("pbrMetallicRoughness", {})
+    unchecked = [k for k in ("emissiveTexture", "normalTexture", "occlusionTexture") if k in mat]
+    if mat.get("alphaMode", "OPAQUE") != "OPAQUE":
+        unchecked.append(f"alphaMode {mat['alphaMode']}")
+    for key, factors in (("baseColorTexture", {"baseColorFactor": [1, 1, 1, 1]}),
+                         ("metallicRoughnessTexture", {"metallicFactor": 1, "roughnessFactor": 1})):
+        info = pbr.get(key)
+        if info is None:
+            continue
+        if info.get("texCoord", 0) != 0 or info.get("extensions"):
+            unchecked.append(f"{key} with texCoord or extensions")
+        unchecked += [f"{f} beside {key}" for f, one in factors.items() if pbr.get(f, one) != one]
+    if unchecked:
+        sys.exit(f"cycles_worker: material '{name}': not checked for 'gltf' materials: {', '.join(unchecked)}")
+
+
+def check_texture_wiring(m, mat, doc):
+    """Verifies that the importer wired the material's textures as glTF 2.0 means them
+    (DESIGN.md's material model) and returns what it found; exits otherwise:
+    - baseColorTexture: an Image Texture in sRGB, its Color straight into Base Color;
+    - metallicRoughnessTexture: an Image Texture in Non-Color (linear data) into a Separate
+      Color in RGB mode, Blue into Metallic, Green into Roughness;
+    - both: the default UV map (TEXCOORD_0), flat projection, linear interpolation and the
+      extension that the glTF sampler's wrap asks for (REPEAT for repeat; others not checked).
+    Images get the alpha mode "Channel Packed": glTF's colour is not premultiplied by its
+    alpha, and with Blender's default ("Straight") Cycles darkens colour where alpha < 1."""
+    pbr = mat.get("pbrMetallicRoughness", {})
+    nt = m.node_tree
+    p = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+
+    def source(socket):
+        return (socket.links[0].from_node, socket.links[0].from_socket.name) if socket.is_linked else (None, None)
+
+    def image_node(node, info, colorspace):
+        texture = doc["textures"][info["index"]]
+        sampler = doc["samplers"][texture["sampler"]] if "sampler" in texture else {}  # none: repeat
+        wrap = {sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)}
+        ok = (node is not None and node.type == "TEX_IMAGE" and node.image is not None
+              and node.image.colorspace_settings.name == colorspace and not node.inputs["Vector"].is_linked
+              and node.projection == "FLAT" and node.interpolation == "Linear"
+              and wrap == {10497} and node.extension == "REPEAT")
+        if ok:
+            node.image.alpha_mode = "CHANNEL_PACKED"
+        return ok
+
+    found = {}
+    if "baseColorTexture" in pbr:
+        node, out = source(p.inputs["Base Color"])
+        if out != "Color" or not image_node(node, pbr["baseColorTexture"], "sRGB"):
+            sys.exit(f"cycles_worker: material '{m.name}': base colour texture not wired as glTF asks")
+        found["base_color"] = f"{node.image.name} (sRGB) -> Base Color"
+    if "metallicRoughnessTexture" in pbr:
+        sep_m, out_m = source(p.inputs["Metallic"])
+        sep_r, out_r = source(p.inputs["Roughness"])
+        ok = (sep_m is not None and sep_m == sep_r and sep_m.type == "SEPARATE_COLOR" and sep_m.mode == "RGB"
+              and (out_m, out_r) == ("Blue", "Green"))
+        if ok:
+            node, out = source(sep_m.inputs["Color"])
+            ok = out == "Color" and image_node(node, pbr["metallicRoughnessTexture"], "Non-Color")
+        if not ok:
+            sys.exit(f"cycles_worker: material '{m.name}': metallic-roughness texture not wired as glTF asks "
+                     "(B -> Metallic, G -> Roughness, linear)")
+        found["metallic_roughness"] = f"{node.image.name} (Non-Color) -> B: Metallic, G: Roughness"
+    return found
+
+
 def keep_principled(doc, s, distribution="GGX"):
     """MATERIALS 'gltf': keeps the importer's Principled BSDF materials, sets their
-    distribution, makes emission front-face only unless doubleSided, and gives primitives
-    without a material glTF's default one. Returns a summary for the worker's report."""
+    distribution, checks their textures' wiring (check_texture_wiring), makes emission
+    front-face only unless doubleSided, and gives primitives without a material glTF's
+    default one. Returns a summary for the worker's report."""
     gltf = {m.get("name", f"material{i}"): m for i, m in enumerate(doc.get("materials", []))}
     for name, mat in gltf.items():
-        pbr = mat.get("pbrMetallicRoughness", {})
-        if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "emissiveTexture" in mat \
-                or "normalTexture" in mat or mat.get("alphaMode", "OPAQUE") != "OPAQUE":
-            sys.exit(f"cycles_worker: material '{name}': textures and alpha are not checked for 'gltf' materials")
+        refuse_unchecked(name, mat)
+    textures = {}
     default = None  # made when a primitive has no material
     seen, emissive = set(), {}
     for ob in s.objects:
@@ -163,6 +242,10 @@ def keep_principled(doc, s, distribution="GGX"):
                 sys.exit(f"cycles_worker: material '{m.name}': expected one Principled BSDF, found {len(nodes)}")
             p = nodes[0]
             p.distribution = distribution
+            if m.name in gltf:
+                wiring = check_texture_wiring(m, gltf[m.name], doc)
+                if wiring:
+                    textures[m.name] = wiring
             # emitted radiance = Emission x Emission Strength (the importer's factor x strength)
             strength = p.inputs["Emission Strength"]
             radiance = [c * strength.default_value for c in p.inputs["Emission"].default_value[:3]]
@@ -171,7 +254,8 @@ def keep_principled(doc, s, distribution="GGX"):
                 if not gltf.get(m.name, {}).get("doubleSided", False):
                     front_face_only(m.node_tree, strength)
                     emissive[m.name]["front_face_only"] = True
-    return {"distribution": distribution, "emissive": emissive, "default_material_used": default is not None}
+    return {"distribution": distribution, "emissive": emissive, "textures": textures,
+            "default_material_used": default is not None}
 
 
 def normalise_scale(s):
@@ -198,6 +282,39 @@ def normalise_scale(s):
             loc, rot, _ = world[o.name].decompose()
             o.matrix_world = Matrix.Translation(loc * k) @ rot.to_matrix().to_4x4()
     return k
+
+
+def environment_world(path, rotate_degrees, intensity):
+    """A world lit and seen through the equirectangular map at `path` as strata's --env FILE
+    --env-rotate DEG --env-intensity S: Texture Coordinate (Generated: the ray's direction) ->
+    Mapping -> Environment Texture (linear interpolation, the map's linear radiance as stored:
+    colour space "Linear", i.e. no conversion) -> Background of strength S. Camera rays see it
+    (Cycles' default; strata's too when --background is not given).
+
+    Rotation. The importer turns glTF (x, y, z) into Blender (x, -z, y), a proper rotation, so a
+    turn by a about glTF +Y is the turn by a about Blender +Z, both counter-clockwise by the
+    right-hand rule. Unrotated, both look a direction up at the same texel (envmap.rs: strata
+    follows Blender). strata turns the map by +DEG: the radiance along d is the unrotated map's
+    along R(-DEG) d. A Mapping node of type POINT hands the texture R(angle) d, so its Z angle
+    is -DEG. Verified against strata by rendering both signs (tools/peers/README.md)."""
+    world = bpy.data.worlds.new("peer_env_world")
+    world.use_nodes = True
+    nt = world.node_tree
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.vector_type = "POINT"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, -math.radians(rotate_degrees))
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(path)
+    tex.image.colorspace_settings.name = "Linear"  # scene linear Rec.709: radiance unchanged
+    tex.interpolation = "Linear"
+    tex.projection = "EQUIRECTANGULAR"
+    nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    bg = nt.nodes["Background"]
+    nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = intensity
+    return world
 
 
 def render_settings(s, width, height, bounces, threads):
@@ -261,7 +378,7 @@ def replace_materials(doc, s, mode):
                 sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
 
 
-def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian"):
+def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian", environment=None):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
     with open(scene_path) as f:
@@ -295,18 +412,22 @@ def setup(scene_path, mode, width, height, bounces, threads, materials="lamberti
     if len(cams) > 1:
         print("cycles_worker: several cameras; using", cams[0].name, file=sys.stderr)
 
-    # world
-    world = bpy.data.worlds.new("peer_world")
-    world.use_nodes = True
-    bg = world.node_tree.nodes["Background"]
-    if mode == "ao":
-        bg.inputs["Color"].default_value = (1, 1, 1, 1)
-        world.cycles_visibility.camera = False  # camera rays that miss give 0
+    # world: for 'shaded' with an environment map, the map in place of the document's
+    # background (as strata's --env and the Mitsuba reference's envmap)
+    if mode == "shaded" and environment is not None:
+        s.world = environment_world(*environment)
     else:
-        c = doc.get("extras", {}).get("strata", {}).get("background", [0, 0, 0])
-        bg.inputs["Color"].default_value = (*c, 1)
-    bg.inputs["Strength"].default_value = 1.0
-    s.world = world
+        world = bpy.data.worlds.new("peer_world")
+        world.use_nodes = True
+        bg = world.node_tree.nodes["Background"]
+        if mode == "ao":
+            bg.inputs["Color"].default_value = (1, 1, 1, 1)
+            world.cycles_visibility.camera = False  # camera rays that miss give 0
+        else:
+            c = doc.get("extras", {}).get("strata", {}).get("background", [0, 0, 0])
+            bg.inputs["Color"].default_value = (*c, 1)
+        bg.inputs["Strength"].default_value = 1.0
+        s.world = world
 
     # renderer
     render_settings(s, width, height, bounces, threads)
@@ -316,11 +437,20 @@ def setup(scene_path, mode, width, height, bounces, threads, materials="lamberti
 
 
 def main():
-    argv = sys.argv[sys.argv.index("--") + 1:]
-    scene_path, mode, res, bounces, threads = argv[0], argv[1], argv[2], int(argv[3]), int(argv[4])
-    materials = argv[5] if len(argv) > 5 else "lambertian"
-    width, height = (int(v) for v in res.split("x"))
-    s = setup(scene_path, mode, width, height, bounces, threads, materials)
+    ap = argparse.ArgumentParser(prog="cycles_worker.py")
+    ap.add_argument("scene")
+    ap.add_argument("mode", choices=["ao", "shaded"])
+    ap.add_argument("resolution", help="WxH")
+    ap.add_argument("bounces", type=int)
+    ap.add_argument("threads", type=int)
+    ap.add_argument("materials", nargs="?", default="lambertian")
+    ap.add_argument("--env", help="equirectangular map lighting a 'shaded' scene (strata's --env)")
+    ap.add_argument("--env-rotate", type=float, default=0.0, help="degrees about glTF +Y (strata's --env-rotate)")
+    ap.add_argument("--env-intensity", type=float, default=1.0, help="radiance scale (strata's --env-intensity)")
+    args = ap.parse_args(sys.argv[sys.argv.index("--") + 1:])
+    width, height = (int(v) for v in args.resolution.split("x"))
+    environment = None if args.env is None else (os.path.abspath(args.env), args.env_rotate, args.env_intensity)
+    s = setup(args.scene, args.mode, width, height, args.bounces, args.threads, args.materials, environment)
     s.cycles.samples = 1
     t0 = time.perf_counter()
     bpy.ops.render.render()  # warm-up: kernels, scene sync, BVH (kept: persistent data)
@@ -328,7 +458,10 @@ def main():
     info = {"blender": bpy.app.version_string, "sampling_pattern": s.cycles.sampling_pattern,
             "max_bounces": s.cycles.max_bounces, "glossy_bounces": s.cycles.glossy_bounces,
             "threads": s.render.threads, "materials": json.loads(s["peer_materials"]),
-            "scale": s["peer_scale"], "warmup_seconds": warmup}
+            "scale": s["peer_scale"], "warmup_seconds": warmup,
+            "environment": None if environment is None else {
+                "file": environment[0], "rotate_degrees": environment[1], "intensity": environment[2],
+                "mapping_rotation_z_degrees": -environment[1]}}
     print("PEER_JSON " + json.dumps({"ready": True, **info}), flush=True)
     for line in sys.stdin:
         if not line.strip():

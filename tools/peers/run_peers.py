@@ -17,6 +17,11 @@ same glTF scene at the reference's resolution at 1, 2, 4, ... spp:
   cycles          Blender 3.4 Cycles on the CPU, set up by tools/peers/cycles_worker.py;
                   time = the bpy.ops.render.render() call, after a warm-up render (persistent data)
 
+Jobs lit by an environment map (the manifest row's `environment`, e.g. suzanne-studio.path) get
+it in every renderer: strata through its strata_args (--env, --env-rotate, --env-intensity),
+Mitsuba through the reference's own envmap emitter (mitsuba_refs.convert), Cycles as a world
+environment texture turned to match (cycles_worker.environment_world); see environment().
+
 The renderers take turns at each rung of the ladder (strata 1 spp, Mitsuba 1 spp, ..., strata
 2 spp, ...), so load from other work on the machine spreads over all of them. A renderer leaves
 the ladder after a render slower than --time-cap. Every renderer uses --threads threads.
@@ -76,8 +81,10 @@ def mitsuba_worker(variant, job, threads):
     mode = "ao" if ref["integrator"] == "ao" else "shaded"
     # The reference's material model (the glTF BRDF plugin for the glTF references).
     materials = ref.get("materials", {}).get("model", "lambertian")
+    # The reference's own conversion, environment map included (the same envmap emitter: map
+    # resampled to 2H + 1 rows, turned 90 + DEG about +Y), so the dict is the reference's.
     scene_dict, _ = mitsuba_refs.convert(os.path.join(REPO, ref["scene"]), mode, (w, h), ref["mitsuba_max_depth"],
-                                         materials)
+                                         materials, environment(job))
     scene_dict["integrator"]["rr_depth"] = MITSUBA_RR_DEPTH
     scene = mi.load_dict(scene_dict)
     t0 = time.perf_counter()
@@ -191,8 +198,42 @@ def cycles_settings(job):
     w, h = ref["resolution"]
     # Cycles' max_bounces counts bounces after the first hit: strata's B - 1 (0 = direct
     # light only, which is what AO needs); checked against the references (README.md).
-    return {"mode": "ao" if ref["integrator"] == "ao" else "shaded", "resolution": f"{w}x{h}",
-            "bounces": 0 if ref["integrator"] == "ao" else ref["max_depth"] - 1, "materials": material_model(job)}
+    settings = {"mode": "ao" if ref["integrator"] == "ao" else "shaded", "resolution": f"{w}x{h}",
+                "bounces": 0 if ref["integrator"] == "ao" else ref["max_depth"] - 1, "materials": material_model(job)}
+    env = environment(job)
+    if env is not None:
+        # the map's hash too: it is part of the image (and of the cache key of Cycles' reference)
+        settings["environment"] = dict(env, sha256=ref["environment"]["sha256"])
+    return settings
+
+
+def environment(job):
+    """The job's environment map as an entry of mitsuba_refs.ENVIRONMENTS ({"file", "rotate",
+    "intensity"}, file relative to the repository), or None for a job without one.
+
+    Read from the manifest row (the record of what the reference was made with) and checked
+    against the row's strata_args (what strata renders with) and against the file on disk, so
+    the three renderers cannot be handed different maps or turns."""
+    ref = manifest_entry(job)
+    rec = ref.get("environment")
+    if rec is None:
+        if "--env" in ref["strata_args"]:
+            raise RuntimeError(f"{job}: strata_args name --env but the manifest row records no environment")
+        return None
+    env = {"file": rec["file"], "rotate": float(rec["rotate_degrees"]), "intensity": float(rec["intensity"])}
+    args = ref["strata_args"]
+
+    def strata_value(flag, default):
+        return args[args.index(flag) + 1] if flag in args else default
+
+    said = (strata_value("--env", None), float(strata_value("--env-rotate", 0.0)),
+            float(strata_value("--env-intensity", 1.0)))
+    if said != (env["file"], env["rotate"], env["intensity"]):
+        raise RuntimeError(f"{job}: strata_args give the environment {said}, the manifest row {env}")
+    with open(os.path.join(REPO, env["file"]), "rb") as f:
+        if hashlib.sha256(f.read()).hexdigest() != rec["sha256"]:
+            raise RuntimeError(f"{job}: {env['file']} is not the map the reference was made with (sha256)")
+    return env
 
 
 def cpu_seconds(who):
@@ -215,6 +256,10 @@ def start(name, job, args, logdir):
         argv = [args.blender, "-b", "--factory-startup", "-P", os.path.join(HERE, "cycles_worker.py"), "--",
                 os.path.join(REPO, ref["scene"]), c["mode"], c["resolution"], str(c["bounces"]), str(args.threads),
                 c["materials"]]
+        if "environment" in c:
+            env = c["environment"]
+            argv += ["--env", os.path.join(REPO, env["file"]), "--env-rotate", repr(env["rotate"]),
+                     "--env-intensity", repr(env["intensity"])]
         return Worker(name, argv, os.path.join(logdir, f"{job}.{name}.log"))
     raise ValueError(name)
 
