@@ -546,7 +546,8 @@ fn every_reference_was_made_from_the_current_scene() {
 /// The negative controls on scenes whose images have structure (the analytic scenes are
 /// uniform: a shift or a different warp cannot change them): AO of the Cornell box and the
 /// flight helmet, direct light of the textured Suzanne, and path tracing of the Cornell box, of
-/// the glossy sphere grid and of Suzanne under an HDR environment map.
+/// the glossy sphere grid under its area light and under a constant sky, and of Suzanne under
+/// an HDR environment map.
 /// The wrong-warp control applies to AO only; the shaded ones must also reject strata's
 /// energy-compensated model and its Lambertian override.
 #[test]
@@ -558,12 +559,19 @@ fn comparisons_fail_on_wrong_images() {
         "suzanne.direct",
         "cornell-box.path",
         "sphere-grid.path",
+        "sphere-grid-sky.path",
         "suzanne-studio.path",
     ] {
         let r = manifest().into_iter().find(|r| r.name == name).expect(name);
         let (img, path, _) = render_strata(&r, &[], "");
         compare(&r, &img, &path, "", use_idiff)
             .unwrap_or_else(|e| panic!("the true image must pass first: {e}"));
+        // Each control's outcome is printed (shown with --nocapture): how far it fails.
+        let rejects = |img: &Image, p: &Path, tag: &str| {
+            let outcome = compare(&r, img, p, tag, use_idiff);
+            eprintln!("{name}{tag}: {outcome:?}");
+            outcome.is_err()
+        };
         let dir = results_dir(&r);
         let write = |tag: &str, img: &Image| {
             let p = dir.join(format!("strata{tag}.exr"));
@@ -577,7 +585,7 @@ fn comparisons_fail_on_wrong_images() {
         darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
         let p = write(".darker", &darker);
         assert!(
-            compare(&r, &darker, &p, ".darker", use_idiff).is_err(),
+            rejects(&darker, &p, ".darker"),
             "{name}: a 3% darker image passed"
         );
 
@@ -591,29 +599,33 @@ fn comparisons_fail_on_wrong_images() {
         }
         let p = write(".shifted", &shifted);
         assert!(
-            compare(&r, &shifted, &p, ".shifted", use_idiff).is_err(),
+            rejects(&shifted, &p, ".shifted"),
             "{name}: a one-pixel shift passed"
         );
 
         // The shaded references are the specification's single-scattering model: the same
-        // scene as Lambertian clay differs, and so does the Cornell box's (roughness 0.5)
-        // with energy compensation, strata's default. (Suzanne under a white sky is mostly
-        // smooth metal, where compensation changes little: its direct image passes with it.)
+        // scene as Lambertian clay differs, and so do the Cornell box (roughness 0.5) and the
+        // sphere grids' rough metals with energy compensation, strata's default. (Suzanne
+        // under a white sky is mostly smooth metal, where compensation changes little: its
+        // direct image passes with it.)
         if r.integrator != "ao" {
             let mut other = r.clone();
             other
                 .strata_args
                 .retain(|a| a != "--energy-compensation" && a != "off");
             let mut controls = vec![(["--materials", "lambertian"], ".lambertian")];
-            if name == "cornell-box.path" || name == "sphere-grid.path" {
+            if [
+                "cornell-box.path",
+                "sphere-grid.path",
+                "sphere-grid-sky.path",
+            ]
+            .contains(&name)
+            {
                 controls.push((["--energy-compensation", "on"], ".compensated"));
             }
             for (extra, tag) in controls {
                 let (wrong, p, _) = render_strata(&other, &extra, tag);
-                assert!(
-                    compare(&r, &wrong, &p, tag, use_idiff).is_err(),
-                    "{name}: strata {extra:?} passed"
-                );
+                assert!(rejects(&wrong, &p, tag), "{name}: strata {extra:?} passed");
             }
             continue;
         }
@@ -622,7 +634,7 @@ fn comparisons_fail_on_wrong_images() {
         let (wrong, p, _) =
             render_strata(&r, &["--hemisphere", "uniform-unweighted"], ".unweighted");
         assert!(
-            compare(&r, &wrong, &p, ".unweighted", use_idiff).is_err(),
+            rejects(&wrong, &p, ".unweighted"),
             "{name}: AO without the cosine weight passed"
         );
     }

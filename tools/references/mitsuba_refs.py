@@ -103,6 +103,7 @@ SCENES = {
     "suzanne": ("scenes/suzanne.gltf", (192, 144)),
     "emissive-strength": ("scenes/emissive-strength.gltf", (256, 128)),
     "sphere-grid": ("scenes/sphere-grid.gltf", (192, 144)),
+    "sphere-grid-sky": ("scenes/sphere-grid-sky.gltf", (192, 144)),
     # Lit by an environment map (ENVIRONMENTS) instead of their own background.
     "ao-wall-studio": ("scenes/ao-wall.gltf", (64, 64)),
     "suzanne-studio": ("scenes/suzanne.gltf", (128, 96)),
@@ -137,6 +138,9 @@ JOBS = [
     # The glossy scene: shaded jobs only, with --materials gltf.
     ("sphere-grid", "direct", 8192, 32),
     ("sphere-grid", "path", 8192, 32),
+    # The same spheres and floor under a constant sky (the scene's extras.strata.background):
+    # glossy reflections of a constant environment, camera rays that miss see it.
+    ("sphere-grid-sky", "path", 8192, 32),
     # Under an HDR environment map (ENVIRONMENTS), --materials gltf: a diffuse floor beside a
     # wall (the wall hides half the map) and the glossy, textured Suzanne.
     ("ao-wall-studio", "path", 8192, 32),

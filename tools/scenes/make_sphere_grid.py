@@ -5,13 +5,22 @@ right), one gold-ish base colour, standing on a grey rough floor in front of a g
 by one square emissive area light above and in front of them. The glossy test scene of
 issue 28: its Mitsuba references render the glTF BRDF plugin, and the peers run times it.
 
+With --sky it writes scenes/sphere-grid-sky.gltf instead: the same spheres, floor and camera
+under a constant pale-blue sky (the document's `extras.strata.background`, which the reference
+conversion turns into Mitsuba's `constant` emitter and strata's `--background R,G,B`), with no
+area light and no wall. The wall would fill the camera's view and hide the half of the sky
+behind the spheres; without it the camera sees the sky above the floor's far edge, and the
+metals reflect sky, floor and that edge, so paths that leave the scene after BSDF sampling
+(weighted against sampling the sky as a light) make most of the image.
+
 Standard library only; the buffer is embedded as a base64 data URI and the output is the
 same bytes on every run (the spheres share one mesh; each node has its own material).
 
-    python3 tools/scenes/make_sphere_grid.py [OUT.gltf]     # default <repo>/scenes/sphere-grid.gltf
+    python3 tools/scenes/make_sphere_grid.py [--sky] [OUT.gltf]
+        # default <repo>/scenes/sphere-grid.gltf, with --sky <repo>/scenes/sphere-grid-sky.gltf
 
 Units are metres. The light's emission is emissiveFactor x KHR_materials_emissive_strength,
-radiance, on its front (downward) face only.
+radiance, on its front (downward) face only; the sky's is radiance from every direction.
 """
 import base64
 import json
@@ -35,6 +44,9 @@ SPACING = 1.0
 SEGMENTS, RINGS = 32, 16
 CAMERA = {"eye": [0.0, 2.0, 6.0], "target": [0.0, 1.9, 0.0], "yfov": 0.75, "aspect": 4.0 / 3.0}
 LIGHT = {"centre": [0.0, 5.0, 2.5], "half": 1.0, "radiance": 12.0}
+# Linear RGB radiance of the --sky variant's background: coloured, so that a channel mixed up
+# anywhere shows, and about as bright on the spheres as the area light is.
+SKY = [0.6, 0.75, 1.0]
 
 
 def uv_sphere():
@@ -56,7 +68,9 @@ def uv_sphere():
     return pos, [list(p) for p in pos], idx
 
 
-def build():
+def build(sky=False):
+    """The glTF document: lit by the area light in front of a wall, or with `sky` by a constant
+    background alone."""
     b = Builder()
     materials, meshes, nodes = [], [], []
 
@@ -73,8 +87,9 @@ def build():
 
     p, n, i = quad([[-6.0, 0.0, 4.0], [6.0, 0.0, 4.0], [6.0, 0.0, -3.0], [-6.0, 0.0, -3.0]], [0.0, 1.0, 0.0])
     nodes.append({"name": "floor", "mesh": mesh("floor", p, n, i, material("floor", [0.5, 0.5, 0.5], 0.0, 1.0))})
-    p, n, i = quad([[-6.0, 0.0, -3.0], [6.0, 0.0, -3.0], [6.0, 6.0, -3.0], [-6.0, 6.0, -3.0]], [0.0, 0.0, 1.0])
-    nodes.append({"name": "wall", "mesh": mesh("wall", p, n, i, material("wall", [0.4, 0.4, 0.4], 0.0, 1.0))})
+    if not sky:
+        p, n, i = quad([[-6.0, 0.0, -3.0], [6.0, 0.0, -3.0], [6.0, 6.0, -3.0], [-6.0, 6.0, -3.0]], [0.0, 0.0, 1.0])
+        nodes.append({"name": "wall", "mesh": mesh("wall", p, n, i, material("wall", [0.4, 0.4, 0.4], 0.0, 1.0))})
 
     sp, sn, si = uv_sphere()
     sphere_pos, sphere_nrm, sphere_idx = b.vec3(sp), b.vec3(sn), b.indices(si)
@@ -90,21 +105,22 @@ def build():
             nodes.append({"name": name, "mesh": len(meshes) - 1, "translation": [x, y, 0.0],
                           "scale": [RADIUS, RADIUS, RADIUS]})
 
-    cx, cy, cz = LIGHT["centre"]
-    h = LIGHT["half"]
-    # Facing down: counter-clockwise seen from below.
-    p, n, i = quad([[cx - h, cy, cz - h], [cx + h, cy, cz - h], [cx + h, cy, cz + h], [cx - h, cy, cz + h]],
-                   [0.0, -1.0, 0.0])
-    materials.append({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
-                      "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": LIGHT["radiance"]}},
-                      "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0,
-                                               "roughnessFactor": 1.0}})
-    nodes.append({"name": "light", "mesh": mesh("light", p, n, i, len(materials) - 1)})
+    if not sky:
+        cx, cy, cz = LIGHT["centre"]
+        h = LIGHT["half"]
+        # Facing down: counter-clockwise seen from below.
+        p, n, i = quad([[cx - h, cy, cz - h], [cx + h, cy, cz - h], [cx + h, cy, cz + h], [cx - h, cy, cz + h]],
+                       [0.0, -1.0, 0.0])
+        materials.append({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+                          "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": LIGHT["radiance"]}},
+                          "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0,
+                                                   "roughnessFactor": 1.0}})
+        nodes.append({"name": "light", "mesh": mesh("light", p, n, i, len(materials) - 1)})
 
     cam = CAMERA
     nodes.insert(0, {"name": "camera", "camera": 0, "translation": cam["eye"],
                      "rotation": look_at_quaternion(cam["eye"], cam["target"])})
-    return {
+    doc = {
         "asset": {"version": "2.0", "generator": "strata tools/scenes/make_sphere_grid.py"},
         "extensionsUsed": ["KHR_materials_emissive_strength"],
         "scene": 0,
@@ -119,12 +135,24 @@ def build():
         "buffers": [{"byteLength": len(b.data),
                      "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(b.data)).decode()}],
     }
+    if sky:
+        # No emissive material is left to use the extension.
+        del doc["extensionsUsed"]
+        doc["scenes"][0]["name"] = "sphere grid under a constant sky"
+        doc["extras"] = {"strata": {"background": SKY}}
+    return doc
 
 
 def main():
-    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(REPO, "scenes", "sphere-grid.gltf")
+    args = sys.argv[1:]
+    sky = "--sky" in args
+    args = [a for a in args if a != "--sky"]
+    if len(args) > 1 or any(a.startswith("-") for a in args):
+        sys.exit("usage: make_sphere_grid.py [--sky] [OUT.gltf]")
+    default = "sphere-grid-sky.gltf" if sky else "sphere-grid.gltf"
+    out = args[0] if args else os.path.join(REPO, "scenes", default)
     with open(out, "w") as f:
-        json.dump(build(), f, indent=1)
+        json.dump(build(sky), f, indent=1)
         f.write("\n")
     print(out)
 
