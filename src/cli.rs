@@ -80,7 +80,8 @@ pub struct Args {
 
     /// Environment map: an equirectangular (latitude-longitude) Radiance .hdr or OpenEXR .exr
     /// of linear radiance, oriented as Blender orients a world environment texture, and
-    /// importance-sampled (direct and path tracing).
+    /// importance-sampled (direct and path tracing). `none`: no environment, and no default
+    /// sky for a scene that brings no light (a file named so: ./none).
     #[arg(long, value_name = "FILE")]
     pub env: Option<PathBuf>,
 

@@ -190,7 +190,10 @@ impl Job {
         if !args.env_rotate.is_finite() {
             refuse!("--env-rotate must be a finite number of degrees");
         }
-        if let Some(env) = &args.env {
+        // `--env none`: no environment and no default sky (a file named so: `--env ./none`).
+        let no_env = args.env.as_deref() == Some(std::path::Path::new("none"));
+        let env_file = args.env.as_ref().filter(|_| !no_env);
+        if let Some(env) = env_file {
             if !env.is_file() {
                 refuse!("{}: no such environment map", env.display());
             }
@@ -273,16 +276,15 @@ impl Job {
                 },
                 triangle_sampling: args.triangle_sampling,
                 // With a map, --background is what the camera sees behind the scene.
-                camera_background: match args.env {
+                camera_background: match env_file {
                     Some(_) => args.background.map(Vec3::from_array),
                     None => None,
                 },
             },
             hemisphere: args.hemisphere,
             default_sky: args.env.is_none() && args.background.is_none(),
-            env: args
-                .env
-                .clone()
+            env: env_file
+                .cloned()
                 .map(|p| (p, args.env_rotate, args.env_intensity)),
             experiments: Experiments {
                 camera_packets: !args.no_camera_packets,

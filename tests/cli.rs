@@ -80,9 +80,38 @@ fn error_not_gltf() {
     expect_bad_scene("not_gltf.gltf", &["not a glTF"]);
 }
 
+/// A valid file with nothing to hit (tests/data/bad/no_triangles.gltf: one mesh of points) is
+/// a valid scene: it renders the background alone, on either backend, with a warning.
 #[test]
-fn error_no_triangles() {
-    expect_bad_scene("no_triangles.gltf", &["no triangles"]);
+fn a_scene_without_triangles_renders_the_background_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = bad("no_triangles.gltf");
+    for backend in ["embree", "obvhs"] {
+        let out = tmp.path().join(format!("{backend}.exr"));
+        let run = render(
+            tmp.path(),
+            &with_small(&[
+                s(&scene),
+                "-o",
+                s(&out),
+                "--background",
+                "0.25,0.5,0.75",
+                "--backend",
+                backend,
+            ]),
+        );
+        run.assert_success();
+        assert!(
+            run.stderr.contains("no triangles") && run.stderr.contains("background"),
+            "{}",
+            run.stderr
+        );
+        let (_, _, px) = strata::render::output::read_exr_rgb(&out).unwrap();
+        assert!(
+            px.iter().all(|p| *p == [0.25, 0.5, 0.75]),
+            "{backend}: not the background everywhere"
+        );
+    }
 }
 
 #[test]
@@ -776,6 +805,32 @@ fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
     );
     let (_, _, px) = strata::render::output::read_exr_rgb(&out).unwrap();
     assert!(px.iter().all(|p| *p == [0.0; 3]));
+
+    // `--env none` asks for no environment and no default sky: black again.
+    let none = tmp.path().join("none.exr");
+    let run = render(
+        tmp.path(),
+        &[
+            s(&wall),
+            "-o",
+            s(&none),
+            "--integrator",
+            "path",
+            "--env",
+            "none",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "4",
+        ],
+    );
+    run.assert_success();
+    assert!(!run.stderr.contains("white sky"), "{}", run.stderr);
+    let (_, _, px) = strata::render::output::read_exr_rgb(&none).unwrap();
+    assert!(
+        px.iter().all(|p| *p == [0.0; 3]),
+        "--env none lit the scene"
+    );
 
     // Under a white background of radiance 1, the floor beside the wall sees half the sky
     // directly: with one bounce, radiance ρ·(1/2)·1 for the white (ρ = 1) floor.

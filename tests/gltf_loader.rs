@@ -309,7 +309,6 @@ fn lights_materials_and_cameras_reach_the_scene() {
 fn bad_files_name_the_file_and_the_problem() {
     let cases = [
         ("not_gltf.gltf", "not a glTF"),
-        ("no_triangles.gltf", "no triangles"),
         ("required_extension.gltf", "KHR_draco_mesh_compression"),
         ("truncated.glb", "binary glTF"),
         ("missing_buffer.gltf", "does-not-exist.bin"),
@@ -322,6 +321,22 @@ fn bad_files_name_the_file_and_the_problem() {
         assert!(err.contains(file) && err.contains(words), "{file}: {err}");
         assert!(!err.contains('\n'), "one line: {err}");
     }
+}
+
+/// A file whose meshes hold no triangles (points here) loads as an empty scene, with one
+/// warning that says so.
+#[test]
+fn a_file_without_triangles_loads_empty_with_a_warning() {
+    let path = data("bad").join("no_triangles.gltf");
+    let s = scene::load(&path, &LoadOptions::default()).unwrap();
+    assert!(s.triangles.is_empty());
+    assert_eq!(s.bounds, (glam::Vec3::ZERO, glam::Vec3::ZERO));
+    let warned: Vec<_> = s
+        .load_warnings
+        .iter()
+        .filter(|w| w.contains("no triangles") && w.contains("points or lines"))
+        .collect();
+    assert_eq!(warned.len(), 1, "{:?}", s.load_warnings);
 }
 
 #[test]

@@ -403,6 +403,8 @@ impl EmbreeAccel {
         let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
         let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
         let (opaque, alpha) = match coverage {
+            // Nothing to attach: Embree commits an empty scene, which no ray hits.
+            None if all.is_empty() => (PrimMap::Identity, None),
             None => {
                 let map = match options
                     .quads

@@ -165,8 +165,6 @@ pub struct AccelMemory {
 /// An error while building the acceleration structure.
 #[derive(Debug, thiserror::Error)]
 pub enum AccelError {
-    #[error("the scene has no triangles to build a BVH over")]
-    Empty,
     #[error(transparent)]
     Embree(#[from] crate::embree::EmbreeError),
     /// A base colour texture that alpha coverage needs could not be read.
@@ -194,9 +192,6 @@ impl Accel {
     /// ([`AlphaCoverage::build`]: their base colour textures are decoded here; a texture that
     /// cannot be is an error).
     pub fn build(scene: &Scene, options: &AccelOptions) -> Result<Accel, AccelError> {
-        if scene.triangles.is_empty() {
-            return Err(AccelError::Empty);
-        }
         // The caller names the scene in its errors (main adds the path); an image that cannot
         // be decoded is named by its own path or index.
         let coverage = match options.alpha {

@@ -83,7 +83,11 @@ impl ObvhsAccel {
             BuildQuality::Medium => BvhBuildParams::medium_build(),
             BuildQuality::High => BvhBuildParams::slow_build(),
         };
-        let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
+        // No triangles: an empty hierarchy, which the queries below never traverse.
+        let bvh = match tris.is_empty() {
+            true => CwBvh::default(),
+            false => build_cwbvh_from_tris(&tris, params, &mut Duration::default()),
+        };
         let ids: Vec<u32> = bvh.primitive_indices.clone();
         let tris: Vec<Triangle> = ids.iter().map(|&i| tris[i as usize]).collect();
         let bounds = tris
@@ -139,6 +143,9 @@ impl ObvhsAccel {
     // layers").
     #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.tris.is_empty() {
+            return None;
+        }
         let r = Self::ray(ray);
         let mut hit = RayHit::none();
         let tris = &self.tris;
@@ -171,6 +178,9 @@ impl ObvhsAccel {
 
     #[inline(never)]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.tris.is_empty() {
+            return false;
+        }
         let tris = &self.tris;
         !match &self.coverage {
             None => self.bvh.ray_traverse_miss(Self::ray(ray), |r, slot| {

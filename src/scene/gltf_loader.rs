@@ -317,14 +317,17 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     if loader.dropped_triangles > 0 || scene.positions.iter().any(|p| !p.is_finite()) {
         drop_unused_vertices(&mut scene);
     }
+    // A valid file with nothing to hit is a valid scene: it renders the environment or
+    // background alone.
     if scene.triangles.is_empty() {
-        return Err(if loader.skipped_primitives > 0 {
+        warnings.push(if loader.skipped_primitives > 0 {
             format!(
-                "the scene has no triangles to render ({} primitive(s) of points or lines were skipped)",
+                "the scene has no triangles to render ({} primitive(s) of points or lines were skipped): only the environment or background is seen",
                 loader.skipped_primitives
             )
         } else {
-            "the scene has no triangles to render".into()
+            "the scene has no triangles to render: only the environment or background is seen"
+                .into()
         });
     }
     scene.update_summary();

@@ -354,7 +354,12 @@ impl Scene {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
-        self.bounds = (lo, hi);
+        // Nothing to bound (a scene with no triangles): a point at the origin, which the
+        // framing camera looks at from +Z.
+        self.bounds = match self.positions.is_empty() {
+            true => (Vec3::ZERO, Vec3::ZERO),
+            false => (lo, hi),
+        };
         let emissive_triangles = self
             .triangle_materials
             .iter()
