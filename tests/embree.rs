@@ -2,7 +2,7 @@
 //! raw wrapper (`strata::embree`) and the backend-neutral `Accel`.
 
 use glam::{Vec2, Vec3};
-use strata::accel::{Accel, AccelOptions, Ray};
+use strata::accel::{Accel, AccelOptions, Backend, Ray};
 use strata::embree::{self, BuildQuality, Device, SceneBuilder, SceneOptions};
 use strata::scene::Scene;
 
@@ -205,10 +205,25 @@ fn device_errors_become_rust_errors() {
     assert!(device.check().is_ok(), "no error left pending");
 }
 
+/// A scene with no triangles is a valid scene (it renders its environment alone): both
+/// backends build it, and no ray hits it or is blocked by it.
 #[test]
-fn accel_refuses_an_empty_scene() {
+fn an_empty_scene_builds_and_nothing_hits_it() {
     let scene = scene_of(&[], &[]);
-    assert!(Accel::build(&scene, &AccelOptions::default()).is_err());
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        let accel = Accel::build(
+            &scene,
+            &AccelOptions {
+                backend,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z);
+        assert!(accel.intersect(&ray).is_none(), "{backend:?}");
+        assert!(!accel.occluded(&ray), "{backend:?}");
+        assert!(accel.clusters().is_empty(), "{backend:?}");
+    }
 }
 
 #[test]

@@ -218,13 +218,17 @@ fn li_as<B: ShadeAs>(
         };
         if let Some((ls, pmf)) = light {
             let use_it = ls.is_delta || settings.strategy != Strategy::Bsdf;
-            let f = bsdf.eval(ls.wi);
+            // MIS weighs an area light's sample by the BSDF's pdf too: both at once.
+            let mis = !ls.is_delta && settings.strategy == Strategy::Mis;
+            let (f, pdf_bsdf) = match mis {
+                true => bsdf.eval_pdf(ls.wi),
+                false => (bsdf.eval(ls.wi), 0.0),
+            };
             if use_it && ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
                 let pdf_light = pmf * ls.pdf;
-                let w = if ls.is_delta || settings.strategy == Strategy::Light {
-                    1.0
-                } else {
-                    power_heuristic(pdf_light, bsdf.pdf(ls.wi))
+                let w = match mis {
+                    true => power_heuristic(pdf_light, pdf_bsdf),
+                    false => 1.0,
                 };
                 let shadow = if ls.infinite {
                     si.spawn_ray_with(ls.wi, f32::INFINITY, ctx.experiments.ray_offset)

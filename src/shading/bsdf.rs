@@ -125,6 +125,13 @@ pub trait LocalBsdf: Copy {
     /// The solid-angle pdf with which `sample` draws local direction `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
 
+    /// `eval` and `pdf` of `wi` together (the same values), for BSDFs that share work
+    /// between them.
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
+
     /// The direction `sample` draws with `u` and the lobe it comes from, before its value
     /// and pdf are known to be non-zero.
     fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)>;
@@ -141,10 +148,10 @@ pub trait LocalBsdf: Copy {
         if flags.is_specular() {
             return self.sample_delta(wo, wi, flags);
         }
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
+        let (f_cos, pdf) = self.eval_pdf(wo, wi);
+        (pdf > 0.0).then_some(BsdfSample {
             wi,
-            f_cos: self.eval(wo, wi),
+            f_cos,
             pdf,
             flags,
         })
@@ -282,6 +289,14 @@ impl LocalBsdf for Bsdf {
         }
     }
 
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match self {
+            Bsdf::Diffuse(b) => b.eval_pdf(wo, wi),
+            Bsdf::MetallicRoughness(brdf) => brdf.eval_pdf(wo, wi),
+        }
+    }
+
     #[inline(always)]
     fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
         match self {
@@ -369,6 +384,16 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
         self.bsdf.pdf(self.wo, local)
     }
 
+    /// [`SurfaceBsdf::eval`] and [`SurfaceBsdf::pdf`] of world direction `wi` together.
+    #[inline(always)]
+    pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let local = self.local(wi);
+        if wi.dot(self.ng) <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        self.bsdf.eval_pdf(self.wo, local)
+    }
+
     /// A world direction drawn with 2D point `u`; None where none can be drawn, or where it
     /// falls below the geometric surface.
     ///
@@ -384,10 +409,10 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
             let s = self.bsdf.sample_delta(self.wo, local, flags)?;
             return (wi.dot(self.ng) > 0.0).then_some(BsdfSample { wi, ..s });
         }
-        let pdf = self.pdf(wi);
-        (pdf > 0.0).then(|| BsdfSample {
+        let (f_cos, pdf) = self.eval_pdf(wi);
+        (pdf > 0.0).then_some(BsdfSample {
             wi,
-            f_cos: self.eval(wi),
+            f_cos,
             pdf,
             flags,
         })

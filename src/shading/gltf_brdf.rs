@@ -238,8 +238,27 @@ impl GltfBrdf {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Vec3::ZERO;
         }
+        let h = (wo + wi).normalize();
+        self.eval_at(&self.terms(wo), wo, wi, h, self.ggx().d(h))
+    }
+
+    /// [`GltfBrdf::eval`] and [`GltfBrdf::pdf`] together, the half vector and D computed
+    /// once: what MIS asks of a light sample's direction, and BSDF sampling of its own. The
+    /// same operations as the two apart, so the same values.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
         let o = self.terms(wo);
         let h = (wo + wi).normalize();
+        let d = self.ggx().d(h);
+        (self.eval_at(&o, wo, wi, h, d), self.pdf_at(&o, wo, wi, d))
+    }
+
+    /// [`GltfBrdf::eval`] for wo and wi above the surface, given wo's terms, the half vector
+    /// and D(h).
+    #[inline]
+    fn eval_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, h: Vec3, d: f32) -> Vec3 {
         let wo_h = wo.dot(h).abs();
         let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo_h);
         let f_metal = schlick(self.base_color, wo_h);
@@ -261,7 +280,7 @@ impl GltfBrdf {
                 // (k = 0 without compensation) and the metal's, mixed by metallic: F of the
                 // mixed f0 when uncompensated. (The metal's compensation is its own lobe.)
                 let dielectric = f_d * (1.0 + DIELECTRIC_F0 * o.k);
-                dielectric.lerp(f_metal, self.metallic) * (ggx.d(h) * ggx.v(wo, wi))
+                dielectric.lerp(f_metal, self.metallic) * (d * ggx.v(wo, wi))
             }
         };
         (diffuse + specular) * wi.z
@@ -293,11 +312,20 @@ impl GltfBrdf {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p_specular = self.specular_probability(wo);
+        let h = (wo + wi).normalize();
+        self.pdf_at(&self.terms(wo), wo, wi, self.ggx().d(h))
+    }
+
+    /// [`GltfBrdf::pdf`] for wo and wi above the surface, given wo's terms and D(h): the
+    /// visible-normal reflection's density ([`Ggx::reflection_pdf_with`]) and the cosine's,
+    /// mixed by the lobe probability.
+    #[inline]
+    fn pdf_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, d: f32) -> f32 {
+        let p_specular = o.p_specular;
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => 0.0,
-            false => p_specular * ggx.reflection_pdf(wo, wi),
+            false => p_specular * ggx.reflection_pdf_with(wo, d),
         };
         specular + (1.0 - p_specular) * wi.z * std::f32::consts::FRAC_1_PI
     }

@@ -103,7 +103,14 @@ impl Ggx {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        self.g1(wo) * self.d(h) / (4.0 * wo.z)
+        self.reflection_pdf_with(wo, self.d(h))
+    }
+
+    /// [`Ggx::reflection_pdf`] given D of the half vector: G1(wo) D(h) / (4 n·wo), the density
+    /// of visible normals (Heitz 2018, eq. 3) times the reflection's Jacobian 1 / (4 wo·h).
+    #[inline]
+    pub fn reflection_pdf_with(&self, wo: Vec3, d_h: f32) -> f32 {
+        self.g1(wo) * d_h / (4.0 * wo.z)
     }
 }
 
