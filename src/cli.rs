@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use crate::accel::{Backend, BuildQuality};
 use crate::integrators::{Hemisphere, IntegratorKind, Strategy};
 use crate::render::adaptive::ErrorMetric;
+use crate::render::passes::Pass;
 use crate::render::DEFAULT_MIN_PASS_SECONDS;
 use crate::sampling::SamplerKind;
 use crate::shading::lights::TriangleSampling;
@@ -238,6 +239,12 @@ pub struct Args {
     /// glTF alpha coverage do (for comparisons with them).
     #[arg(long)]
     pub no_alpha: bool,
+
+    /// Render passes written as layers of the EXR beside the beauty, comma-separated:
+    /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z); each the pixel's mean
+    /// over its samples of the camera ray's first hit (README, "Render passes").
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    pub passes: Vec<Pass>,
 
     /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
     /// an RGB EXR, for statistical comparisons.

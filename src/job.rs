@@ -19,6 +19,7 @@ use crate::integrators::{
 };
 use crate::render::adaptive::ErrorMetric;
 use crate::render::output::{self, OutputError};
+use crate::render::passes::Pass;
 use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
@@ -66,6 +67,8 @@ pub struct Job {
     /// Write the PNG preview.
     pub png: bool,
     /// Also write each pixel's variance of the mean here.
+    /// The passes written beside the beauty (`--passes`), each once, in a fixed order.
+    pub passes: Vec<Pass>,
     pub variance: Option<PathBuf>,
     /// Also write each pixel's sample count here.
     pub spp_image: Option<PathBuf>,
@@ -251,6 +254,7 @@ impl Job {
             scene: args.scene.clone(),
             output,
             png: !args.no_png,
+            passes: crate::render::passes::canonical(&args.passes),
             variance: args.variance.clone(),
             spp_image: args.spp_image.clone(),
             threads: args.threads,

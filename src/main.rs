@@ -142,6 +142,8 @@ fn run(args: Args) -> Result<Outcome> {
     // Render, writing checkpoints on the way when asked to.
     let ctx = strata::integrators::Context {
         experiments: job.experiments,
+        // The film sums the first hit's features only for passes that are asked for.
+        features: !job.passes.is_empty(),
         ..prepared.context(&scene, &accel)
     };
     let settings = job.render_settings(&view);
@@ -149,7 +151,7 @@ fn run(args: Args) -> Result<Outcome> {
     let header = output::header_attributes(&job, &accel.describe());
     let write_images = |film: &Film, state: Vec<(String, Attr)>| -> Result<()> {
         let attrs = [header.clone(), state].concat();
-        output::write_exr(&job.output, film, &attrs)?;
+        output::write_exr(&job.output, film, &job.passes, &attrs)?;
         if let Some(v) = &job.variance {
             output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
         }

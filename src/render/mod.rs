@@ -26,6 +26,7 @@ pub mod culling;
 mod emitters;
 pub mod film;
 pub mod output;
+pub mod passes;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};

@@ -6,8 +6,12 @@ use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use exr::prelude::{AttributeValue, Encoding, Image, SpecificChannels, Text};
+use exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes,
+    LayerAttributes, SmallVec, SpecificChannels, Text, WritableImage,
+};
 
+use super::passes::Pass;
 use super::{Film, RenderResult};
 use crate::integrators::Integrator;
 use crate::job::Job;
@@ -106,9 +110,68 @@ pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
     }
 }
 
-/// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header.
-pub fn write_exr(path: &Path, film: &Film, attrs: &[(String, Attr)]) -> Result<(), OutputError> {
-    write_rgb_exr(path, film.width, film.height, &film.pixels(), attrs)
+/// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header, and
+/// `passes` as layers beside the beauty ([`super::passes`]; the film must keep features when
+/// any is asked for).
+pub fn write_exr(
+    path: &Path,
+    film: &Film,
+    passes: &[Pass],
+    attrs: &[(String, Attr)],
+) -> Result<(), OutputError> {
+    if passes.is_empty() {
+        return write_rgb_exr(path, film.width, film.height, &film.pixels(), attrs);
+    }
+    if !film.keeps_features() {
+        return Err(err(
+            path,
+            "passes asked for, but the render kept no features",
+        ));
+    }
+    let (w, h) = (film.width, film.height);
+    let pixels = film.pixels();
+    let plane = |value: &dyn Fn(u32, u32) -> f32| -> Vec<f32> {
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| value(x, y))
+            .collect()
+    };
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    for (i, name) in ["R", "G", "B"].into_iter().enumerate() {
+        let values = plane(&|x, y| pixels[(y * w + x) as usize][i]);
+        channels.push(AnyChannel::new(name, FlatSamples::F32(values)));
+    }
+    let mut attrs = attrs.to_vec();
+    for &pass in passes {
+        for (i, c) in pass.channels().iter().enumerate() {
+            let values = plane(&|x, y| pass.values(film, x, y)[i]);
+            let name = format!("{}.{c}", pass.layer());
+            channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
+        }
+        attrs.push((
+            format!("strata:pass:{}", pass.layer()),
+            Attr::Text(pass.description().into()),
+        ));
+    }
+    let names: Vec<&str> = passes.iter().map(|p| p.layer()).collect();
+    attrs.push(("strata:passes".into(), Attr::Text(names.join(","))));
+    let mut image = Image::from_encoded_channels(
+        (w as usize, h as usize),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    set_attributes(
+        path,
+        &mut image.layer_data.attributes,
+        &mut image.attributes,
+        &attrs,
+    )?;
+    write_atomically(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| format!("cannot write the EXR: {e}"))
+    })
 }
 
 /// Writes row-major RGB `pixels` (top row first) as a float32 EXR with `attrs` in the header.
@@ -129,8 +192,28 @@ pub fn write_rgb_exr(
         Encoding::SMALL_LOSSLESS,
         channels,
     );
-    image.layer_data.attributes.software_name =
-        Text::new_or_none(format!("strata {}", env!("CARGO_PKG_VERSION")));
+    set_attributes(
+        path,
+        &mut image.layer_data.attributes,
+        &mut image.attributes,
+        attrs,
+    )?;
+    write_atomically(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| format!("cannot write the EXR: {e}"))
+    })
+}
+
+/// Puts strata's software name and `attrs` in an image's header.
+fn set_attributes(
+    path: &Path,
+    layer: &mut LayerAttributes,
+    image: &mut ImageAttributes,
+    attrs: &[(String, Attr)],
+) -> Result<(), OutputError> {
+    layer.software_name = Text::new_or_none(format!("strata {}", env!("CARGO_PKG_VERSION")));
     for (name, value) in attrs {
         let key = Text::new_or_none(name)
             .ok_or_else(|| err(path, format!("attribute name {name:?} is not ASCII")))?;
@@ -141,15 +224,9 @@ pub fn write_rgb_exr(
             Attr::Int(i) => AttributeValue::I32(*i),
             Attr::Float(f) => AttributeValue::F32(*f),
         };
-        image.attributes.other.insert(key, value);
+        image.other.insert(key, value);
     }
-    write_atomically(path, |tmp| {
-        use exr::prelude::WritableImage;
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| format!("cannot write the EXR: {e}"))
-    })
+    Ok(())
 }
 
 /// The header attributes that record how an image was rendered: the scene, the integrator

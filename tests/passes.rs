@@ -1,0 +1,226 @@
+//! Render passes through the binary (`--passes`): one EXR holds the beauty as R, G, B and each
+//! pass under OpenEXR's `layer.channel` names, with header attributes saying what each layer
+//! is. A plane of known colour seen head-on by an orthographic camera at a known distance:
+//! its albedo layer is the base colour, its normal layer the plane's normal, its depth layer
+//! the distance, in every pixel; and keeping the passes changes no bit of the beauty.
+
+mod common;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use common::*;
+use serde_json::json;
+
+const BASE: [f32; 3] = [0.2, 0.4, 0.6];
+/// The camera's height above the plane.
+const HEIGHT: f32 = 2.5;
+
+/// A 4 × 4 square in the plane z = 0 facing +z, of base colour [`BASE`] (metallic 0), and an
+/// orthographic camera at z = [`HEIGHT`] looking down −z whose view, x and y in [−1, 1], the
+/// square fills.
+fn plane_scene(dir: &Path) -> std::path::PathBuf {
+    let h = 2.0f32;
+    let positions = [[-h, h, 0.0], [-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0f32]];
+    let indices: [u32; 6] = [0, 1, 2, 0, 2, 3];
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let index_offset = bin.len();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 0.0, HEIGHT]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {
+            "baseColorFactor": [BASE[0], BASE[1], BASE[2], 1.0], "metallicFactor": 0.0}}],
+        "cameras": [{"type": "orthographic",
+            "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.01, "zfar": 100.0}}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [-h, -h, 0.0], "max": [h, h, 0.0]},
+            {"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": index_offset},
+            {"buffer": 0, "byteOffset": index_offset, "byteLength": bin.len() - index_offset}
+        ],
+        "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
+    });
+    let path = dir.join("plane.gltf");
+    std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+    path
+}
+
+/// Every channel of the EXR's one part, by name, and its text attributes.
+fn read_channels(path: &Path) -> (HashMap<String, Vec<f32>>, HashMap<String, String>) {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path).unwrap();
+    assert_eq!(image.layer_data.len(), 1, "one part");
+    let layer = &image.layer_data[0];
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let values = match &c.sample_data {
+                FlatSamples::F32(v) => v.clone(),
+                other => panic!("{}: not float32: {other:?}", c.name),
+            };
+            (c.name.to_string(), values)
+        })
+        .collect();
+    let texts = layer
+        .attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    (channels, texts)
+}
+
+fn render_plane(dir: &Path, out: &Path, passes: Option<&str>) {
+    let scene = plane_scene(dir);
+    let mut args = vec![
+        s(&scene),
+        "-o",
+        s(out),
+        "--resolution",
+        "16x16",
+        "--spp",
+        "8",
+        "--background",
+        "1,1,1",
+        "--no-png",
+    ];
+    if let Some(p) = passes {
+        args.extend(["--passes", p]);
+    }
+    render(dir, &args).assert_success();
+}
+
+#[test]
+fn passes_are_layers_of_the_exr_with_the_planes_colour_normal_and_distance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let with = tmp.path().join("with.exr");
+    // Asked out of order and twice: written once each, in a fixed order.
+    render_plane(tmp.path(), &with, Some("depth,albedo,normal,depth"));
+    let (channels, texts) = read_channels(&with);
+    let mut names: Vec<&str> = channels.keys().map(|k| k.as_str()).collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "depth.Z", "normal.X", "normal.Y",
+            "normal.Z"
+        ]
+    );
+    assert_eq!(texts["strata:passes"], "albedo,normal,depth");
+    for layer in ["albedo", "normal", "depth"] {
+        assert!(
+            texts.contains_key(&format!("strata:pass:{layer}")),
+            "no description of {layer}"
+        );
+    }
+    let pixels = 16 * 16;
+    for (i, c) in ["albedo.R", "albedo.G", "albedo.B"].into_iter().enumerate() {
+        assert_eq!(channels[c].len(), pixels);
+        assert!(
+            channels[c].iter().all(|&v| v == BASE[i]),
+            "{c}: {:?}",
+            &channels[c][..4]
+        );
+    }
+    for (c, n) in [("normal.X", 0.0), ("normal.Y", 0.0), ("normal.Z", 1.0)] {
+        assert!(
+            channels[c].iter().all(|&v| (v - n).abs() < 1e-6),
+            "{c}: {:?}",
+            &channels[c][..4]
+        );
+    }
+    assert!(
+        channels["depth.Z"]
+            .iter()
+            .all(|&d| (d - HEIGHT).abs() < 1e-5),
+        "depth: {:?}",
+        &channels["depth.Z"][..4]
+    );
+
+    // Negative controls: the same render without passes has the beauty alone, bit for bit
+    // the same.
+    let without = tmp.path().join("without.exr");
+    render_plane(tmp.path(), &without, None);
+    let (plain, plain_texts) = read_channels(&without);
+    let mut plain_names: Vec<&str> = plain.keys().map(|k| k.as_str()).collect();
+    plain_names.sort();
+    assert_eq!(plain_names, ["B", "G", "R"]);
+    assert!(!plain_texts.contains_key("strata:passes"));
+    for c in ["R", "G", "B"] {
+        assert_eq!(plain[c], channels[c], "{c} changed by keeping the passes");
+    }
+    // The plane is lit (the white background): the beauty is not its albedo.
+    assert!(plain["R"].iter().any(|&v| v != BASE[0]));
+}
+
+#[test]
+fn pixels_that_see_nothing_have_zero_albedo_and_infinite_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = plane_scene(tmp.path());
+    let out = tmp.path().join("sky.exr");
+    // The camera turned half a turn about x: it looks up +z, away from the plane, and every
+    // camera ray meets nothing.
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
+    doc["nodes"][1]["rotation"] = json!([1.0, 0.0, 0.0, 0.0]);
+    let sky = tmp.path().join("sky.gltf");
+    std::fs::write(&sky, serde_json::to_vec(&doc).unwrap()).unwrap();
+    render(
+        tmp.path(),
+        &[
+            s(&sky),
+            "-o",
+            s(&out),
+            "--resolution",
+            "8x8",
+            "--spp",
+            "4",
+            "--background",
+            "0.5,0.5,0.5",
+            "--passes",
+            "albedo,normal,depth",
+            "--no-png",
+        ],
+    )
+    .assert_success();
+    let (channels, _) = read_channels(&out);
+    assert!(channels["R"].iter().all(|&v| v == 0.5), "the background");
+    for c in [
+        "albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y", "normal.Z",
+    ] {
+        assert!(channels[c].iter().all(|&v| v == 0.0), "{c}");
+    }
+    assert!(channels["depth.Z"]
+        .iter()
+        .all(|d| d.is_infinite() && *d > 0.0));
+}
+
+#[test]
+fn an_unknown_pass_is_refused_naming_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = plane_scene(tmp.path());
+    let out = tmp.path().join("x.exr");
+    let run = render(
+        tmp.path(),
+        &[s(&scene), "-o", s(&out), "--passes", "albedo,cryptomatte"],
+    );
+    assert!(!run.status.success());
+    assert!(run.stderr.contains("cryptomatte"), "{}", run.stderr);
+    assert!(!out.exists());
+}
