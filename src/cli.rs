@@ -8,6 +8,7 @@ use crate::accel::{Backend, BuildQuality};
 use crate::integrators::{Hemisphere, IntegratorKind, Strategy};
 use crate::render::adaptive::ErrorMetric;
 use crate::render::passes::Pass;
+use crate::render::view::ViewTransform;
 use crate::render::DEFAULT_MIN_PASS_SECONDS;
 use crate::sampling::SamplerKind;
 use crate::shading::lights::TriangleSampling;
@@ -258,6 +259,20 @@ pub struct Args {
     /// Do not write the PNG preview beside the EXR.
     #[arg(long)]
     pub no_png: bool,
+
+    /// The PNG preview's view transform: agx (highlights roll off, as Blender 4 shows by
+    /// default) or standard (clamped sRGB). The EXR stays linear.
+    #[arg(long, value_name = "VIEW", default_value_t = ViewTransform::Agx)]
+    pub view: ViewTransform,
+
+    /// Scale the PNG preview's radiance by 2^EV before its view transform.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub exposure: f32,
 
     /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
     /// same; for measuring what packets gain)

@@ -20,6 +20,7 @@ use crate::integrators::{
 use crate::render::adaptive::ErrorMetric;
 use crate::render::output::{self, OutputError};
 use crate::render::passes::Pass;
+use crate::render::view::ViewTransform;
 use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
@@ -66,6 +67,9 @@ pub struct Job {
     pub output: PathBuf,
     /// Write the PNG preview.
     pub png: bool,
+    /// The PNG preview's view transform and exposure (`--view`, `--exposure`).
+    pub view: ViewTransform,
+    pub exposure: f32,
     /// Also write each pixel's variance of the mean here.
     /// The passes written beside the beauty (`--passes`), each once, in a fixed order.
     pub passes: Vec<Pass>,
@@ -190,6 +194,9 @@ impl Job {
                 args.env_intensity
             );
         }
+        if !args.exposure.is_finite() {
+            refuse!("--exposure must be a finite number of stops");
+        }
         if !args.env_rotate.is_finite() {
             refuse!("--env-rotate must be a finite number of degrees");
         }
@@ -254,6 +261,8 @@ impl Job {
             scene: args.scene.clone(),
             output,
             png: !args.no_png,
+            view: args.view,
+            exposure: args.exposure,
             passes: crate::render::passes::canonical(&args.passes),
             variance: args.variance.clone(),
             spp_image: args.spp_image.clone(),

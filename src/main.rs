@@ -185,7 +185,8 @@ fn run(args: Args) -> Result<Outcome> {
     let t_write = Instant::now();
     write_images(&result.film, output::result_attributes(&job, &result))?;
     if job.png {
-        output::write_png(&job.output.with_extension("png"), &result.film)?;
+        let display = strata::render::view::Display::new(job.view, job.exposure);
+        output::write_png(&job.output.with_extension("png"), &result.film, &display)?;
     }
     let write_time = t_write.elapsed();
 

@@ -860,3 +860,65 @@ fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
         "direct light under a white sky beside a wall: {mean}"
     );
 }
+
+/// The PNG preview is the EXR's linear radiance through the view transform (`--view`,
+/// `--exposure`): each byte is the view's encoding of the EXR's pixel, and the two views
+/// differ where the image is bright.
+#[test]
+fn the_png_preview_is_the_exr_through_its_view() {
+    use strata::render::view::{Display, ViewTransform};
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let mut pngs = Vec::new();
+    for (view, exposure) in [("standard", "0"), ("agx", "0"), ("agx", "1.5")] {
+        let out = tmp.path().join(format!("{view}-{exposure}.exr"));
+        let run = render(
+            tmp.path(),
+            &[
+                s(&scene),
+                "-o",
+                s(&out),
+                "--resolution",
+                "24x24",
+                "--spp",
+                "8",
+                "--view",
+                view,
+                "--exposure",
+                exposure,
+            ],
+        );
+        run.assert_success();
+        let (_, _, px) = read_exr_rgb(&out).unwrap();
+        let png = image::open(out.with_extension("png")).unwrap().to_rgb8();
+        let transform = match view {
+            "standard" => ViewTransform::Standard,
+            _ => ViewTransform::Agx,
+        };
+        let display = Display::new(transform, exposure.parse().unwrap());
+        for (p, q) in px.iter().zip(png.pixels()) {
+            let want = display.encode(glam::Vec3::from_array(*p)).to_array();
+            for (w, got) in want.iter().zip(q.0) {
+                assert!(
+                    (w * 255.0 + 0.5) as u8 == got,
+                    "{view} {exposure}: pixel {p:?} gave {q:?}, want {want:?}"
+                );
+            }
+        }
+        pngs.push(png);
+    }
+    assert_ne!(pngs[0], pngs[1], "the views differ");
+    assert_ne!(pngs[1], pngs[2], "the exposure changes the preview");
+    let bad = render(
+        tmp.path(),
+        &[
+            s(&scene),
+            "-o",
+            s(&tmp.path().join("x.exr")),
+            "--exposure",
+            "inf",
+        ],
+    );
+    assert!(!bad.status.success());
+    assert_one_error_line(&bad.stderr, &["--exposure"]);
+}

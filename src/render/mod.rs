@@ -27,6 +27,7 @@ mod emitters;
 pub mod film;
 pub mod output;
 pub mod passes;
+pub mod view;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};

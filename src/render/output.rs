@@ -12,6 +12,7 @@ use exr::prelude::{
 };
 
 use super::passes::Pass;
+use super::view::Display;
 use super::{Film, RenderResult};
 use crate::integrators::Integrator;
 use crate::job::Job;
@@ -247,6 +248,12 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
         ("strata:spp".into(), Attr::Int(job.spp as i32)),
         ("strata:seed".into(), Attr::Text(job.seed.to_string())),
         ("strata:backend".into(), Attr::Text(backend.to_string())),
+        // What the PNG preview beside the EXR shows (the EXR itself stays linear).
+        (
+            "strata:preview_view".into(),
+            Attr::Text(job.view.to_string()),
+        ),
+        ("strata:preview_exposure".into(), Attr::Float(job.exposure)),
     ];
     if let Some(e) = job.target_error {
         attrs.push(("strata:target_error".into(), Attr::Float(e)));
@@ -363,27 +370,14 @@ pub fn result_attributes(job: &Job, result: &RenderResult) -> Vec<(String, Attr)
     attrs
 }
 
-/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1].
-pub fn linear_to_srgb(v: f32) -> f32 {
-    let v = if v.is_finite() {
-        v.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Writes an 8-bit sRGB preview of the film (clamped, no tone mapping).
-pub fn write_png(path: &Path, film: &Film) -> Result<(), OutputError> {
+/// Writes the film's preview PNG (8-bit sRGB) through `display` (the view transform and
+/// exposure, [`super::view`]).
+pub fn write_png(path: &Path, film: &Film, display: &Display) -> Result<(), OutputError> {
     let data: Vec<u8> = film
         .pixels()
         .iter()
-        .flat_map(|p| p.to_array())
-        .map(|v| (linear_to_srgb(v) * 255.0 + 0.5) as u8)
+        .flat_map(|&p| display.encode(p).to_array())
+        .map(|v| (v * 255.0 + 0.5) as u8)
         .collect();
     write_atomically(path, |tmp| {
         image::save_buffer_with_format(
@@ -446,11 +440,13 @@ mod tests {
             "strata:spp",
             "strata:seed",
             "strata:backend",
+            "strata:preview_view",
+            "strata:preview_exposure",
         ];
         let ao = names(&["--integrator", "ao"]);
-        assert_eq!(ao[..6], common);
+        assert_eq!(ao[..8], common);
         assert_eq!(
-            ao[6..],
+            ao[8..],
             [
                 "strata:hemisphere",
                 "strata:ao_distance",
@@ -466,7 +462,7 @@ mod tests {
             "9",
         ]);
         assert_eq!(
-            path[6..],
+            path[8..],
             [
                 "strata:target_error",
                 "strata:min_spp",
