@@ -16,44 +16,90 @@ const BASE: [f32; 3] = [0.2, 0.4, 0.6];
 /// The camera's height above the plane.
 const HEIGHT: f32 = 2.5;
 
-/// A 4 × 4 square in the plane z = 0 facing +z, of base colour [`BASE`] (metallic 0), and an
-/// orthographic camera at z = [`HEIGHT`] looking down −z whose view, x and y in [−1, 1], the
-/// square fills.
-fn plane_scene(dir: &Path) -> std::path::PathBuf {
-    let h = 2.0f32;
-    let positions = [[-h, h, 0.0], [-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0f32]];
-    let indices: [u32; 6] = [0, 1, 2, 0, 2, 3];
-    let mut bin: Vec<u8> = positions
-        .iter()
-        .flatten()
-        .flat_map(|f| f.to_le_bytes())
-        .collect();
-    let index_offset = bin.len();
-    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+/// A square of half-width `half` in the plane z = `z`, facing +z (`up`) or −z, of material
+/// `material`.
+struct Square {
+    z: f32,
+    half: f32,
+    up: bool,
+    material: u32,
+}
+
+/// A glTF of `squares` with `materials` and an orthographic camera at z = [`HEIGHT`]
+/// looking down −z whose view is x and y in [−1, 1], written to `dir/name`.
+fn squares_scene(
+    dir: &Path,
+    name: &str,
+    squares: &[Square],
+    materials: Vec<serde_json::Value>,
+) -> std::path::PathBuf {
+    let mut bin: Vec<u8> = Vec::new();
+    let (mut accessors, mut views, mut meshes, mut nodes) = (vec![], vec![], vec![], vec![]);
+    for (i, sq) in squares.iter().enumerate() {
+        let (h, z) = (sq.half, sq.z);
+        let positions = [[-h, h, z], [-h, -h, z], [h, -h, z], [h, h, z]];
+        // Counter-clockwise seen from the side the square faces.
+        let indices: [u32; 6] = match sq.up {
+            true => [0, 1, 2, 0, 2, 3],
+            false => [0, 2, 1, 0, 3, 2],
+        };
+        for bytes in [
+            positions
+                .iter()
+                .flatten()
+                .flat_map(|f| f.to_le_bytes())
+                .collect::<Vec<u8>>(),
+            indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+        ] {
+            views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+            bin.extend(bytes);
+        }
+        accessors.push(
+            json!({"bufferView": 2 * i, "componentType": 5126, "count": 4,
+            "type": "VEC3", "min": [-h, -h, z], "max": [h, h, z]}),
+        );
+        accessors.push(
+            json!({"bufferView": 2 * i + 1, "componentType": 5125, "count": 6,
+            "type": "SCALAR"}),
+        );
+        meshes.push(json!({"primitives": [{"attributes": {"POSITION": 2 * i},
+            "indices": 2 * i + 1, "material": sq.material}]}));
+        nodes.push(json!({"mesh": i}));
+    }
+    nodes.push(json!({"camera": 0, "translation": [0.0, 0.0, HEIGHT]}));
     let doc = json!({
         "asset": {"version": "2.0"},
         "scene": 0,
-        "scenes": [{"nodes": [0, 1]}],
-        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 0.0, HEIGHT]}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
-        "materials": [{"pbrMetallicRoughness": {
-            "baseColorFactor": [BASE[0], BASE[1], BASE[2], 1.0], "metallicFactor": 0.0}}],
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
         "cameras": [{"type": "orthographic",
             "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.01, "zfar": 100.0}}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-             "min": [-h, -h, 0.0], "max": [h, h, 0.0]},
-            {"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"}
-        ],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": index_offset},
-            {"buffer": 0, "byteOffset": index_offset, "byteLength": bin.len() - index_offset}
-        ],
+        "accessors": accessors,
+        "bufferViews": views,
         "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
     });
-    let path = dir.join("plane.gltf");
+    let path = dir.join(name);
     std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
     path
+}
+
+fn material(base: [f32; 3], metallic: f32, roughness: f32) -> serde_json::Value {
+    json!({"pbrMetallicRoughness": {"baseColorFactor": [base[0], base[1], base[2], 1.0],
+        "metallicFactor": metallic, "roughnessFactor": roughness}})
+}
+
+/// A 4 × 4 square in the plane z = 0 facing +z, of base colour [`BASE`] (metallic 0), which
+/// the camera's view fills.
+fn plane_scene(dir: &Path) -> std::path::PathBuf {
+    let plane = Square {
+        z: 0.0,
+        half: 2.0,
+        up: true,
+        material: 0,
+    };
+    squares_scene(dir, "plane.gltf", &[plane], vec![material(BASE, 0.0, 1.0)])
 }
 
 /// Every channel of the EXR's one part, by name, and its text attributes.
@@ -223,4 +269,61 @@ fn an_unknown_pass_is_refused_naming_it() {
     assert!(!run.status.success());
     assert!(run.stderr.contains("cryptomatte"), "{}", run.stderr);
     assert!(!out.exists());
+}
+
+/// The albedo pass follows perfect mirrors to what they show, as Open Image Denoise asks: a
+/// white mirror (metallic 1, roughness 0) facing the camera shows the red wall behind the
+/// camera, and its albedo is the wall's colour, while its normal and depth stay the mirror's.
+/// A rough mirror (roughness 0.3, not a delta lobe) keeps its own albedo: the negative control.
+#[test]
+fn the_albedo_pass_sees_through_perfect_mirrors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let red = [0.8, 0.1, 0.1];
+    for (roughness, want) in [(0.0, red), (0.3, [1.0, 1.0, 1.0])] {
+        let mirror = Square {
+            z: 0.0,
+            half: 2.0,
+            up: true,
+            material: 0,
+        };
+        let wall = Square {
+            z: 2.0 * HEIGHT,
+            half: 4.0,
+            up: false,
+            material: 1,
+        };
+        let name = format!("mirror-{roughness}.gltf");
+        let materials = vec![material([1.0; 3], 1.0, roughness), material(red, 0.0, 1.0)];
+        let scene = squares_scene(tmp.path(), &name, &[mirror, wall], materials);
+        let out = tmp.path().join(format!("mirror-{roughness}.exr"));
+        render(
+            tmp.path(),
+            &[
+                s(&scene),
+                "-o",
+                s(&out),
+                "--resolution",
+                "8x8",
+                "--spp",
+                "4",
+                "--passes",
+                "albedo,normal,depth",
+                "--no-png",
+            ],
+        )
+        .assert_success();
+        let (channels, _) = read_channels(&out);
+        for (i, c) in ["albedo.R", "albedo.G", "albedo.B"].into_iter().enumerate() {
+            assert!(
+                channels[c].iter().all(|&v| (v - want[i]).abs() < 1e-5),
+                "roughness {roughness}: {c} {:?}, want {}",
+                &channels[c][..4],
+                want[i]
+            );
+        }
+        assert!(channels["normal.Z"].iter().all(|&v| (v - 1.0).abs() < 1e-6));
+        assert!(channels["depth.Z"]
+            .iter()
+            .all(|&d| (d - HEIGHT).abs() < 1e-5));
+    }
 }

@@ -311,17 +311,14 @@ impl Integrator {
         }
     }
 
-    /// The features of a camera ray's first hit: the BSDF's albedo (white for AO, which
-    /// shades every surface so), the shading normal facing the camera, and the distance along
-    /// the ray.
+    /// The features of a camera ray's first hit: the albedo a denoiser takes
+    /// ([`denoising_albedo`]; white for AO, which shades every surface so), the shading
+    /// normal facing the camera, and the distance along the ray.
     fn features(&self, ctx: &Context, ray: &Ray, hit: &Hit) -> Features {
         let si = SurfaceInteraction::from_hit(ctx.scene, ray, hit);
         let albedo = match self {
             Integrator::Ao(_) => Vec3::ONE,
-            _ => {
-                let uv = ctx.materials.uv(ctx.scene, &si);
-                ctx.materials.bsdf(ctx.scene, &si, uv).bsdf.albedo()
-            }
+            _ => denoising_albedo(ctx, &si),
         };
         Features {
             albedo,
@@ -360,4 +357,37 @@ impl Integrator {
             }
         })
     }
+}
+
+/// Perfect mirrors followed by [`denoising_albedo`] before it gives up and takes the
+/// mirror's own reflectance.
+const MIRROR_BOUNCES: u32 = 4;
+
+/// The albedo a denoiser takes for the surface point `si` a camera ray met (Open Image
+/// Denoise asks for the first non-specular hit's): its BSDF's reflectance, except where the
+/// BSDF is a perfect mirror (delta lobes only), which shows what it reflects: there, the
+/// mirror's weight times the albedo of the surface it shows, through up to
+/// [`MIRROR_BOUNCES`] mirrors; a reflection that leaves the scene counts as white.
+fn denoising_albedo(ctx: &Context, si: &SurfaceInteraction) -> Vec3 {
+    let mut weight = Vec3::ONE;
+    let mut si = *si;
+    for bounce in 0..=MIRROR_BOUNCES {
+        let uv = ctx.materials.uv(ctx.scene, &si);
+        let bsdf = ctx.materials.bsdf(ctx.scene, &si, uv);
+        let flags = bsdf.flags();
+        if flags.has_non_specular() || bounce == MIRROR_BOUNCES {
+            return weight * bsdf.bsdf.albedo();
+        }
+        // A delta lobe's direction does not depend on the point drawn.
+        let Some(s) = bsdf.sample(glam::Vec2::splat(0.5)) else {
+            return weight * bsdf.bsdf.albedo();
+        };
+        weight *= s.f_cos / s.pdf;
+        let ray = si.spawn_ray_with(s.wi, f32::INFINITY, ctx.experiments.ray_offset);
+        match ctx.accel.intersect(&ray) {
+            Some(hit) => si = SurfaceInteraction::from_hit(ctx.scene, &ray, &hit),
+            None => return weight,
+        }
+    }
+    weight
 }

@@ -4,7 +4,7 @@
 //!
 //! | pass     | channels                          | each pixel                                   |
 //! |----------|-----------------------------------|----------------------------------------------|
-//! | `albedo` | `albedo.R`, `albedo.G`, `albedo.B` | the mean over its samples of the first hit's BSDF reflectance (a miss adds 0) |
+//! | `albedo` | `albedo.R`, `albedo.G`, `albedo.B` | the mean over its samples of the first hit's BSDF reflectance, through perfect mirrors to what they show (a miss adds 0) |
 //! | `normal` | `normal.X`, `normal.Y`, `normal.Z` | the mean of the first hit's world-space shading normal, on the side the camera sees (a miss adds 0; not renormalised) |
 //! | `depth`  | `depth.Z`                          | the mean distance from the camera to the first hit over the samples that hit; `inf` where none did |
 //!
@@ -52,7 +52,7 @@ impl Pass {
     pub fn description(self) -> &'static str {
         match self {
             Pass::Albedo => {
-                "first-hit BSDF reflectance, linear RGB, mean over the pixel's samples (a miss adds 0)"
+                "first non-mirror hit's BSDF reflectance (times the mirrors' on the way), linear RGB, mean over the pixel's samples (a miss adds 0)"
             }
             Pass::Normal => {
                 "first-hit shading normal, world space, facing the camera, mean over the pixel's samples (a miss adds 0)"
