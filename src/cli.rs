@@ -242,8 +242,9 @@ pub struct Args {
     pub no_alpha: bool,
 
     /// Render passes written as layers of the EXR beside the beauty, comma-separated:
-    /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z); each the pixel's mean
-    /// over its samples of the camera ray's first hit (README, "Render passes").
+    /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z), position
+    /// (position.X/Y/Z), uv (uv.U/V); each the pixel's mean over its samples of the camera
+    /// ray's first hit (README, "Render passes").
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub passes: Vec<Pass>,
 

@@ -38,32 +38,37 @@ fn squares_scene(
     for (i, sq) in squares.iter().enumerate() {
         let (h, z) = (sq.half, sq.z);
         let positions = [[-h, h, z], [-h, -h, z], [h, -h, z], [h, h, z]];
+        // TEXCOORD_0: (0, 0) at the top-left corner, u along +x, v along −y.
+        let uvs = [[0.0f32, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
         // Counter-clockwise seen from the side the square faces.
         let indices: [u32; 6] = match sq.up {
             true => [0, 1, 2, 0, 2, 3],
             false => [0, 2, 1, 0, 3, 2],
         };
-        for bytes in [
-            positions
-                .iter()
-                .flatten()
-                .flat_map(|f| f.to_le_bytes())
-                .collect::<Vec<u8>>(),
-            indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
-        ] {
+        let floats = |v: &[[f32; 3]]| -> Vec<u8> {
+            v.iter().flatten().flat_map(|f| f.to_le_bytes()).collect()
+        };
+        let uv_bytes: Vec<u8> = uvs.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        for bytes in [floats(&positions), index_bytes, uv_bytes] {
             views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
             bin.extend(bytes);
         }
+        let v = 3 * i;
+        accessors.push(json!({"bufferView": v, "componentType": 5126, "count": 4,
+            "type": "VEC3", "min": [-h, -h, z], "max": [h, h, z]}));
         accessors.push(
-            json!({"bufferView": 2 * i, "componentType": 5126, "count": 4,
-            "type": "VEC3", "min": [-h, -h, z], "max": [h, h, z]}),
-        );
-        accessors.push(
-            json!({"bufferView": 2 * i + 1, "componentType": 5125, "count": 6,
+            json!({"bufferView": v + 1, "componentType": 5125, "count": 6,
             "type": "SCALAR"}),
         );
-        meshes.push(json!({"primitives": [{"attributes": {"POSITION": 2 * i},
-            "indices": 2 * i + 1, "material": sq.material}]}));
+        accessors.push(
+            json!({"bufferView": v + 2, "componentType": 5126, "count": 4,
+            "type": "VEC2"}),
+        );
+        meshes.push(
+            json!({"primitives": [{"attributes": {"POSITION": v, "TEXCOORD_0": v + 2},
+            "indices": v + 1, "material": sq.material}]}),
+        );
         nodes.push(json!({"mesh": i}));
     }
     nodes.push(json!({"camera": 0, "translation": [0.0, 0.0, HEIGHT]}));
@@ -325,5 +330,40 @@ fn the_albedo_pass_sees_through_perfect_mirrors() {
         assert!(channels["depth.Z"]
             .iter()
             .all(|&d| (d - HEIGHT).abs() < 1e-5));
+    }
+}
+
+/// The position and UV passes of the plane: at each pixel, the point its samples meet (z = 0,
+/// x and y the pixel centre's, within the samples' spread) and the plane's TEXCOORD_0 there
+/// (u = (x + 2)/4, v = (2 − y)/4). Position z = 0, not the camera's height: not the depth.
+#[test]
+fn position_and_uv_passes_follow_the_plane() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("pos.exr");
+    render_plane(tmp.path(), &out, Some("position,uv"));
+    let (channels, texts) = read_channels(&out);
+    assert_eq!(texts["strata:passes"], "position,uv");
+    let size = 16;
+    for py in 0..size {
+        for px in 0..size {
+            let i = (py * size + px) as usize;
+            // The orthographic view spans x, y in [−1, 1].
+            let x = -1.0 + 2.0 * (px as f32 + 0.5) / size as f32;
+            let y = 1.0 - 2.0 * (py as f32 + 0.5) / size as f32;
+            let got = [
+                channels["position.X"][i],
+                channels["position.Y"][i],
+                channels["position.Z"][i],
+            ];
+            assert!(
+                (got[0] - x).abs() < 0.03 && (got[1] - y).abs() < 0.03 && got[2].abs() < 1e-6,
+                "pixel ({px}, {py}): position {got:?}, centre ({x}, {y}, 0)"
+            );
+            let (u, v) = (channels["uv.U"][i], channels["uv.V"][i]);
+            assert!(
+                (u - (x + 2.0) / 4.0).abs() < 0.01 && (v - (2.0 - y) / 4.0).abs() < 0.01,
+                "pixel ({px}, {py}): uv ({u}, {v})"
+            );
+        }
     }
 }

@@ -180,6 +180,10 @@ pub struct Features {
     pub normal: Vec3,
     /// The distance from the camera ray's origin to the hit.
     pub depth: f32,
+    /// The world-space point hit.
+    pub position: Vec3,
+    /// Its interpolated TEXCOORD_0 (zero where the scene has none).
+    pub uv: glam::Vec2,
 }
 
 /// Which integrator renders the image.
@@ -320,10 +324,22 @@ impl Integrator {
             Integrator::Ao(_) => Vec3::ONE,
             _ => denoising_albedo(ctx, &si),
         };
+        // TEXCOORD_0 whether or not a material reads a texture (Materials::uv skips it then).
+        let [a, b, c] = ctx.scene.triangles[hit.prim as usize];
+        let uv = match ctx.scene.uvs.is_empty() {
+            true => glam::Vec2::ZERO,
+            false => {
+                (1.0 - hit.u - hit.v) * ctx.scene.uvs[a as usize]
+                    + hit.u * ctx.scene.uvs[b as usize]
+                    + hit.v * ctx.scene.uvs[c as usize]
+            }
+        };
         Features {
             albedo,
             normal: si.ns,
             depth: hit.t * ray.dir.length(),
+            position: si.p,
+            uv,
         }
     }
 

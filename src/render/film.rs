@@ -1,7 +1,7 @@
 //! The film: per-pixel sums of sample values and sample counts, box-filtered (a sample
 //! contributes to its own pixel only, like Mitsuba's `box` reconstruction filter).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A sample whose value was NaN or infinite, kept out of the film and reported.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,11 +33,14 @@ pub struct Film {
     features: Option<Vec<FeatureTotals>>,
 }
 
-/// A pixel's sums of its samples' first-hit features: albedo (0–2), shading normal (3–5)
-/// and depth (6) over the samples whose camera ray met a surface, and their number (7).
-/// Albedo and normal are averaged over all of the pixel's samples (a miss adds zero), depth
-/// over the samples that hit.
-pub type FeatureTotals = [f64; 8];
+/// The slots of [`FeatureTotals`].
+pub const FEATURE_SLOTS: usize = 13;
+
+/// A pixel's sums of its samples' first-hit features: albedo (0–2), shading normal (3–5),
+/// depth (6), position (8–10) and texture coordinates (11–12) over the samples whose camera
+/// ray met a surface, and their number (7). Albedo and normal are averaged over all of the
+/// pixel's samples (a miss adds zero), depth, position and UV over the samples that hit.
+pub type FeatureTotals = [f64; FEATURE_SLOTS];
 
 /// A pixel's mean first-hit features ([`Film::features`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,6 +51,10 @@ pub struct PixelFeatures {
     pub depth: f32,
     /// The fraction of its samples whose camera ray met a surface.
     pub coverage: f32,
+    /// The mean world-space point its samples met (zero where none met one).
+    pub position: Vec3,
+    /// The mean TEXCOORD_0 there (zero where none met a surface, or the scene has none).
+    pub uv: Vec2,
 }
 
 /// Adds a sample's first-hit features (None: its ray met nothing) to a pixel's totals.
@@ -55,7 +62,19 @@ pub struct PixelFeatures {
 pub fn add_features(totals: &mut FeatureTotals, features: Option<crate::integrators::Features>) {
     if let Some(f) = features {
         let values = [
-            f.albedo.x, f.albedo.y, f.albedo.z, f.normal.x, f.normal.y, f.normal.z, f.depth, 1.0,
+            f.albedo.x,
+            f.albedo.y,
+            f.albedo.z,
+            f.normal.x,
+            f.normal.y,
+            f.normal.z,
+            f.depth,
+            1.0,
+            f.position.x,
+            f.position.y,
+            f.position.z,
+            f.uv.x,
+            f.uv.y,
         ];
         for (t, v) in totals.iter_mut().zip(values) {
             *t += v as f64;
@@ -200,7 +219,7 @@ impl Film {
     pub fn feature_totals(&self, x: u32, y: u32) -> FeatureTotals {
         self.features
             .as_ref()
-            .map_or([0.0; 8], |f| f[self.index(x, y)])
+            .map_or([0.0; FEATURE_SLOTS], |f| f[self.index(x, y)])
     }
 
     /// Pixel (x, y)'s mean first-hit features; None where the film keeps none or the pixel
@@ -212,6 +231,7 @@ impl Film {
             return None;
         }
         let v = |i: usize| (f[i] / n) as f32;
+        let hit = |i: usize| (f[i] / f[7]) as f32;
         Some(PixelFeatures {
             albedo: Vec3::new(v(0), v(1), v(2)),
             normal: Vec3::new(v(3), v(4), v(5)),
@@ -221,6 +241,14 @@ impl Film {
                 f32::INFINITY
             },
             coverage: (f[7] / n) as f32,
+            position: match f[7] > 0.0 {
+                true => Vec3::new(hit(8), hit(9), hit(10)),
+                false => Vec3::ZERO,
+            },
+            uv: match f[7] > 0.0 {
+                true => Vec2::new(hit(11), hit(12)),
+                false => Vec2::ZERO,
+            },
         })
     }
 

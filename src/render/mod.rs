@@ -43,7 +43,9 @@ use crate::scene::{Camera, RayGenerator};
 use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
-pub use film::{BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals};
+pub use film::{
+    BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals, FEATURE_SLOTS,
+};
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
 /// few percent each for sweeping the image again.
@@ -305,7 +307,7 @@ impl TileSums {
         TileSums {
             data: vec![([0f64; 3], [0f64; 3], 0); n],
             features: if features {
-                vec![[0f64; 8]; n]
+                vec![[0f64; FEATURE_SLOTS]; n]
             } else {
                 Vec::new()
             },
@@ -477,7 +479,7 @@ fn render_tile(
             let mut feature_acc: [FeatureTotals; PACKET] =
                 std::array::from_fn(|i| match lanes.get(i) {
                     Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
-                    _ => [0.0; 8],
+                    _ => [0.0; FEATURE_SLOTS],
                 });
             // A block that cannot see the scene (`mask`) takes the estimate of a miss for
             // each of its samples, untraced and unsampled: the sums a traced miss would have

@@ -7,6 +7,8 @@
 //! | `albedo` | `albedo.R`, `albedo.G`, `albedo.B` | the mean over its samples of the first hit's BSDF reflectance, through perfect mirrors to what they show (a miss adds 0) |
 //! | `normal` | `normal.X`, `normal.Y`, `normal.Z` | the mean of the first hit's world-space shading normal, on the side the camera sees (a miss adds 0; not renormalised) |
 //! | `depth`  | `depth.Z`                          | the mean distance from the camera to the first hit over the samples that hit; `inf` where none did |
+//! | `position` | `position.X`, `position.Y`, `position.Z` | the mean world-space point hit, over the samples that hit; 0 where none did |
+//! | `uv`     | `uv.U`, `uv.V`                      | the mean TEXCOORD_0 at the hit, over the samples that hit; 0 where none did (or the scene has none) |
 //!
 //! Every pass is averaged over the pixel's samples like the beauty, so a pixel on an
 //! object's outline holds a blend of both sides (what a denoiser expects of its auxiliary
@@ -25,6 +27,10 @@ pub enum Pass {
     Normal,
     /// The camera's distance to the first hit.
     Depth,
+    /// The world-space point hit.
+    Position,
+    /// TEXCOORD_0 at the hit.
+    Uv,
 }
 
 crate::display_as_value_name!(Pass);
@@ -36,6 +42,8 @@ impl Pass {
             Pass::Albedo => "albedo",
             Pass::Normal => "normal",
             Pass::Depth => "depth",
+            Pass::Position => "position",
+            Pass::Uv => "uv",
         }
     }
 
@@ -45,6 +53,8 @@ impl Pass {
             Pass::Albedo => &["R", "G", "B"],
             Pass::Normal => &["X", "Y", "Z"],
             Pass::Depth => &["Z"],
+            Pass::Position => &["X", "Y", "Z"],
+            Pass::Uv => &["U", "V"],
         }
     }
 
@@ -60,6 +70,12 @@ impl Pass {
             Pass::Depth => {
                 "distance from the camera to the first hit, scene units, mean over the samples that hit; inf where none did"
             }
+            Pass::Position => {
+                "world-space point of the first hit, scene units, mean over the samples that hit; 0 where none did"
+            }
+            Pass::Uv => {
+                "TEXCOORD_0 at the first hit, mean over the samples that hit; 0 where none did"
+            }
         }
     }
 
@@ -72,6 +88,8 @@ impl Pass {
             (Pass::Albedo, Some(f)) => v3(f.albedo),
             (Pass::Normal, Some(f)) => v3(f.normal),
             (Pass::Depth, Some(f)) => [f.depth, 0.0, 0.0],
+            (Pass::Position, Some(f)) => v3(f.position),
+            (Pass::Uv, Some(f)) => [f.uv.x, f.uv.y, 0.0],
             (Pass::Depth, None) => [f32::INFINITY, 0.0, 0.0],
             (_, None) => [0.0; 3],
         }
