@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use exr::prelude::{
     AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes,
-    LayerAttributes, SmallVec, SpecificChannels, Text, WritableImage,
+    LayerAttributes, SmallVec, Text, WritableImage,
 };
 
 use super::passes::Pass;
@@ -120,8 +120,9 @@ pub fn write_exr(
     passes: &[Pass],
     attrs: &[(String, Attr)],
 ) -> Result<(), OutputError> {
+    let mut channels = rgb_channels(&film.pixels());
     if passes.is_empty() {
-        return write_rgb_exr(path, film.width, film.height, &film.pixels(), attrs);
+        return write_channels(path, film.width, film.height, channels, attrs);
     }
     if !film.keeps_features() {
         return Err(err(
@@ -129,23 +130,14 @@ pub fn write_exr(
             "passes asked for, but the render kept no features",
         ));
     }
-    let (w, h) = (film.width, film.height);
-    let pixels = film.pixels();
-    let plane = |value: &dyn Fn(u32, u32) -> f32| -> Vec<f32> {
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| value(x, y))
-            .collect()
-    };
-    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
-    for (i, name) in ["R", "G", "B"].into_iter().enumerate() {
-        let values = plane(&|x, y| pixels[(y * w + x) as usize][i]);
-        channels.push(AnyChannel::new(name, FlatSamples::F32(values)));
-    }
+    // Each pixel's mean features once, row-major like the beauty.
+    let features: Vec<_> = (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| film.features(x, y)))
+        .collect();
     let mut attrs = attrs.to_vec();
     for &pass in passes {
         for (i, c) in pass.channels().iter().enumerate() {
-            let values = plane(&|x, y| pass.values(film, x, y)[i]);
+            let values = features.iter().map(|&f| pass.values(f)[i]).collect();
             let name = format!("{}.{c}", pass.layer());
             channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
         }
@@ -156,23 +148,7 @@ pub fn write_exr(
     }
     let names: Vec<&str> = passes.iter().map(|p| p.layer()).collect();
     attrs.push(("strata:passes".into(), Attr::Text(names.join(","))));
-    let mut image = Image::from_encoded_channels(
-        (w as usize, h as usize),
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    );
-    set_attributes(
-        path,
-        &mut image.layer_data.attributes,
-        &mut image.attributes,
-        &attrs,
-    )?;
-    write_atomically(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| format!("cannot write the EXR: {e}"))
-    })
+    write_channels(path, film.width, film.height, channels, &attrs)
 }
 
 /// Writes row-major RGB `pixels` (top row first) as a float32 EXR with `attrs` in the header.
@@ -183,15 +159,34 @@ pub fn write_rgb_exr(
     pixels: &[glam::Vec3],
     attrs: &[(String, Attr)],
 ) -> Result<(), OutputError> {
-    let row = width as usize;
-    let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
-        let p = pixels[pos.y() * row + pos.x()];
-        (p.x, p.y, p.z)
-    });
+    write_channels(path, width, height, rgb_channels(pixels), attrs)
+}
+
+/// The R, G and B channels of row-major `pixels`.
+fn rgb_channels(pixels: &[glam::Vec3]) -> Vec<AnyChannel<FlatSamples>> {
+    ["R", "G", "B"]
+        .into_iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let values = pixels.iter().map(|p| p[i]).collect();
+            AnyChannel::new(name, FlatSamples::F32(values))
+        })
+        .collect()
+}
+
+/// Writes `channels` (each `width × height` row-major floats) as one part of a ZIP-compressed
+/// EXR, with strata's software name and `attrs` in its header, atomically.
+fn write_channels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    attrs: &[(String, Attr)],
+) -> Result<(), OutputError> {
     let mut image = Image::from_encoded_channels(
         (width as usize, height as usize),
         Encoding::SMALL_LOSSLESS,
-        channels,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     set_attributes(
         path,

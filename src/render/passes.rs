@@ -16,7 +16,9 @@
 
 use glam::Vec3;
 
+#[cfg(doc)]
 use super::Film;
+use super::PixelFeatures;
 
 /// A layer the EXR can hold beside the beauty (`--passes`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, clap::ValueEnum)]
@@ -79,10 +81,9 @@ impl Pass {
         }
     }
 
-    /// The pass's values at pixel (x, y) of `film`, which keeps features; zeros (depth
-    /// `inf`) for a pixel without samples.
-    pub fn values(self, film: &Film, x: u32, y: u32) -> [f32; 3] {
-        let f = film.features(x, y);
+    /// The pass's values for a pixel of mean features `f` ([`Film::features`]; None for a
+    /// pixel without samples): zeros there (depth `inf`).
+    pub fn values(self, f: Option<PixelFeatures>) -> [f32; 3] {
         let v3 = |v: Vec3| v.to_array();
         match (self, f) {
             (Pass::Albedo, Some(f)) => v3(f.albedo),
