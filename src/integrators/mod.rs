@@ -324,22 +324,14 @@ impl Integrator {
             Integrator::Ao(_) => Vec3::ONE,
             _ => denoising_albedo(ctx, &si),
         };
-        // TEXCOORD_0 whether or not a material reads a texture (Materials::uv skips it then).
-        let [a, b, c] = ctx.scene.triangles[hit.prim as usize];
-        let uv = match ctx.scene.uvs.is_empty() {
-            true => glam::Vec2::ZERO,
-            false => {
-                (1.0 - hit.u - hit.v) * ctx.scene.uvs[a as usize]
-                    + hit.u * ctx.scene.uvs[b as usize]
-                    + hit.v * ctx.scene.uvs[c as usize]
-            }
-        };
         Features {
             albedo,
             normal: si.ns,
             depth: hit.t * ray.dir.length(),
             position: si.p,
-            uv,
+            // TEXCOORD_0 whether or not a material reads a texture (Materials::uv skips it
+            // then).
+            uv: ctx.scene.texcoord(hit.prim, hit.u, hit.v),
         }
     }
 

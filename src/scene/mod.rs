@@ -334,6 +334,13 @@ impl Scene {
         ]
     }
 
+    /// TEXCOORD_0 at barycentrics (u, v) of triangle `prim` (zero where the file gives none).
+    #[inline]
+    pub fn texcoord(&self, prim: u32, u: f32, v: f32) -> Vec2 {
+        let [a, b, c] = self.triangles[prim as usize];
+        (1.0 - u - v) * self.uvs[a as usize] + u * self.uvs[b as usize] + v * self.uvs[c as usize]
+    }
+
     /// The shading normal at barycentrics (u, v) of triangle `prim`, or `None` when the
     /// triangle has no usable vertex normals (flat shading).
     #[inline(always)]

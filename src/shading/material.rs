@@ -279,11 +279,7 @@ impl Materials {
         if !self.textured {
             return Vec2::ZERO;
         }
-        let (u, v) = (si.u, si.v);
-        let [a, b, c] = scene.triangles[si.prim as usize];
-        (1.0 - u - v) * scene.uvs[a as usize]
-            + u * scene.uvs[b as usize]
-            + v * scene.uvs[c as usize]
+        scene.texcoord(si.prim, si.u, si.v)
     }
 
     /// True when every material renders as Lambertian reflection ([`MaterialModel::Lambertian`]).
