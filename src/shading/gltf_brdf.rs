@@ -317,7 +317,7 @@ impl GltfBrdf {
     }
 
     /// [`GltfBrdf::pdf`] for wo and wi above the surface, given wo's terms and D(h): the
-    /// visible-normal reflection's density ([`Ggx::reflection_pdf_with`]) and the cosine's,
+    /// visible-normal reflection's density ([`Ggx::reflection_pdf`]) and the cosine's,
     /// mixed by the lobe probability.
     #[inline]
     fn pdf_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, d: f32) -> f32 {
@@ -325,7 +325,7 @@ impl GltfBrdf {
         let ggx = self.ggx();
         let specular = match ggx.is_smooth() {
             true => 0.0,
-            false => p_specular * ggx.reflection_pdf_with(wo, d),
+            false => p_specular * ggx.reflection_pdf(wo, d),
         };
         specular + (1.0 - p_specular) * wi.z * std::f32::consts::FRAC_1_PI
     }

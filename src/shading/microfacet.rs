@@ -95,21 +95,11 @@ impl Ggx {
         Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).normalize()
     }
 
-    /// The density of `wi` = `wo` reflected about a visible normal drawn by
-    /// [`Ggx::sample_visible_normal`]: G1(wo) D(h) / (4 n·wo), h the half vector.
+    /// The density of reflection directions drawn by [`Ggx::sample_visible_normal`] given
+    /// D of the half vector: G1(wo) D(h) / (4 n·wo), the density of visible normals (Heitz
+    /// 2018, eq. 3) times the reflection's Jacobian 1 / (4 wo·h).
     #[inline]
-    pub fn reflection_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wo + wi).normalize();
-        self.reflection_pdf_with(wo, self.d(h))
-    }
-
-    /// [`Ggx::reflection_pdf`] given D of the half vector: G1(wo) D(h) / (4 n·wo), the density
-    /// of visible normals (Heitz 2018, eq. 3) times the reflection's Jacobian 1 / (4 wo·h).
-    #[inline]
-    pub fn reflection_pdf_with(&self, wo: Vec3, d_h: f32) -> f32 {
+    pub fn reflection_pdf(&self, wo: Vec3, d_h: f32) -> f32 {
         self.g1(wo) * d_h / (4.0 * wo.z)
     }
 }
