@@ -204,10 +204,24 @@ fn render_film(
     seed: u64,
     threads: usize,
 ) -> render::Film {
+    render_film_with(path, backend, size, spp, seed, threads, Strategy::Mis)
+}
+
+/// [`render_film`] with the direct integrator's sampling `strategy`.
+fn render_film_with(
+    path: &Path,
+    backend: Backend,
+    size: u32,
+    spp: u32,
+    seed: u64,
+    threads: usize,
+    strategy: Strategy,
+) -> render::Film {
     let scene = load(path);
     let accel = build(&scene, backend);
     let integrator = Integrator::Direct(PathSettings {
         max_depth: 1,
+        strategy,
         ..Default::default()
     });
     let options = ShadingOptions {
@@ -793,12 +807,10 @@ fn floor_under_cut_emitter(
     strategy: Strategy,
     backend: Backend,
 ) -> f64 {
-    let mut emitter = cutout_material(mode, Some(0.5), alpha, textured);
+    let cutoff = (mode == "MASK").then_some(0.5);
+    let mut emitter = cutout_material(mode, cutoff, alpha, textured);
     emitter["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
     emitter["doubleSided"] = json!(true);
-    if mode != "MASK" {
-        emitter.as_object_mut().unwrap().remove("alphaCutoff");
-    }
     let floor = json!({"name": "floor", "pbrMetallicRoughness":
         {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}});
     let doc = gltf(
@@ -818,39 +830,8 @@ fn floor_under_cut_emitter(
     );
     let path = dir.join(format!("cut-emitter-{mode}-{textured}.gltf"));
     std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
-    let scene = load(&path);
-    let accel = build(&scene, backend);
-    let integrator = Integrator::Direct(PathSettings {
-        max_depth: 1,
-        strategy,
-        ..Default::default()
-    });
-    let options = ShadingOptions {
-        environment: Environment::Constant(Vec3::ZERO),
-        ..Default::default()
-    };
-    let prepared = Prepared::with_options(&scene, &path, &integrator, &options).unwrap();
-    let settings = RenderSettings {
-        camera: scene.cameras[0].clone(),
-        crop: None,
-        stopping: Default::default(),
-        width: SIZE,
-        height: SIZE,
-        spp: 64,
-        seed: 5,
-        sampler: SamplerKind::Sobol,
-        integrator,
-        tile_size: 8,
-        min_pass_seconds: 0.0,
-    };
-    let result = render::render(
-        &prepared.context(&scene, &accel),
-        &settings,
-        &render::thread_pool(2).unwrap(),
-        &indicatif::ProgressBar::hidden(),
-        &std::sync::atomic::AtomicBool::new(false),
-    );
-    let pixels = result.film.pixels();
+    let film = render_film_with(&path, backend, SIZE, 64, 5, 2, strategy);
+    let pixels = film.pixels();
     let floor: Vec<f64> = interior_pixels()
         .filter(|&(_, _, opaque)| !textured || !opaque)
         .map(|(px, py, _)| f64::from(pixels[(py * SIZE + px) as usize].x))

@@ -862,8 +862,9 @@ fn path_tracing_without_lights_warns_and_background_lights_the_scene() {
 }
 
 /// The PNG preview is the EXR's linear radiance through the view transform (`--view`,
-/// `--exposure`): each byte is the view's encoding of the EXR's pixel, and the two views
-/// differ where the image is bright.
+/// `--exposure`). The standard view's bytes are checked against the sRGB formula written out
+/// here; AgX's against `Display` (whose curve the unit tests in `render::view` check), which
+/// tests that `--view` and `--exposure` reach the preview; and the two views differ.
 #[test]
 fn the_png_preview_is_the_exr_through_its_view() {
     use strata::render::view::{Display, ViewTransform};
@@ -896,8 +897,16 @@ fn the_png_preview_is_the_exr_through_its_view() {
             _ => ViewTransform::Agx,
         };
         let display = Display::new(transform, exposure.parse().unwrap());
+        // IEC 61966-2-1's transfer function of the clamped value.
+        let srgb = |v: f32| match v.clamp(0.0, 1.0) {
+            v if v <= 0.003_130_8 => 12.92 * v,
+            v => 1.055 * v.powf(1.0 / 2.4) - 0.055,
+        };
         for (p, q) in px.iter().zip(png.pixels()) {
-            let want = display.encode(glam::Vec3::from_array(*p)).to_array();
+            let want = match transform {
+                ViewTransform::Standard => p.map(srgb),
+                ViewTransform::Agx => display.encode(glam::Vec3::from_array(*p)).to_array(),
+            };
             for (w, got) in want.iter().zip(q.0) {
                 assert!(
                     (w * 255.0 + 0.5) as u8 == got,

@@ -137,24 +137,31 @@ fn read_channels(path: &Path) -> (HashMap<String, Vec<f32>>, HashMap<String, Str
     (channels, texts)
 }
 
-fn render_plane(dir: &Path, out: &Path, passes: Option<&str>) {
-    let scene = plane_scene(dir);
+/// Renders `scene` to `out` (no PNG) at `size` × `size` pixels and `spp` samples, with
+/// `extra` options.
+fn render_scene(dir: &Path, scene: &Path, out: &Path, size: u32, spp: u32, extra: &[&str]) {
+    let (resolution, spp) = (format!("{size}x{size}"), spp.to_string());
     let mut args = vec![
-        s(&scene),
+        s(scene),
         "-o",
         s(out),
-        "--resolution",
-        "16x16",
-        "--spp",
-        "8",
-        "--background",
-        "1,1,1",
         "--no-png",
+        "--resolution",
+        &resolution,
     ];
-    if let Some(p) = passes {
-        args.extend(["--passes", p]);
-    }
+    args.extend(["--spp", &spp]);
+    args.extend_from_slice(extra);
     render(dir, &args).assert_success();
+}
+
+/// The plane scene at 16 × 16, 8 spp, under a white background, with `passes` if any.
+fn render_plane(dir: &Path, out: &Path, passes: Option<&str>) {
+    let scene = plane_scene(dir);
+    let mut extra = vec!["--background", "1,1,1"];
+    if let Some(p) = passes {
+        extra.extend(["--passes", p]);
+    }
+    render_scene(dir, &scene, out, 16, 8, &extra);
 }
 
 #[test]
@@ -232,24 +239,13 @@ fn pixels_that_see_nothing_have_zero_albedo_and_infinite_depth() {
     doc["nodes"][1]["rotation"] = json!([1.0, 0.0, 0.0, 0.0]);
     let sky = tmp.path().join("sky.gltf");
     std::fs::write(&sky, serde_json::to_vec(&doc).unwrap()).unwrap();
-    render(
-        tmp.path(),
-        &[
-            s(&sky),
-            "-o",
-            s(&out),
-            "--resolution",
-            "8x8",
-            "--spp",
-            "4",
-            "--background",
-            "0.5,0.5,0.5",
-            "--passes",
-            "albedo,normal,depth",
-            "--no-png",
-        ],
-    )
-    .assert_success();
+    let extra = [
+        "--background",
+        "0.5,0.5,0.5",
+        "--passes",
+        "albedo,normal,depth",
+    ];
+    render_scene(tmp.path(), &sky, &out, 8, 4, &extra);
     let (channels, _) = read_channels(&out);
     assert!(channels["R"].iter().all(|&v| v == 0.5), "the background");
     for c in [
@@ -301,22 +297,14 @@ fn the_albedo_pass_sees_through_perfect_mirrors() {
         let materials = vec![material([1.0; 3], 1.0, roughness), material(red, 0.0, 1.0)];
         let scene = squares_scene(tmp.path(), &name, &[mirror, wall], materials);
         let out = tmp.path().join(format!("mirror-{roughness}.exr"));
-        render(
+        render_scene(
             tmp.path(),
-            &[
-                s(&scene),
-                "-o",
-                s(&out),
-                "--resolution",
-                "8x8",
-                "--spp",
-                "4",
-                "--passes",
-                "albedo,normal,depth",
-                "--no-png",
-            ],
-        )
-        .assert_success();
+            &scene,
+            &out,
+            8,
+            4,
+            &["--passes", "albedo,normal,depth"],
+        );
         let (channels, _) = read_channels(&out);
         for (i, c) in ["albedo.R", "albedo.G", "albedo.B"].into_iter().enumerate() {
             assert!(
