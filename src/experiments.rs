@@ -32,7 +32,7 @@ pub struct Experiments {
     /// Trace camera rays of neighbouring pixels in packets; the hits, so the image, are the
     /// same either way but for a ray that meets an edge shared by two triangles at one
     /// distance, where packet and single-ray traversal may name different triangles (1
-    /// camera ray in 4.9 M on the helmet, BENCHMARKS.md, "Packets").
+    /// camera ray in 4.9 M on the helmet, docs/journal/benchmarks-2026-11.md, "Packets").
     pub camera_packets: bool,
     /// Leave untraced the pixel blocks that cannot see the scene
     /// ([`crate::render::culling::BlockMask`]); the image is the same either way (tested).

@@ -1018,8 +1018,8 @@ fn a_bounce_s_direction_and_the_next_light_point_are_stratified_together() {
 /// padded: the first bounce's point is the same either way, so direct lighting
 /// (`max_depth` 1) gives the same image bit for bit, while deeper paths take other points
 /// for their later bounces (different pixels) that estimate the same light (the same
-/// mean). The variance this saves is measured in BENCHMARKS.md ("Bounces stratified
-/// jointly"); `tests/sampling.rs` checks the points themselves.
+/// mean). The variance this saves is measured in docs/journal/benchmarks-2026-11.md
+/// ("Bounces stratified jointly"); `tests/sampling.rs` checks the points themselves.
 #[test]
 fn later_bounces_take_jointly_stratified_points() {
     let (scene, cam) = floor_lit_through_the_ceiling();

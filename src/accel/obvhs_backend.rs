@@ -139,8 +139,8 @@ impl ObvhsAccel {
     }
 
     // Out of line: inlined into `Accel`'s dispatch, the traversal stack would make every
-    // Embree query pay for a large stack frame (BENCHMARKS.md, "The cost of strata's own
-    // layers").
+    // Embree query pay for a large stack frame (docs/journal/benchmarks-2026-11.md, "The cost of
+    // strata's own layers").
     #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if self.tris.is_empty() {

@@ -30,8 +30,9 @@
 //! less direct-lighting variance on the Cornell box's edges), the others with the direction
 //! that reached their vertex, the pair the one-bounce indirect light depends on (most of a
 //! diffuse scene's noise: 7% less variance on the Cornell box at 256 spp, 11% at 1024). See
-//! BENCHMARKS.md, "Sample layout". `Experiments::paired_bounces` = false pairs each
-//! vertex's own direction and light point instead, the layout before, for comparisons.
+//! docs/journal/benchmarks-2026-11.md, "Sample layout". `Experiments::paired_bounces` =
+//! false pairs each vertex's own direction and light point instead, the layout before, for
+//! comparisons.
 //!
 //! With `sobol`, the bounces' 4D points are not padded apart (each from a sequence of its
 //! own, Burley 2020) but are dimensions of one Sobol sequence, bounce k taking dimensions

@@ -180,7 +180,7 @@ impl AliasTable {
 
 /// How points on emissive triangles are sampled for next-event estimation.
 ///
-/// Measured (BENCHMARKS.md): under a large emitter close to the surface, solid-angle
+/// Measured (docs/journal/benchmarks-2026-11.md, "Emissive triangles"): under a large emitter close to the surface, solid-angle
 /// sampling halves the RMSE at equal spp; on the Cornell box it lowers RMSE by about 1% but
 /// makes the render 57% slower (spherical trigonometry per light sample and per MIS pdf).
 /// Area sampling is the default; choose solid angle for scenes lit by large, near emitters.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Bounces drawn from one Sobol sequence (the default) against bounces padded apart
-# (`render --padded-bounces`): behind BENCHMARKS.md's "Bounces stratified jointly". For each
+# (`render --padded-bounces`): behind docs/journal/benchmarks-2026-11.md's "Bounces stratified jointly". For each
 # path-tracing reference, an spp ladder of both layouts averaged over several seeds; CSV and
 # plots into OUT_DIR/<reference>, and a table of the squared error net of the reference's
 # noise, joint ÷ padded, on standard output.
