@@ -206,6 +206,24 @@ fn is_system_dir(dir: &Path) -> bool {
     default_lib_dirs().iter().any(|d| d == dir)
 }
 
+/// With the `denoise` feature, the `oidn` crate links Open Image Denoise from `OIDN_DIR/lib`;
+/// that private prefix is not on the loader's path either: record it in the binaries.
+fn oidn_run_path() {
+    println!("cargo::rerun-if-env-changed=OIDN_DIR");
+    if env::var_os("CARGO_FEATURE_DENOISE").is_none() {
+        return;
+    }
+    match env::var_os("OIDN_DIR").filter(|d| !d.is_empty()) {
+        Some(dir) => {
+            let lib = PathBuf::from(dir).join("lib");
+            println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
+        }
+        None => println!(
+            "cargo::warning=strata: the denoise feature without OIDN_DIR: Open Image Denoise must be on the loader's path at run time"
+        ),
+    }
+}
+
 fn main() {
     println!("cargo::rustc-check-cfg=cfg(embree3)");
     println!("cargo::rustc-check-cfg=cfg(embree4)");
@@ -241,6 +259,7 @@ fn main() {
         }
     }
     println!("cargo::rustc-link-lib=dylib={}", lib_name(found.major));
+    oidn_run_path();
 
     let bindings = bindgen::Builder::default()
         .header(header.to_string_lossy())

@@ -17,7 +17,13 @@ use crate::shading::MaterialModel;
 /// The options of `render`, one field each; a field's doc comment is its `--help` text, and
 /// `--help` opens with the package's description.
 #[derive(clap::Parser, Debug)]
-#[command(name = "render", version, about, long_about = None)]
+#[command(
+    name = "render",
+    version,
+    about,
+    long_about = None,
+    after_help = "Denoise a strata EXR after the render: render denoise IN.exr [-o OUT.exr] (render denoise --help)"
+)]
 pub struct Args {
     /// The scene: a .gltf (embedded or external buffers) or .glb file.
     pub scene: PathBuf,
@@ -248,6 +254,17 @@ pub struct Args {
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub passes: Vec<Pass>,
 
+    /// Denoise the beauty with Intel Open Image Denoise (a build with the `denoise` feature):
+    /// the EXR's R, G, B are the denoised image, the raw one is kept as the layer `noisy`,
+    /// and the albedo and normal passes the denoiser reads are written too.
+    #[arg(long)]
+    pub denoise: bool,
+
+    /// With --denoise: denoise the albedo and normal passes first and treat them as clean
+    /// (on: final-frame quality), or give them to the denoiser as they are (off: faster).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub denoise_prefilter: OnOff,
+
     /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
     /// an RGB EXR, for statistical comparisons.
     #[arg(long, value_name = "FILE.exr")]
@@ -424,4 +441,45 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
         (Ok(x), Ok(y)) => Ok((x, y)),
         _ => Err(format!("'{s}': expected two pixel coordinates X,Y")),
     }
+}
+
+/// The options of `render denoise`: denoise an EXR that strata wrote (its beauty, guided by
+/// its albedo and normal layers), e.g. a farm's merged image. The output keeps every layer
+/// and header attribute of the input, with R, G, B denoised and the raw beauty in `noisy`;
+/// an input denoised before has its `noisy` layer denoised again.
+#[derive(clap::Parser, Debug)]
+#[command(name = "render denoise", version, long_about = None)]
+pub struct DenoiseArgs {
+    /// The EXR to denoise.
+    pub input: PathBuf,
+
+    /// The denoised EXR (default: the input's name with `-denoised`; may be the input itself).
+    #[arg(short, long, value_name = "FILE.exr")]
+    pub output: Option<PathBuf>,
+
+    /// Denoise the albedo and normal layers first and treat them as clean (on: final-frame
+    /// quality), or give them to the denoiser as they are (off: faster).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub denoise_prefilter: OnOff,
+
+    /// Threads the denoiser may use (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+
+    /// Do not write the PNG preview beside the EXR.
+    #[arg(long)]
+    pub no_png: bool,
+
+    /// The PNG preview's view transform (as `render --view`).
+    #[arg(long, value_name = "VIEW", default_value_t = ViewTransform::Agx)]
+    pub view: ViewTransform,
+
+    /// The PNG preview's exposure in stops (as `render --exposure`).
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub exposure: f32,
 }

@@ -70,9 +70,12 @@ pub struct Job {
     /// The PNG preview's view transform and exposure (`--view`, `--exposure`).
     pub view: ViewTransform,
     pub exposure: f32,
-    /// Also write each pixel's variance of the mean here.
-    /// The passes written beside the beauty (`--passes`), each once, in a fixed order.
+    /// The passes written beside the beauty (`--passes`, and albedo and normal for
+    /// `--denoise`), each once, in a fixed order.
     pub passes: Vec<Pass>,
+    /// Denoise the beauty (`--denoise`) this way; `threads` 0 here: the render's count.
+    pub denoise: Option<crate::denoise::Options>,
+    /// Also write each pixel's variance of the mean here.
     pub variance: Option<PathBuf>,
     /// Also write each pixel's sample count here.
     pub spp_image: Option<PathBuf>,
@@ -194,6 +197,22 @@ impl Job {
                 args.env_intensity
             );
         }
+        // The denoiser reads the albedo and normal passes; they are written too, so that
+        // `render denoise` can denoise the raw image again.
+        let mut passes = args.passes.clone();
+        let denoise = match args.denoise {
+            false => None,
+            true if !crate::denoise::available() => {
+                refuse!("--denoise: {}", crate::denoise::NOT_BUILT)
+            }
+            true => {
+                passes.extend([Pass::Albedo, Pass::Normal]);
+                Some(crate::denoise::Options {
+                    threads: 0,
+                    prefilter: args.denoise_prefilter.is_on(),
+                })
+            }
+        };
         if !args.exposure.is_finite() {
             refuse!("--exposure must be a finite number of stops");
         }
@@ -263,7 +282,8 @@ impl Job {
             png: !args.no_png,
             view: args.view,
             exposure: args.exposure,
-            passes: crate::render::passes::canonical(&args.passes),
+            passes: crate::render::passes::canonical(&passes),
+            denoise,
             variance: args.variance.clone(),
             spp_image: args.spp_image.clone(),
             threads: args.threads,

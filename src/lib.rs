@@ -25,6 +25,7 @@ pub(crate) use display_as_value_name;
 pub mod accel;
 pub mod cli;
 pub mod convergence;
+pub mod denoise;
 pub mod embree;
 pub mod experiments;
 pub mod integrators;

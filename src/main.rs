@@ -13,7 +13,7 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use strata::accel::Accel;
-use strata::cli::Args;
+use strata::cli::{Args, DenoiseArgs};
 use strata::integrators::Prepared;
 use strata::job::Job;
 use strata::render::output::{self, Attr};
@@ -29,7 +29,17 @@ enum Outcome {
 }
 
 fn main() -> ExitCode {
-    match run(Args::parse()) {
+    // `render denoise …` is the one subcommand; anything else is a scene to render.
+    let result = match std::env::args_os().nth(1) {
+        Some(a) if a == "denoise" => {
+            let rest = std::env::args_os().skip(2);
+            denoise_file(DenoiseArgs::parse_from(
+                std::iter::once("render denoise".into()).chain(rest),
+            ))
+        }
+        _ => run(Args::parse()),
+    };
+    match result {
         Ok(Outcome::Finished) => ExitCode::SUCCESS,
         Ok(Outcome::Interrupted) => ExitCode::from(130),
         Err(e) => {
@@ -37,6 +47,58 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `render denoise`: denoises an EXR strata wrote ([`strata::denoise::denoise_exr`]).
+fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
+    if !strata::denoise::available() {
+        return Err(anyhow!(strata::denoise::NOT_BUILT));
+    }
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args.input.file_stem().unwrap_or_default().to_string_lossy();
+        args.input.with_file_name(format!("{stem}-denoised.exr"))
+    });
+    output::check_output_path(&output)?;
+    if !args.input.is_file() {
+        return Err(anyhow!("{}: no such file", args.input.display()));
+    }
+    let options = strata::denoise::Options {
+        threads: args.threads,
+        prefilter: args.denoise_prefilter.is_on(),
+    };
+    let report = strata::denoise::denoise_exr(&args.input, &output, &options)?;
+    for w in &report.warnings {
+        eprintln!("warning: {}: {w}", args.input.display());
+    }
+    if args.exposure.is_finite() && !args.no_png {
+        let display = strata::render::view::Display::new(args.view, args.exposure);
+        let (w, h) = (report.width as u32, report.height as u32);
+        output::write_png_pixels(
+            &output.with_extension("png"),
+            w,
+            h,
+            &report.denoised,
+            &display,
+        )?;
+    }
+    println!(
+        "{}: {}×{} denoised{} in {:.3} s{}",
+        output.display(),
+        report.width,
+        report.height,
+        if report.aux {
+            " with its albedo and normal"
+        } else {
+            ""
+        },
+        report.seconds,
+        if report.again {
+            " (the input was denoised before: its noisy layer was denoised again)"
+        } else {
+            ""
+        }
+    );
+    Ok(Outcome::Finished)
 }
 
 /// Ctrl-C: the first stops the render after the tiles in flight and saves the image; the
@@ -149,23 +211,26 @@ fn run(args: Args) -> Result<Outcome> {
     let settings = job.render_settings(&view);
     let progress = progress_bar(&job);
     let header = output::header_attributes(&job, &accel.describe());
-    let write_images = |film: &Film, state: Vec<(String, Attr)>| -> Result<()> {
-        let attrs = [header.clone(), state].concat();
-        output::write_exr(&job.output, film, &job.passes, &attrs)?;
-        if let Some(v) = &job.variance {
-            output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
-        }
-        if let Some(p) = &job.spp_image {
-            output::write_rgb_exr(p, film.width, film.height, &film.count_image(), &attrs)?;
-        }
-        Ok(())
-    };
+    let write_images =
+        |film: &Film, denoised: Option<&[glam::Vec3]>, state: Vec<(String, Attr)>| -> Result<()> {
+            let attrs = [header.clone(), state].concat();
+            output::write_exr(&job.output, film, &job.passes, denoised, &attrs)?;
+            if let Some(v) = &job.variance {
+                output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
+            }
+            if let Some(p) = &job.spp_image {
+                output::write_rgb_exr(p, film.width, film.height, &film.count_image(), &attrs)?;
+            }
+            Ok(())
+        };
     let mut checkpoints = 0u32;
     let mut checkpoint_seconds = 0.0;
     let mut save_checkpoint = |film: &Film, stats: &RenderStats| {
         let t = Instant::now();
+        // Checkpoints are not denoised: they hold the raw beauty.
         match write_images(
             film,
+            None,
             output::film_attributes(film, stats.seconds, false, true),
         ) {
             Ok(()) => checkpoints += 1,
@@ -181,14 +246,45 @@ fn run(args: Args) -> Result<Outcome> {
         render::render_with_checkpoints(&ctx, &settings, &pool, &progress, &cancel, checkpoint);
     progress.finish_and_clear();
 
+    // Denoise. If the denoiser fails, the raw image is still written before the error.
+    let t_denoise = Instant::now();
+    let mut attrs = output::result_attributes(&job, &result);
+    let denoised = job.denoise.map(|options| {
+        let options = strata::denoise::Options { threads, ..options };
+        let denoised = strata::denoise::denoise_film(&result.film, &options);
+        if denoised.is_ok() {
+            let about = strata::denoise::describe(&options, result.film.keeps_features());
+            attrs.push(("strata:denoiser".into(), Attr::Text(about)));
+            let seconds = t_denoise.elapsed().as_secs_f32();
+            attrs.push(("strata:denoise_seconds".into(), Attr::Float(seconds)));
+        }
+        denoised
+    });
+    let denoise_time = t_denoise.elapsed();
+    let (denoised, denoise_error) = match denoised {
+        Some(Err(e)) => (None, Some(e)),
+        Some(Ok(d)) => (Some(d), None),
+        None => (None, None),
+    };
+
     // Write.
     let t_write = Instant::now();
-    write_images(&result.film, output::result_attributes(&job, &result))?;
+    write_images(&result.film, denoised.as_deref(), attrs)?;
     if job.png {
         let display = strata::render::view::Display::new(job.view, job.exposure);
-        output::write_png(&job.output.with_extension("png"), &result.film, &display)?;
+        let pixels = denoised.unwrap_or_else(|| result.film.pixels());
+        let (w, h) = (result.film.width, result.film.height);
+        output::write_png_pixels(&job.output.with_extension("png"), w, h, &pixels, &display)?;
     }
     let write_time = t_write.elapsed();
+    if let Some(e) = denoise_error {
+        return Err(anyhow!(e)).with_context(|| {
+            format!(
+                "{}: written without denoising, because denoising failed",
+                job.output.display()
+            )
+        });
+    }
 
     // Report.
     eprint!("{}", report::bad_samples(&result.stats));
@@ -204,6 +300,7 @@ fn run(args: Args) -> Result<Outcome> {
             load: load_time,
             build: build_time,
             prepare: prepare_time,
+            denoise: denoise_time,
             write: write_time,
         },
         checkpoints,

@@ -21,6 +21,8 @@ pub struct Phases {
     pub build: Duration,
     /// Materials and lights.
     pub prepare: Duration,
+    /// Denoising (`--denoise`; zero without).
+    pub denoise: Duration,
     pub write: Duration,
 }
 
@@ -163,12 +165,16 @@ pub fn stats(run: &Run) -> String {
     );
     let _ = writeln!(
         s,
-        "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.6} s ({} passes), write {:.3} s",
+        "time: load {:.3} s, BVH build {:.3} s, materials and lights {:.3} s, render {:.6} s ({} passes), {}write {:.3} s",
         run.phases.load.as_secs_f64(),
         run.phases.build.as_secs_f64(),
         run.phases.prepare.as_secs_f64(),
         stats.seconds,
         stats.passes,
+        match job.denoise {
+            Some(_) => format!("denoise {:.3} s, ", run.phases.denoise.as_secs_f64()),
+            None => String::new(),
+        },
         run.phases.write.as_secs_f64()
     );
     let scene_memory = scene.memory_estimate.bytes();

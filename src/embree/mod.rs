@@ -1,4 +1,5 @@
-//! A small safe wrapper over Intel Embree (3.13 or 4.x), the only place in strata with `unsafe`.
+//! A small safe wrapper over Intel Embree (3.13 or 4.x): with `crate::denoise`'s FFI module,
+//! the only place in strata with `unsafe`.
 //!
 //! `build.rs` generates the raw bindings (module [`sys`]) from whichever header it found and sets
 //! `cfg(embree3)` or `cfg(embree4)`. The differences between the two APIs (the intersection

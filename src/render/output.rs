@@ -51,7 +51,7 @@ pub fn temp_path(path: &Path) -> PathBuf {
 
 /// Writes through `write` into a temporary file, then renames it to `path`; on any error the
 /// temporary file is removed and `path` is untouched.
-fn write_atomically(
+pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), String>,
 ) -> Result<(), OutputError> {
@@ -113,14 +113,23 @@ pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
 
 /// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header, and
 /// `passes` as layers beside the beauty ([`super::passes`]; the film must keep features when
-/// any is asked for).
+/// any is asked for). With a `denoised` beauty, that is R, G, B and the film's own is the
+/// layer `noisy` (Cycles' "Noisy Image").
 pub fn write_exr(
     path: &Path,
     film: &Film,
     passes: &[Pass],
+    denoised: Option<&[glam::Vec3]>,
     attrs: &[(String, Attr)],
 ) -> Result<(), OutputError> {
-    let mut channels = rgb_channels(&film.pixels());
+    let mut channels = match denoised {
+        None => rgb_channels(&film.pixels()),
+        Some(d) => {
+            let mut c = rgb_channels(d);
+            c.extend(rgb_channels_named(&film.pixels(), NOISY_LAYER));
+            c
+        }
+    };
     if passes.is_empty() {
         return write_channels(path, film.width, film.height, channels, attrs);
     }
@@ -162,14 +171,26 @@ pub fn write_rgb_exr(
     write_channels(path, width, height, rgb_channels(pixels), attrs)
 }
 
+/// The layer that keeps the raw beauty of a denoised image.
+pub const NOISY_LAYER: &str = "noisy";
+
 /// The R, G and B channels of row-major `pixels`.
 fn rgb_channels(pixels: &[glam::Vec3]) -> Vec<AnyChannel<FlatSamples>> {
+    rgb_channels_named(pixels, "")
+}
+
+/// The R, G and B channels of row-major `pixels` in `layer` (`layer.R`, …; "": the beauty's).
+fn rgb_channels_named(pixels: &[glam::Vec3], layer: &str) -> Vec<AnyChannel<FlatSamples>> {
     ["R", "G", "B"]
         .into_iter()
         .enumerate()
-        .map(|(i, name)| {
+        .map(|(i, c)| {
             let values = pixels.iter().map(|p| p[i]).collect();
-            AnyChannel::new(name, FlatSamples::F32(values))
+            let name = match layer {
+                "" => c.to_string(),
+                l => format!("{l}.{c}"),
+            };
+            AnyChannel::new(name.as_str(), FlatSamples::F32(values))
         })
         .collect()
 }
@@ -368,8 +389,18 @@ pub fn result_attributes(job: &Job, result: &RenderResult) -> Vec<(String, Attr)
 /// Writes the film's preview PNG (8-bit sRGB) through `display` (the view transform and
 /// exposure, [`super::view`]).
 pub fn write_png(path: &Path, film: &Film, display: &Display) -> Result<(), OutputError> {
-    let data: Vec<u8> = film
-        .pixels()
+    write_png_pixels(path, film.width, film.height, &film.pixels(), display)
+}
+
+/// Writes row-major linear `pixels` as the PNG preview ([`write_png`]).
+pub fn write_png_pixels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[glam::Vec3],
+    display: &Display,
+) -> Result<(), OutputError> {
+    let data: Vec<u8> = pixels
         .iter()
         .flat_map(|&p| display.encode(p).to_array())
         .map(|v| (v * 255.0 + 0.5) as u8)
@@ -378,8 +409,8 @@ pub fn write_png(path: &Path, film: &Film, display: &Display) -> Result<(), Outp
         image::save_buffer_with_format(
             tmp,
             &data,
-            film.width,
-            film.height,
+            width,
+            height,
             image::ColorType::Rgb8,
             image::ImageFormat::Png,
         )
