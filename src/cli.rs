@@ -249,8 +249,10 @@ pub struct Args {
 
     /// Render passes written as layers of the EXR beside the beauty, comma-separated:
     /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z), position
-    /// (position.X/Y/Z), uv (uv.U/V); each the pixel's mean over its samples of the camera
-    /// ray's first hit (README, "Render passes").
+    /// (position.X/Y/Z), uv (uv.U/V), each the pixel's mean over its samples of the camera
+    /// ray's first hit; object_id, mesh_id, material_id (object_id.ID, ...), the glTF node,
+    /// mesh and material indices of its sample 0's hit, exact, -1 where it met nothing
+    /// (README, "Render passes").
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub passes: Vec<Pass>,
 

@@ -362,6 +362,9 @@ impl Job {
         if self.target_error.is_some() {
             extra += Film::ADAPTIVE_BYTES_PER_PIXEL;
         }
+        if self.passes.iter().any(|p| p.is_id()) {
+            extra += Film::FIRST_HITS_BYTES_PER_PIXEL;
+        }
         if self.checkpoint.is_some() {
             extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
             if self.target_error.is_some() && self.experiments.error_halves {

@@ -151,6 +151,8 @@ fn run(args: Args) -> Result<Outcome> {
     let t_load = Instant::now();
     let scene = scene::load(&job.scene, &job.load_options())?;
     let load_time = t_load.elapsed();
+    render::passes::check_exact(&job.passes, &scene.origins)
+        .map_err(|e| anyhow!("{}: {e}", job.scene.display()))?;
     for w in &scene.load_warnings {
         eprintln!("warning: {}: {w}", job.scene.display());
     }
@@ -204,8 +206,10 @@ fn run(args: Args) -> Result<Outcome> {
     // Render, writing checkpoints on the way when asked to.
     let ctx = strata::integrators::Context {
         experiments: job.experiments,
-        // The film sums the first hit's features only for passes that are asked for.
-        features: !job.passes.is_empty(),
+        // The film sums the first hit's features, and keeps sample 0's triangle, only for
+        // passes that are asked for.
+        features: job.passes.iter().any(|p| !p.is_id()),
+        ids: job.passes.iter().any(|p| p.is_id()),
         ..prepared.context(&scene, &accel)
     };
     let settings = job.render_settings(&view);
@@ -214,7 +218,7 @@ fn run(args: Args) -> Result<Outcome> {
     let write_images =
         |film: &Film, denoised: Option<&[glam::Vec3]>, state: Vec<(String, Attr)>| -> Result<()> {
             let attrs = [header.clone(), state].concat();
-            output::write_exr(&job.output, film, &job.passes, denoised, &attrs)?;
+            output::write_exr(&job.output, film, &job.passes, &scene, denoised, &attrs)?;
             if let Some(v) = &job.variance {
                 output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
             }

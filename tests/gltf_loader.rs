@@ -44,6 +44,8 @@ struct Expected {
     /// Per-vertex normals, for triangles of primitives that have them.
     normals: Vec<Option<[Vec3; 3]>>,
     geometric_normals: Vec<Vec3>,
+    /// The node (`node_index`) and mesh that hold each triangle.
+    origins: Vec<(u32, u32)>,
     tolerance: f32,
 }
 
@@ -52,6 +54,7 @@ fn expected() -> Expected {
     let e: Value = serde_json::from_str(&text).unwrap();
     let tol = e["tolerance"].as_f64().unwrap() as f32;
     let (mut tris, mut normals, mut ngs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut origins = Vec::new();
     for name in e["emission_order"].as_array().unwrap() {
         let node = &e["nodes"][name.as_str().unwrap()];
         for (k, t) in node["triangles"].as_array().unwrap().iter().enumerate() {
@@ -62,6 +65,8 @@ fn expected() -> Expected {
                 [vec3(&vn[0]), vec3(&vn[1]), vec3(&vn[2])]
             }));
             ngs.push(vec3(&node["geometric_normals"][k]));
+            let index = |key: &str| node[key].as_u64().unwrap() as u32;
+            origins.push((index("node_index"), index("mesh")));
         }
     }
     assert_eq!(tris.len() as u64, e["total_triangles"].as_u64().unwrap());
@@ -69,6 +74,7 @@ fn expected() -> Expected {
         triangles: tris,
         normals,
         geometric_normals: ngs,
+        origins,
         tolerance: tol,
     }
 }
@@ -78,6 +84,7 @@ fn check_hierarchy(scene: &Scene) {
         triangles: tris,
         normals,
         geometric_normals: ngs,
+        origins,
         tolerance: tol,
     } = expected();
     assert_eq!(scene.triangles.len(), tris.len(), "triangle count");
@@ -87,6 +94,15 @@ fn check_hierarchy(scene: &Scene) {
         assert!(
             same_triangle(got, *want, tol),
             "triangle {i}: got {got:?}, want {want:?}"
+        );
+        // The document's node and mesh (A and B share mesh 0); both primitives name
+        // material 0.
+        let origin = scene.origin(prim);
+        let (node, mesh) = origins[i];
+        assert_eq!(
+            (origin.node, origin.mesh, origin.material),
+            (Some(node), Some(mesh), Some(0)),
+            "triangle {i}'s origin"
         );
         let ng = (got[1] - got[0]).cross(got[2] - got[0]).normalize();
         assert!(

@@ -105,8 +105,9 @@ pub fn denoise_film(
             let features: Vec<_> = (0..film.height)
                 .flat_map(|y| (0..film.width).map(move |x| film.features(x, y)))
                 .collect();
-            let pass =
-                |p: Pass| -> Vec<f32> { features.iter().flat_map(|&f| p.values(f)).collect() };
+            let pass = |p: Pass| -> Vec<f32> {
+                features.iter().flat_map(|&f| p.values(f, None)).collect()
+            };
             (Some(pass(Pass::Albedo)), Some(pass(Pass::Normal)))
         }
         false => (None, None),

@@ -33,6 +33,9 @@ pub struct Context<'a> {
     /// Fill in each sample's first-hit [`Features`] (for feature layers and denoising);
     /// false, the default, skips their cost.
     pub features: bool,
+    /// Name each sample's first-hit triangle ([`SampleRecord::triangle`], for ID passes);
+    /// false, the default, leaves it None.
+    pub ids: bool,
 }
 
 /// How the scene is shaded, beyond what its file says: the choices a render makes for
@@ -117,6 +120,7 @@ impl Prepared {
             lights: &self.lights,
             experiments: Experiments::default(),
             features: false,
+            ids: false,
         }
     }
 }
@@ -169,6 +173,10 @@ pub struct SampleRecord {
     pub l: Vec3A,
     /// The first hit's features; None for a ray that meets nothing, or when not asked for.
     pub features: Option<Features>,
+    /// The camera ray's first hit's triangle (its index in [`Scene::triangles`], the hit's
+    /// primitive id), which ID passes name by its glTF node, mesh and material; None for a
+    /// ray that meets nothing, or when not asked for ([`Context::ids`]).
+    pub triangle: Option<u32>,
 }
 
 /// The first surface a camera ray meets, as feature layers describe it.
@@ -276,8 +284,8 @@ impl Integrator {
     /// Estimates for the camera rays of a packet, the one way every sample reaches an
     /// integrator: `rays[k]`, with closest hit `hits[k]` (traced by the caller, as a packet
     /// or alone), drawn from `samplers[lanes[k]]`, its record into `out[k]`. Each estimate is
-    /// the one its ray would get alone (see [`ao::li_packet`]); the first hit's features are
-    /// filled in only where `ctx.features` asks for them. Only called when
+    /// the one its ray would get alone (see [`ao::li_packet`]); the first hit's features and
+    /// triangle are filled in only where `ctx.features` and `ctx.ids` ask for them. Only called when
     /// [`Integrator::traces_rays`].
     #[allow(clippy::too_many_arguments)]
     #[inline]
@@ -311,6 +319,11 @@ impl Integrator {
         if ctx.features {
             for k in 0..rays.len() {
                 out[k].features = hits[k].map(|hit| self.features(ctx, &rays[k], &hit));
+            }
+        }
+        if ctx.ids {
+            for k in 0..rays.len() {
+                out[k].triangle = hits[k].map(|hit| hit.prim);
             }
         }
     }

@@ -1,5 +1,7 @@
 //! The film: per-pixel sums of sample values and sample counts, box-filtered (a sample
-//! contributes to its own pixel only, like Mitsuba's `box` reconstruction filter).
+//! contributes to its own pixel only, like Mitsuba's `box` reconstruction filter); where
+//! passes ask, sums of the samples' first-hit features, and the triangle each pixel's sample 0
+//! met (for the exact ID passes).
 
 use glam::{Vec2, Vec3};
 
@@ -31,7 +33,13 @@ pub struct Film {
     /// For feature layers ([`Film::keep_features`]): per pixel, the sums of its samples'
     /// first-hit features.
     features: Option<Vec<FeatureTotals>>,
+    /// For ID passes ([`Film::keep_first_hits`]): per pixel, the triangle that its sample 0's
+    /// camera ray met ([`NO_HIT`] where it met nothing or was not taken).
+    first_hits: Option<Vec<u32>>,
 }
+
+/// A pixel's first hit where its sample 0 met nothing, or has not been taken.
+pub const NO_HIT: u32 = u32::MAX;
 
 /// The slots of [`FeatureTotals`].
 pub const FEATURE_SLOTS: usize = 13;
@@ -117,8 +125,13 @@ fn record_halves(halves: &mut Halves, old: u32, new: u32, sum: [f64; 3]) {
 /// TLB flush interrupts every other render thread: on two threads, 26 000 of them cost a
 /// 1024² path render a tenth of its time.
 fn zeroed_by_writing<T: Default + Clone>(n: usize) -> Vec<T> {
+    filled_by_writing(n, T::default())
+}
+
+/// `n` copies of `value`, written one by one ([`zeroed_by_writing`]).
+fn filled_by_writing<T: Clone>(n: usize, value: T) -> Vec<T> {
     let mut v = Vec::with_capacity(n);
-    v.resize(n, T::default());
+    v.resize(n, value);
     v
 }
 
@@ -131,6 +144,7 @@ pub struct FilmRows<'a> {
     counts: &'a mut [u32],
     halves: Option<&'a mut [Halves]>,
     features: Option<&'a mut [FeatureTotals]>,
+    first_hits: Option<&'a mut [u32]>,
 }
 
 impl FilmRows<'_> {
@@ -153,6 +167,15 @@ impl FilmRows<'_> {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
         if let Some(f) = self.features.as_deref_mut() {
             f[i] = *totals;
+        }
+    }
+
+    /// Replaces pixel (x, y)'s first hit, where the film keeps them.
+    #[inline]
+    pub fn set_first_hit(&mut self, x: u32, y: u32, triangle: u32) {
+        let i = (y - self.y0) as usize * self.width as usize + x as usize;
+        if let Some(h) = self.first_hits.as_deref_mut() {
+            h[i] = triangle;
         }
     }
 }
@@ -197,6 +220,7 @@ impl Film {
             counts: zeroed_by_writing(n),
             halves: None,
             features: None,
+            first_hits: None,
         }
     }
 
@@ -212,6 +236,38 @@ impl Film {
     /// True when the film keeps feature totals.
     pub fn keeps_features(&self) -> bool {
         self.features.is_some()
+    }
+
+    /// The memory [`Film::keep_first_hits`] adds, per pixel: the film's triangle and a
+    /// round's copy of it for its tiles.
+    pub const FIRST_HITS_BYTES_PER_PIXEL: u64 = 8;
+
+    /// Keeps, from now on, the triangle each pixel's sample 0 meets ([`Film::first_hit`]), for
+    /// ID passes: exact, where an average of IDs over the samples would name no object at
+    /// an outline, and the same whatever the thread count, rounds or stopping, since every
+    /// pixel takes its sample 0 first. Call on a new film.
+    pub fn keep_first_hits(&mut self) {
+        self.first_hits = Some(filled_by_writing(self.counts.len(), NO_HIT));
+    }
+
+    /// True when the film keeps first hits.
+    pub fn keeps_first_hits(&self) -> bool {
+        self.first_hits.is_some()
+    }
+
+    /// The triangle pixel (x, y)'s sample 0 met: None where it met nothing, has not been
+    /// taken, or the film keeps no first hits.
+    pub fn first_hit(&self, x: u32, y: u32) -> Option<u32> {
+        let t = self.first_hits.as_ref()?[self.index(x, y)];
+        (t != NO_HIT).then_some(t)
+    }
+
+    /// Pixel (x, y)'s first hit as the film stores it ([`NO_HIT`] where it keeps none).
+    #[inline]
+    pub fn first_hit_raw(&self, x: u32, y: u32) -> u32 {
+        self.first_hits
+            .as_ref()
+            .map_or(NO_HIT, |h| h[self.index(x, y)])
     }
 
     /// Pixel (x, y)'s feature totals (zero where the film keeps none).
@@ -272,6 +328,7 @@ impl Film {
         );
         let mut halves = self.halves.as_deref_mut();
         let mut features = self.features.as_deref_mut();
+        let mut first_hits = self.first_hits.as_deref_mut();
         let mut at = 0u32;
         let mut out = Vec::with_capacity(ranges.len());
         for &(y0, y1) in ranges {
@@ -294,6 +351,11 @@ impl Film {
                 features = Some(rest);
                 f
             });
+            let first = first_hits.take().map(|all| {
+                let (h, rest) = all[skip..].split_at_mut(take);
+                first_hits = Some(rest);
+                h
+            });
             out.push(FilmRows {
                 y0,
                 width: self.width,
@@ -302,6 +364,7 @@ impl Film {
                 counts: c,
                 halves: h,
                 features: f,
+                first_hits: first,
             });
             at = y1;
         }

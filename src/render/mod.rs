@@ -44,7 +44,7 @@ use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
 pub use film::{
-    BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals, FEATURE_SLOTS,
+    BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals, FEATURE_SLOTS, NO_HIT,
 };
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -287,16 +287,26 @@ struct TileSums {
     data: Vec<PixelTotals>,
     /// The same pixels' [`FeatureTotals`], where the film keeps them; empty otherwise.
     features: Vec<FeatureTotals>,
+    /// The same pixels' first hits ([`Film::first_hit`]), where the film keeps them; empty
+    /// otherwise.
+    first_hits: Vec<u32>,
     /// Tile i's sums are `data[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<usize>,
 }
 
-/// A tile's part of [`TileSums`]: its pixels' totals, and their feature totals (empty when
-/// the film keeps none).
-type TileTotals<'a> = (&'a mut [PixelTotals], &'a mut [FeatureTotals]);
+/// A tile's part of [`TileSums`]: its pixels' totals, their feature totals and their first
+/// hits (each empty when the film keeps none).
+type TileTotals<'a> = (
+    &'a mut [PixelTotals],
+    &'a mut [FeatureTotals],
+    &'a mut [u32],
+);
+
+/// A tile's part of [`TileSums`] to read.
+type TileTotalsRef<'a> = (&'a [PixelTotals], &'a [FeatureTotals], &'a [u32]);
 
 impl TileSums {
-    fn new(tiles: &[Tile], features: bool) -> TileSums {
+    fn new(tiles: &[Tile], features: bool, first_hits: bool) -> TileSums {
         let mut offsets = Vec::with_capacity(tiles.len() + 1);
         offsets.push(0);
         for t in tiles {
@@ -311,26 +321,40 @@ impl TileSums {
             } else {
                 Vec::new()
             },
+            first_hits: if first_hits {
+                vec![NO_HIT; n]
+            } else {
+                Vec::new()
+            },
             offsets,
         }
     }
 
-    fn get(&self, tile: usize) -> (&[PixelTotals], &[FeatureTotals]) {
+    fn get(&self, tile: usize) -> TileTotalsRef<'_> {
         let range = self.offsets[tile]..self.offsets[tile + 1];
         let features = match self.features.is_empty() {
             true => &[][..],
             false => &self.features[range.clone()],
         };
-        (&self.data[range], features)
+        let first_hits = match self.first_hits.is_empty() {
+            true => &[][..],
+            false => &self.first_hits[range.clone()],
+        };
+        (&self.data[range], features, first_hits)
     }
 
-    /// The sums of tiles `range`, one mutable pair of slices per tile.
+    /// The sums of tiles `range`, one mutable triple of slices per tile.
     fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<TileTotals<'_>> {
         let all = self.offsets[range.start]..self.offsets[range.end];
         let keep = !self.features.is_empty();
+        let keep_hits = !self.first_hits.is_empty();
         let mut rest = &mut self.data[all.clone()];
         let mut rest_f = match keep {
-            true => &mut self.features[all],
+            true => &mut self.features[all.clone()],
+            false => &mut [][..],
+        };
+        let mut rest_h = match keep_hits {
+            true => &mut self.first_hits[all],
             false => &mut [][..],
         };
         let mut out = Vec::with_capacity(range.len());
@@ -341,7 +365,10 @@ impl TileSums {
             let (features, tail) =
                 std::mem::take(&mut rest_f).split_at_mut(if keep { n } else { 0 });
             rest_f = tail;
-            out.push((tile, features));
+            let (first_hits, tail) =
+                std::mem::take(&mut rest_h).split_at_mut(if keep_hits { n } else { 0 });
+            rest_h = tail;
+            out.push((tile, features, first_hits));
         }
         out
     }
@@ -364,7 +391,7 @@ fn render_tile(
     setup: &TileSetup,
     tile: Tile,
     round: &Round,
-    (sums, features): TileTotals,
+    (sums, features, first_hits): TileTotals,
 ) -> TileResult {
     let TileSetup {
         camera,
@@ -375,8 +402,9 @@ fn render_tile(
     } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
-    // Feature totals, where the film keeps them (`features` is empty otherwise).
+    // Feature totals and first hits, where the film keeps them (empty otherwise).
     let keep_features = !features.is_empty();
+    let keep_first_hits = !first_hits.is_empty();
     let mut out = TileResult {
         rays: RayCounts::default(),
         bad: 0,
@@ -396,6 +424,9 @@ fn render_tile(
                 let pixel = &mut sums[at(x, y)];
                 *pixel = round.film.totals(x, y);
                 let mut pixel_features = round.film.feature_totals(x, y);
+                if keep_first_hits {
+                    first_hits[at(x, y)] = round.film.first_hit_raw(x, y);
+                }
                 for index in samples.0..samples.1 {
                     sampler[0].start(x, y, index);
                     // The first slot places the sample on the film.
@@ -432,6 +463,9 @@ fn render_tile(
                     let l = record[0].l;
                     accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
                     add_features(&mut pixel_features, record[0].features);
+                    if keep_first_hits && index == 0 {
+                        first_hits[at(x, y)] = record[0].triangle.unwrap_or(NO_HIT);
+                    }
                 }
                 pixel.2 += samples.1 - samples.0;
                 if keep_features {
@@ -481,6 +515,15 @@ fn render_tile(
                     Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
                     _ => [0.0; FEATURE_SLOTS],
                 });
+            // Each pixel's first hit: the film's, until its sample 0 is taken. A block that
+            // cannot see the scene, and a packet that misses the scene's box, leave it at
+            // NO_HIT (their samples meet nothing).
+            let mut first_hit_acc = [NO_HIT; PACKET];
+            if keep_first_hits {
+                for (hit, &(x, y, _, _)) in first_hit_acc.iter_mut().zip(lanes) {
+                    *hit = round.film.first_hit_raw(x, y);
+                }
+            }
             // A block that cannot see the scene (`mask`) takes the estimate of a miss for
             // each of its samples, untraced and unsampled: the sums a traced miss would have
             // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, never −0).
@@ -566,6 +609,9 @@ fn render_tile(
                     if keep_features {
                         add_features(&mut feature_acc[lane], record.features);
                     }
+                    if keep_first_hits && a + j == 0 {
+                        first_hit_acc[lane] = record.triangle.unwrap_or(NO_HIT);
+                    }
                 }
             }
             for (lane, (acc, &(x, y, a, b))) in acc.iter_mut().zip(lanes).enumerate() {
@@ -573,6 +619,9 @@ fn render_tile(
                 sums[at(x, y)] = *acc;
                 if keep_features {
                     features[at(x, y)] = feature_acc[lane];
+                }
+                if keep_first_hits {
+                    first_hits[at(x, y)] = first_hit_acc[lane];
                 }
             }
         }
@@ -712,7 +761,7 @@ pub fn render_with_checkpoints(
     let tiles = tiles(window, settings.tile_size);
     // On the pool: its workers' floating-point mode is the one the tiles trace with.
     let setup = pool.install(|| TileSetup::new(ctx, settings));
-    let mut tile_sums = TileSums::new(&tiles, ctx.features);
+    let mut tile_sums = TileSums::new(&tiles, ctx.features, ctx.ids);
     let stopping = settings.stopping;
     let spp = settings.spp;
     // Each round takes every pixel from its count to the next pass end: in a progressive
@@ -745,6 +794,9 @@ pub fn render_with_checkpoints(
     let mut film = Film::new(settings.width, settings.height);
     if ctx.features {
         film.keep_features();
+    }
+    if ctx.ids {
+        film.keep_first_hits();
     }
     if stopping.target_error.is_some() && ctx.experiments.error_halves {
         film.keep_halves();
@@ -996,25 +1048,25 @@ fn merge_round(
 }
 
 /// Writes a tile's round into the film (for a checkpoint's snapshot: one tile at a time).
-fn merge_tile(film: &mut Film, tile: &Tile, sums: (&[PixelTotals], &[FeatureTotals])) {
+fn merge_tile(film: &mut Film, tile: &Tile, sums: TileTotalsRef) {
     let mut rows = film.rows_mut(&[(tile.y0, tile.y1)]);
     write_tile(&mut rows[0], tile, sums);
 }
 
-/// Writes a tile's totals (and feature totals, where kept) after the round into the film
-/// rows that hold it.
-fn write_tile(
-    rows: &mut FilmRows,
-    tile: &Tile,
-    (sums, features): (&[PixelTotals], &[FeatureTotals]),
-) {
+/// Writes a tile's totals (and feature totals and first hits, where kept) after the round
+/// into the film rows that hold it.
+fn write_tile(rows: &mut FilmRows, tile: &Tile, (sums, features, first_hits): TileTotalsRef) {
     let mut pixel = sums.iter();
     let mut pixel_features = features.iter();
+    let mut pixel_first_hits = first_hits.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             rows.set(x, y, *pixel.next().expect("one sum per tile pixel"));
             if let Some(f) = pixel_features.next() {
                 rows.set_features(x, y, f);
+            }
+            if let Some(&h) = pixel_first_hits.next() {
+                rows.set_first_hit(x, y, h);
             }
         }
     }

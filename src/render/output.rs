@@ -16,6 +16,7 @@ use super::view::Display;
 use super::{Film, RenderResult};
 use crate::integrators::Integrator;
 use crate::job::Job;
+use crate::scene::Scene;
 
 /// A header attribute value.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,12 +114,14 @@ pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
 
 /// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header, and
 /// `passes` as layers beside the beauty ([`super::passes`]; the film must keep features when
-/// any is asked for). With a `denoised` beauty, that is R, G, B and the film's own is the
-/// layer `noisy` (Cycles' "Noisy Image").
+/// a feature pass is asked for, first hits when an ID pass is, whose indices come from
+/// `scene`, the scene rendered). With a `denoised` beauty, that is R, G, B and the film's own is
+/// the layer `noisy` (Cycles' "Noisy Image").
 pub fn write_exr(
     path: &Path,
     film: &Film,
     passes: &[Pass],
+    scene: &Scene,
     denoised: Option<&[glam::Vec3]>,
     attrs: &[(String, Attr)],
 ) -> Result<(), OutputError> {
@@ -133,20 +136,34 @@ pub fn write_exr(
     if passes.is_empty() {
         return write_channels(path, film.width, film.height, channels, attrs);
     }
-    if !film.keeps_features() {
+    let ids = passes.iter().any(|p| p.is_id());
+    if passes.iter().any(|p| !p.is_id()) && !film.keeps_features() {
         return Err(err(
             path,
             "passes asked for, but the render kept no features",
         ));
     }
-    // Each pixel's mean features once, row-major like the beauty.
-    let features: Vec<_> = (0..film.height)
-        .flat_map(|y| (0..film.width).map(move |x| film.features(x, y)))
-        .collect();
+    if ids && !film.keeps_first_hits() {
+        return Err(err(
+            path,
+            "ID passes asked for, but the render kept no first hits",
+        ));
+    }
+    // Each pixel's mean features and its first hit's origin once, row-major like the beauty.
+    let pixels = || (0..film.height).flat_map(|y| (0..film.width).map(move |x| (x, y)));
+    let features: Vec<_> = pixels().map(|(x, y)| film.features(x, y)).collect();
+    let origins: Vec<_> = match ids {
+        true => pixels()
+            .map(|(x, y)| film.first_hit(x, y).map(|t| scene.origin(t)))
+            .collect(),
+        false => vec![None; features.len()],
+    };
     let mut attrs = attrs.to_vec();
     for &pass in passes {
         for (i, c) in pass.channels().iter().enumerate() {
-            let values = features.iter().map(|&f| pass.values(f)[i]).collect();
+            let values = (features.iter().zip(&origins))
+                .map(|(&f, &o)| pass.values(f, o)[i])
+                .collect();
             let name = format!("{}.{c}", pass.layer());
             channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
         }

@@ -273,10 +273,18 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         skipped_primitives: 0,
         bad_colors: 0,
     };
+    // The scene's material 0 is glTF's default, which the document does not hold; the
+    // file's material k is the scene's k + 1.
     loader.scene.materials.push(Material::default());
+    loader.scene.origins.materials.push(None);
     for m in gltf.document.materials() {
         let material = loader.material(&m)?;
         loader.scene.materials.push(material);
+        loader
+            .scene
+            .origins
+            .materials
+            .push(m.index().map(|i| i as u32));
     }
     for img in gltf.document.images() {
         let source = loader.image(&gltf.document, img.index(), &base_dir)?;
@@ -757,6 +765,9 @@ impl Loader<'_> {
 
         if let Some(mesh) = node.mesh() {
             for primitive in mesh.primitives() {
+                // The primitive's triangles are appended from here on (ID passes).
+                let first = u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX);
+                (self.scene.origins).start(first, index as u32, mesh.index() as u32);
                 let label = format!("mesh {} primitive {}", mesh.index(), primitive.index());
                 self.primitive(&primitive, &world, &label)?;
             }

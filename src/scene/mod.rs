@@ -6,12 +6,14 @@
 
 mod camera;
 mod gltf_loader;
+mod origins;
 mod tangents;
 
 pub use camera::{Camera, Projection, RayGenerator};
 pub use gltf_loader::{
     format_bytes, load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
 };
+pub use origins::{OriginRun, Origins, TriangleOrigin};
 
 use glam::{Vec2, Vec3, Vec4};
 
@@ -237,6 +239,9 @@ pub struct Scene {
     /// Material index of each triangle.
     pub triangle_materials: Vec<u32>,
     pub materials: Vec<Material>,
+    /// Each triangle's node, mesh and material as the glTF document numbers them, for ID
+    /// passes ([`Scene::origin`]); empty for a scene built in code.
+    pub origins: Origins,
     pub images: Vec<ImageSource>,
     pub lights: Vec<Light>,
     pub cameras: Vec<Camera>,
@@ -321,6 +326,14 @@ impl Scene {
     /// True when a vertex of `tri` has a `COLOR_0` alpha below 1.
     pub fn vertex_alpha_below_one(&self, tri: [u32; 3]) -> bool {
         !self.colors.is_empty() && tri.iter().any(|&v| self.colors[v as usize].w < 1.0)
+    }
+
+    /// Triangle `prim`'s node, mesh and material in the glTF document it was loaded from
+    /// (None each for a scene built in code, and the material of a primitive that names
+    /// none).
+    pub fn origin(&self, prim: u32) -> TriangleOrigin {
+        self.origins
+            .of(prim, self.triangle_materials[prim as usize])
     }
 
     /// Positions of the three vertices of triangle `prim`.
