@@ -365,6 +365,9 @@ impl Job {
         if self.passes.iter().any(|p| p.is_id()) {
             extra += Film::FIRST_HITS_BYTES_PER_PIXEL;
         }
+        if self.passes.iter().any(|p| !p.is_id()) {
+            extra += Film::FEATURES_BYTES_PER_PIXEL;
+        }
         if self.checkpoint.is_some() {
             extra += Film::CHECKPOINT_BYTES_PER_PIXEL;
             if self.target_error.is_some() && self.experiments.error_halves {
@@ -727,5 +730,17 @@ mod tests {
             + Film::CHECKPOINT_BYTES_PER_PIXEL
             + Film::HALVES_BYTES_PER_PIXEL;
         assert_eq!(extra - plain, 100 * 100 * per_pixel);
+    }
+
+    #[test]
+    fn passes_cost_image_memory() {
+        let plain = job(&[]).unwrap().image_memory(100, 100);
+        let with = |passes: &str| job(&["--passes", passes]).unwrap().image_memory(100, 100);
+        // Feature totals: 13 f64 in the film and as many in a round's tiles.
+        assert_eq!(with("depth") - plain, 100 * 100 * 2 * 13 * 8);
+        assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 2 * 13 * 8);
+        // IDs: one u32 triangle index in the film and one in a round's tiles.
+        assert_eq!(with("object_id") - plain, 100 * 100 * 8);
+        assert_eq!(with("depth,mesh_id") - plain, 100 * 100 * (2 * 13 * 8 + 8));
     }
 }

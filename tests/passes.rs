@@ -286,6 +286,39 @@ fn pixels_that_see_nothing_have_zero_albedo_infinite_depth_and_no_ids() {
 }
 
 #[test]
+fn a_scene_that_renders_black_still_gets_its_passes() {
+    // No light and a black background: the beauty is black without tracing for it, but
+    // the passes ask what the camera rays meet, so those are traced.
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = plane_scene(tmp.path());
+    let out = tmp.path().join("black.exr");
+    let passes = [
+        "--background",
+        "0,0,0",
+        "--passes",
+        "albedo,depth,object_id",
+    ];
+    for integrator in ["path", "direct"] {
+        let mut extra = vec!["--integrator", integrator];
+        extra.extend(passes);
+        render_scene(tmp.path(), &scene, &out, 8, 2, &extra);
+        let (c, _) = read_channels(&out);
+        assert!(
+            c["R"].iter().chain(&c["G"]).all(|&v| v == 0.0),
+            "{integrator}: black"
+        );
+        for (i, v) in c["albedo.R"].iter().enumerate() {
+            assert!(
+                (v - BASE[0]).abs() < 1e-6,
+                "{integrator}: albedo {v} at {i}"
+            );
+        }
+        assert!(c["depth.Z"].iter().all(|&d| (d - HEIGHT).abs() < 1e-4));
+        assert!(c["object_id.ID"].iter().all(|&id| id == 0.0));
+    }
+}
+
+#[test]
 fn an_unknown_pass_is_refused_naming_it() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = plane_scene(tmp.path());

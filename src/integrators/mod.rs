@@ -250,10 +250,10 @@ impl Integrator {
     }
 
     /// False when the image is black whatever the rays find (direct or path tracing without
-    /// any emitter): then no ray is traced at all.
+    /// any emitter) and no pass asks what the camera rays meet: then no ray is traced at all.
     #[inline]
     pub fn traces_rays(&self, ctx: &Context) -> bool {
-        !(self.needs_lights() && ctx.lights.is_empty())
+        !(self.needs_lights() && ctx.lights.is_empty()) || ctx.features || ctx.ids
     }
 
     /// The same integrator leaving out the emission its camera ray meets, where the caller

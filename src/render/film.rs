@@ -224,8 +224,9 @@ impl Film {
         }
     }
 
-    /// The memory [`Film::keep_features`] adds, per pixel.
-    pub const FEATURES_BYTES_PER_PIXEL: u64 = 64;
+    /// The memory [`Film::keep_features`] adds, per pixel: the film's feature totals and a
+    /// round's copy of them for its tiles ([`FEATURE_SLOTS`] f64 each).
+    pub const FEATURES_BYTES_PER_PIXEL: u64 = 2 * 8 * FEATURE_SLOTS as u64;
 
     /// Keeps, from now on, each pixel's first-hit feature totals ([`Film::features`]). Call
     /// on a new film.
