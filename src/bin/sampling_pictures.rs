@@ -1,0 +1,360 @@
+//! `sampling-pictures`: strata's sampling routines drawn beside the densities they claim, for a
+//! reader to see what the χ² tests check.
+//!
+//!     cargo build --release
+//!     target/release/sampling-pictures --out docs/sampling
+//!
+//! For each warp from the unit square to directions, it draws `--samples` directions from
+//! independent uniform points (SplitMix64, seeded by `--seed`: the same pictures every run) and
+//! writes one PNG of three panels: the histogram of cos θ beside the pdf of cos θ the warp
+//! claims; the sampled density over the (φ, cos θ) square, an equal-area map of the hemisphere;
+//! and the claimed pdf over the same square, on the same colour scale. The caption gives
+//! Pearson's χ² of the (φ, cos θ) histogram against the pdf (`strata::sampling::chi2`, the
+//! statistics of `tests/sampling.rs`) and its p-value. `summary.csv` lists every picture's
+//! statistic, degrees of freedom and p-value; `tests/sampling_pictures.rs` runs the tool on
+//! fewer samples and checks them, and `--control` adds a picture that must fail (cosine
+//! samples against the uniform pdf).
+//!
+//! Labels need a TrueType font: `$STRATA_FONT`, else DejaVu Sans (`fonts-dejavu-core`).
+
+use std::f64::consts::TAU;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Parser;
+use glam::{Vec2, Vec3};
+use plotters::prelude::*;
+use plotters::style::colors::colormaps::ViridisRGB;
+use strata::plot::{float_label, register_font};
+use strata::sampling::chi2::{chi2_test, Chi2Outcome};
+use strata::sampling::warps;
+
+#[derive(Parser, Debug)]
+#[command(
+    version,
+    about = "Pictures of strata's sampling distributions beside their pdfs"
+)]
+struct Cli {
+    /// Where the PNGs and summary.csv go.
+    #[arg(long, default_value = "docs/sampling")]
+    out: PathBuf,
+
+    /// Directions drawn per picture.
+    #[arg(long, default_value_t = 1_000_000)]
+    samples: usize,
+
+    /// Seed of the uniform points fed to the warps.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+
+    /// Also draw a negative control: cosine-weighted samples against the uniform pdf.
+    #[arg(long)]
+    control: bool,
+}
+
+/// Bins of the (φ, cos θ) histogram, and of the cos θ histogram.
+const PHI_BINS: usize = 64;
+const COS_BINS: usize = 32;
+const HIST_BINS: usize = 40;
+
+/// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014):
+/// independent uniform points, so the pictures show the warps and not a sampler's pattern.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1) on the 2^-24 grid.
+    fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+}
+
+/// A warp to the upper hemisphere and the density it claims.
+struct Warp {
+    /// File name (without .png) and summary name.
+    name: &'static str,
+    title: &'static str,
+    sample: fn(Vec2) -> Vec3,
+    /// The claimed probability of the cell φ ∈ [φ0, φ1), cos θ ∈ [c0, c1) (exact).
+    cell: fn(f64, f64, f64, f64) -> f64,
+    /// The claimed density of cos θ.
+    cos_density: fn(f64) -> f64,
+}
+
+fn uniform_cell(p0: f64, p1: f64, c0: f64, c1: f64) -> f64 {
+    // pdf 1/(2π) per steradian; dω = dφ d(cos θ).
+    (p1 - p0) * (c1 - c0) / TAU
+}
+
+fn cosine_cell(p0: f64, p1: f64, c0: f64, c1: f64) -> f64 {
+    // pdf cos θ / π: ∫ c dc dφ / π = Δφ (c1² − c0²) / (2π).
+    (p1 - p0) * (c1 * c1 - c0 * c0) / TAU
+}
+
+fn warps(control: bool) -> Vec<Warp> {
+    let mut list = vec![
+        Warp {
+            name: "hemisphere-uniform",
+            title: "Uniform hemisphere",
+            sample: warps::square_to_uniform_hemisphere,
+            cell: uniform_cell,
+            cos_density: |_| 1.0,
+        },
+        Warp {
+            name: "hemisphere-cosine",
+            title: "Cosine-weighted hemisphere",
+            sample: warps::square_to_cosine_hemisphere,
+            cell: cosine_cell,
+            cos_density: |c| 2.0 * c,
+        },
+    ];
+    if control {
+        list.push(Warp {
+            name: "control-cosine-as-uniform",
+            title: "Negative control: cosine samples against the uniform pdf",
+            sample: warps::square_to_cosine_hemisphere,
+            cell: uniform_cell,
+            cos_density: |_| 1.0,
+        });
+    }
+    list
+}
+
+/// What one picture measured.
+struct Measured {
+    /// Counts over the (φ, cos θ) grid, row-major by cos θ bin; the last entry counts
+    /// directions outside the hemisphere or not finite.
+    grid: Vec<f64>,
+    /// Counts of cos θ in [`HIST_BINS`] bins.
+    hist: Vec<f64>,
+    expected: Vec<f64>,
+    outcome: std::result::Result<Chi2Outcome, String>,
+}
+
+fn measure(warp: &Warp, samples: usize, seed: u64) -> Measured {
+    let mut rng = SplitMix64(seed);
+    let cells = PHI_BINS * COS_BINS;
+    let mut grid = vec![0.0; cells + 1];
+    let mut hist = vec![0.0; HIST_BINS];
+    for _ in 0..samples {
+        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+        let v = (warp.sample)(u);
+        let c = v.z as f64;
+        if !v.is_finite() || !(0.0..=1.0).contains(&c) {
+            grid[cells] += 1.0;
+            continue;
+        }
+        let mut phi = (v.y as f64).atan2(v.x as f64);
+        if phi < 0.0 {
+            phi += TAU;
+        }
+        let ip = ((phi / TAU * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
+        let ic = ((c * COS_BINS as f64) as usize).min(COS_BINS - 1);
+        grid[ic * PHI_BINS + ip] += 1.0;
+        hist[((c * HIST_BINS as f64) as usize).min(HIST_BINS - 1)] += 1.0;
+    }
+    let mut expected = Vec::with_capacity(cells + 1);
+    for ic in 0..COS_BINS {
+        for ip in 0..PHI_BINS {
+            let (p0, p1) = (
+                ip as f64 * TAU / PHI_BINS as f64,
+                (ip + 1) as f64 * TAU / PHI_BINS as f64,
+            );
+            let (c0, c1) = (
+                ic as f64 / COS_BINS as f64,
+                (ic + 1) as f64 / COS_BINS as f64,
+            );
+            expected.push((warp.cell)(p0, p1, c0, c1) * samples as f64);
+        }
+    }
+    // Outside the hemisphere the pdf is 0: any sample there fails the test.
+    expected.push(0.0);
+    let outcome = chi2_test(&grid, &expected);
+    Measured {
+        grid,
+        hist,
+        expected,
+        outcome,
+    }
+}
+
+fn caption(samples: usize, outcome: &std::result::Result<Chi2Outcome, String>) -> String {
+    match outcome {
+        Ok(o) => format!(
+            "{samples} samples; χ² over the (φ, cos θ) grid = {:.1} with {} dof, p = {}",
+            o.statistic,
+            o.dof,
+            float_label(o.p_value)
+        ),
+        Err(e) => format!("{samples} samples; χ² test refused: {e}"),
+    }
+}
+
+fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
+    anyhow!("plot: {e}")
+}
+
+/// The three panels of `warp`'s picture.
+fn draw(path: &Path, warp: &Warp, samples: usize, m: &Measured) -> Result<()> {
+    let (w, h) = (1500u32, 520u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let root = root
+            .titled(
+                &format!("{} — {}", warp.title, caption(samples, &m.outcome)),
+                ("sans-serif", 20),
+            )
+            .map_err(plot_err)?;
+        let panels = root.split_evenly((1, 3));
+
+        // 1: the histogram of cos θ against its claimed density.
+        let density: Vec<f64> = m
+            .hist
+            .iter()
+            .map(|c| c / samples as f64 * HIST_BINS as f64)
+            .collect();
+        let top = density
+            .iter()
+            .copied()
+            .chain((0..=HIST_BINS).map(|i| (warp.cos_density)(i as f64 / HIST_BINS as f64)))
+            .fold(0.0, f64::max)
+            * 1.1;
+        let mut chart = ChartBuilder::on(&panels[0])
+            .caption(
+                "cos θ: histogram (bars) and claimed density (line)",
+                ("sans-serif", 15),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..1.0, 0.0..top.max(1e-9))
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("cos θ")
+            .y_desc("density")
+            .x_label_formatter(&|v| float_label(*v))
+            .y_label_formatter(&|v| float_label(*v))
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(plot_err)?;
+        let bar = RGBColor(120, 160, 220);
+        chart
+            .draw_series(density.iter().enumerate().map(|(i, &d)| {
+                let (x0, x1) = (
+                    i as f64 / HIST_BINS as f64,
+                    (i + 1) as f64 / HIST_BINS as f64,
+                );
+                Rectangle::new([(x0, 0.0), (x1, d)], bar.filled())
+            }))
+            .map_err(plot_err)?;
+        chart
+            .draw_series(LineSeries::new(
+                (0..=200).map(|i| {
+                    let c = i as f64 / 200.0;
+                    (c, (warp.cos_density)(c))
+                }),
+                BLACK.stroke_width(2),
+            ))
+            .map_err(plot_err)?;
+
+        // 2 and 3: sampled and claimed densities per steradian over (φ, cos θ).
+        let cell_area = TAU / PHI_BINS as f64 / COS_BINS as f64;
+        let per_sr = |counts: &[f64]| -> Vec<f64> {
+            counts[..PHI_BINS * COS_BINS]
+                .iter()
+                .map(|c| c / samples as f64 / cell_area)
+                .collect()
+        };
+        let (sampled, claimed) = (per_sr(&m.grid), per_sr(&m.expected));
+        let max = sampled
+            .iter()
+            .chain(&claimed)
+            .copied()
+            .fold(0.0, f64::max)
+            .max(1e-9);
+        for (panel, values, what) in [
+            (&panels[1], &sampled, "sampled density (per sr)"),
+            (&panels[2], &claimed, "claimed pdf (per sr)"),
+        ] {
+            let title = format!("{what}; colour scale 0 to {}", float_label(max));
+            let mut chart = ChartBuilder::on(panel)
+                .caption(title, ("sans-serif", 15))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d(0.0..TAU, 0.0..1.0)
+                .map_err(plot_err)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc("φ")
+                .y_desc("cos θ")
+                .x_label_formatter(&|v| float_label(*v))
+                .y_label_formatter(&|v| float_label(*v))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(plot_err)?;
+            chart
+                .draw_series(values.iter().enumerate().map(|(i, &v)| {
+                    let (ic, ip) = (i / PHI_BINS, i % PHI_BINS);
+                    let x0 = ip as f64 * TAU / PHI_BINS as f64;
+                    let y0 = ic as f64 / COS_BINS as f64;
+                    let colour = ViridisRGB::get_color((v / max).clamp(0.0, 1.0));
+                    Rectangle::new(
+                        [
+                            (x0, y0),
+                            (x0 + TAU / PHI_BINS as f64, y0 + 1.0 / COS_BINS as f64),
+                        ],
+                        colour.filled(),
+                    )
+                }))
+                .map_err(plot_err)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    let image = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("plot buffer size"))?;
+    image
+        .save(path)
+        .with_context(|| format!("{}: cannot write the picture", path.display()))
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    if cli.samples < 1000 {
+        bail!("--samples must be at least 1000 (a χ² test needs counts)");
+    }
+    std::fs::create_dir_all(&cli.out)
+        .with_context(|| format!("{}: cannot create the directory", cli.out.display()))?;
+    register_font()?;
+    let mut summary = String::from("name,samples,statistic,dof,p_value\n");
+    for (k, warp) in warps(cli.control).iter().enumerate() {
+        // Each picture its own stream of points.
+        let m = measure(warp, cli.samples, cli.seed.wrapping_add(k as u64 * 0x1000));
+        let path = cli.out.join(format!("{}.png", warp.name));
+        draw(&path, warp, cli.samples, &m)?;
+        let (statistic, dof, p) = match &m.outcome {
+            Ok(o) => (o.statistic, o.dof, o.p_value),
+            Err(_) => (f64::INFINITY, 0, 0.0),
+        };
+        writeln!(
+            summary,
+            "{},{},{statistic},{dof},{p:e}",
+            warp.name, cli.samples
+        )?;
+        println!("{}: {}", path.display(), caption(cli.samples, &m.outcome));
+    }
+    let csv = cli.out.join("summary.csv");
+    std::fs::write(&csv, summary).with_context(|| format!("{}: cannot write", csv.display()))?;
+    Ok(())
+}
