@@ -1,7 +1,8 @@
 //! The sampling pictures (`sampling-pictures`, docs/sampling/) cannot go stale or wrong
 //! silently: the tool run on fewer samples must find every histogram consistent with its pdf
 //! by the χ² test it prints in the captions, reject its negative control, and draw the same
-//! numbers for the same seed.
+//! numbers for the same seed; and the pixel samplers' point sets must keep the strata they
+//! claim.
 
 use std::collections::HashMap;
 use std::process::Command;
@@ -56,6 +57,37 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
         p < 1e-9,
         "the control should be rejected: χ² {statistic}, p {p:e}"
     );
+
+    // The point sets: each sampler's claimed strata hold in every cell; independent random
+    // points, judged by the same 8 × 8 cells, do not (the control).
+    let points = std::fs::read_to_string(dir.path().join("points.csv")).unwrap();
+    let mut lines = points.lines();
+    assert_eq!(
+        lines.next(),
+        Some("sampler,pair,claim_holds,zero_m_2_net_holds")
+    );
+    let sets: HashMap<(String, String), (f64, f64)> = lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let key = (f[0].to_string(), f[1].to_string());
+            (key, (f[2].parse().unwrap(), f[3].parse().unwrap()))
+        })
+        .collect();
+    let get = |s: &str, p: &str| sets[&(s.to_string(), p.to_string())];
+    for pair in ["film", "slot3"] {
+        assert_eq!(get("stratified", pair).0, 1.0, "stratified {pair}");
+        assert_eq!(get("sobol", pair).0, 1.0, "sobol {pair}");
+        assert!(
+            get("random", pair).0 < 0.9,
+            "random {pair}: {:?}",
+            get("random", pair)
+        );
+    }
+    // Sobol's dimensions 0–1 (slot 3) are a (0, 6, 2)-net; the film position's 2–3 are not.
+    assert_eq!(get("sobol", "slot3").1, 1.0);
+    assert!(get("sobol", "film").1 < 1.0);
+    let png = image::open(dir.path().join("points.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (900, 1380));
 
     // The same seed draws the same numbers.
     let again = run(&dir.path().join("again"), 200_000);

@@ -15,6 +15,14 @@
 //! fewer samples and checks them, and `--control` adds a picture that must fail (cosine
 //! samples against the uniform pdf).
 //!
+//! `points.png` shows the first samples of one pixel from each sampler (`random`,
+//! `stratified`, `sobol`): the film position (the sample's first slot) and a later slot's 2D
+//! point, with the strata each claims drawn: the correlated multi-jittered cells, rows and
+//! columns; the elementary intervals of a (0, m, 2)-net for Owen-scrambled Sobol.
+//! `points.csv` gives, per sampler and pair, the least fraction of cells over the claimed
+//! strata that hold what is claimed (1 where the claim holds), and the same for the claim of
+//! a (0, 6, 2)-net, which only Sobol's dimensions 0–1 make.
+//!
 //! Labels need a TrueType font: `$STRATA_FONT`, else DejaVu Sans (`fonts-dejavu-core`).
 
 use std::f64::consts::TAU;
@@ -29,6 +37,7 @@ use plotters::style::colors::colormaps::ViridisRGB;
 use strata::plot::{float_label, register_font};
 use strata::sampling::chi2::{chi2_test, Chi2Outcome};
 use strata::sampling::warps;
+use strata::sampling::{PixelSampler, SamplerKind};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -329,6 +338,192 @@ fn draw(path: &Path, warp: &Warp, samples: usize, m: &Measured) -> Result<()> {
         .with_context(|| format!("{}: cannot write the picture", path.display()))
 }
 
+/// Samples of one pixel in the point-set picture (a power of two, a square, and the CMJ grid
+/// 8 × 8).
+const POINTS: u32 = 64;
+const POINTS_LOG2: u32 = 6;
+
+/// The pairs drawn: the film position, and the 2D point of the sample's fourth slot.
+const PAIRS: [(&str, &str); 2] = [("film", "film position"), ("slot3", "slot 3")];
+
+/// `POINTS` samples of pixel (3, 5) from `kind`: the film position and slot 3's point.
+fn pixel_points(kind: SamplerKind, seed: u64) -> [Vec<Vec2>; 2] {
+    let mut sampler = PixelSampler::new(kind, POINTS, seed);
+    let (mut film, mut later) = (Vec::new(), Vec::new());
+    for index in 0..POINTS {
+        sampler.start(3, 5, index);
+        film.push(sampler.next_film());
+        sampler.next_2d();
+        sampler.next_2d();
+        later.push(sampler.next_2d());
+    }
+    [film, later]
+}
+
+/// The fraction of the 2^kx × 2^ky cells of the unit square holding exactly `per_cell` of
+/// `points`.
+fn cells_holding(points: &[Vec2], (kx, ky): (u32, u32), per_cell: u32) -> f64 {
+    let (nx, ny) = (1usize << kx, 1usize << ky);
+    let mut count = vec![0u32; nx * ny];
+    for p in points {
+        let ix = ((p.x as f64 * nx as f64) as usize).min(nx - 1);
+        let iy = ((p.y as f64 * ny as f64) as usize).min(ny - 1);
+        count[iy * nx + ix] += 1;
+    }
+    count.iter().filter(|&&c| c == per_cell).count() as f64 / count.len() as f64
+}
+
+/// What a sampler claims of a pair's points: the cell shapes (log2 columns, log2 rows) that
+/// each hold `per_cell` points, and the claim in words.
+struct Claim {
+    shapes: Vec<(u32, u32)>,
+    per_cell: u32,
+    words: &'static str,
+}
+
+/// The shapes of the elementary intervals of area 2^-k.
+fn intervals(k: u32) -> Vec<(u32, u32)> {
+    (0..=k).map(|i| (i, k - i)).collect()
+}
+
+fn claim(kind: SamplerKind, pair: usize) -> Claim {
+    let half = POINTS_LOG2 / 2;
+    match (kind, pair) {
+        // No claim; judged by the cells of a jittered grid.
+        (SamplerKind::Random, _) => Claim {
+            shapes: vec![(half, half)],
+            per_cell: 1,
+            words: "no strata (8 × 8 cells drawn)",
+        },
+        // Correlated multi-jittered: its grid's cells, and n-rooks columns and rows.
+        (SamplerKind::Stratified, _) => Claim {
+            shapes: vec![(half, half), (POINTS_LOG2, 0), (0, POINTS_LOG2)],
+            per_cell: 1,
+            words: "8 × 8 cells, rows, columns",
+        },
+        // The film position is dimensions 2–3 of the slot's 4D Sobol point, a (1, m, 2)-net:
+        // every elementary interval of area 2^(1-m) holds two points (the sampler keeps
+        // dimensions 0–1, a (0, m, 2)-net, for the value paired with it).
+        (SamplerKind::Sobol, 0) => Claim {
+            shapes: intervals(POINTS_LOG2 - 1),
+            per_cell: 2,
+            words: "(1, 6, 2)-net",
+        },
+        // Dimensions 0–1: a (0, m, 2)-net, every elementary interval of area 2^-m.
+        (SamplerKind::Sobol, _) => Claim {
+            shapes: intervals(POINTS_LOG2),
+            per_cell: 1,
+            words: "(0, 6, 2)-net",
+        },
+    }
+}
+
+/// The least fraction over `claim`'s shapes of cells holding what it claims.
+fn worst(points: &[Vec2], claim: &Claim) -> f64 {
+    claim
+        .shapes
+        .iter()
+        .map(|&shape| cells_holding(points, shape, claim.per_cell))
+        .fold(1.0, f64::min)
+}
+
+/// Draws `points.png` and returns the rows of `points.csv`.
+fn draw_points(path: &Path, seed: u64) -> Result<String> {
+    let kinds = [
+        SamplerKind::Random,
+        SamplerKind::Stratified,
+        SamplerKind::Sobol,
+    ];
+    let net = Claim {
+        shapes: intervals(POINTS_LOG2),
+        per_cell: 1,
+        words: "",
+    };
+    let mut csv = String::new();
+    let (w, h) = (900u32, 1380u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let root = root
+            .titled(
+                &format!("{POINTS} samples of one pixel: the strata each sampler claims, and the share of cells that hold them"),
+                ("sans-serif", 18),
+            )
+            .map_err(plot_err)?;
+        let panels = root.split_evenly((3, 2));
+        for (row, &kind) in kinds.iter().enumerate() {
+            for (col, points) in pixel_points(kind, seed).iter().enumerate() {
+                let claim = claim(kind, col);
+                let held = worst(points, &claim);
+                let as_net = worst(points, &net);
+                writeln!(csv, "{kind},{},{held},{as_net}", PAIRS[col].0)?;
+                let caption = format!(
+                    "{kind}, {}: {}, held in {:.0}%",
+                    PAIRS[col].1,
+                    claim.words,
+                    held * 100.0
+                );
+                let mut chart = ChartBuilder::on(&panels[row * 2 + col])
+                    .caption(caption, ("sans-serif", 14))
+                    .margin(10)
+                    .x_label_area_size(25)
+                    .y_label_area_size(35)
+                    .build_cartesian_2d(0.0f64..1.0, 0.0f64..1.0)
+                    .map_err(plot_err)?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_labels(3)
+                    .y_labels(3)
+                    .label_style(("sans-serif", 12))
+                    .draw()
+                    .map_err(plot_err)?;
+                // The claimed strata: lines at their cells' edges, lightest for the finest.
+                // The claimed strata: the squarest shapes darker (CMJ's rows and columns, and a
+                // net's thin intervals, would hide the points).
+                for &(kx, ky) in claim
+                    .shapes
+                    .iter()
+                    .filter(|&&(kx, ky)| kx.abs_diff(ky) <= 1 || kind == SamplerKind::Stratified)
+                {
+                    let grey = match kx.abs_diff(ky) <= 1 {
+                        true => RGBColor(150, 150, 150),
+                        false => RGBColor(225, 225, 225),
+                    };
+                    let lines = (1..(1u32 << kx))
+                        .map(|i| {
+                            let x = i as f64 / (1u32 << kx) as f64;
+                            vec![(x, 0.0), (x, 1.0)]
+                        })
+                        .chain((1..(1u32 << ky)).map(|i| {
+                            let y = i as f64 / (1u32 << ky) as f64;
+                            vec![(0.0, y), (1.0, y)]
+                        }));
+                    for l in lines {
+                        chart
+                            .draw_series(LineSeries::new(l, grey.stroke_width(1)))
+                            .map_err(plot_err)?;
+                    }
+                }
+                chart
+                    .draw_series(
+                        points
+                            .iter()
+                            .map(|p| Circle::new((p.x as f64, p.y as f64), 4, RED.filled())),
+                    )
+                    .map_err(plot_err)?;
+            }
+        }
+        root.present().map_err(plot_err)?;
+    }
+    let image = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("plot buffer size"))?;
+    image
+        .save(path)
+        .with_context(|| format!("{}: cannot write the picture", path.display()))?;
+    Ok(csv)
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
     if cli.samples < 1000 {
@@ -356,5 +551,15 @@ fn main() -> Result<()> {
     }
     let csv = cli.out.join("summary.csv");
     std::fs::write(&csv, summary).with_context(|| format!("{}: cannot write", csv.display()))?;
+    let path = cli.out.join("points.png");
+    let rows = draw_points(&path, cli.seed)?;
+    let csv = cli.out.join("points.csv");
+    let text = format!("sampler,pair,claim_holds,zero_m_2_net_holds\n{rows}");
+    std::fs::write(&csv, text).with_context(|| format!("{}: cannot write", csv.display()))?;
+    println!(
+        "{}: the point sets of one pixel ({})",
+        path.display(),
+        csv.display()
+    );
     Ok(())
 }
