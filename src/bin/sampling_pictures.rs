@@ -15,6 +15,11 @@
 //! fewer samples and checks them, and `--control` adds a picture that must fail (cosine
 //! samples against the uniform pdf).
 //!
+//! The same two maps (sampled beside claimed, Mitsuba's `ChiSquareTest` layout) for the glTF
+//! BSDF's sampling (`Bsdf::sample` against `Bsdf::pdf`, integrated over each cell by
+//! Simpson's rule) at a few roughnesses and angles, grazing included, and for the
+//! environment map's sampler on the bundled studio HDRI (its exact texel probabilities).
+//!
 //! `points.png` shows the first samples of one pixel from each sampler (`random`,
 //! `stratified`, `sobol`): the film position (the sample's first slot) and a later slot's 2D
 //! point, with the strata each claims drawn: the correlated multi-jittered cells, rows and
@@ -38,6 +43,7 @@ use strata::plot::{float_label, register_font};
 use strata::sampling::chi2::{chi2_test, Chi2Outcome};
 use strata::sampling::warps;
 use strata::sampling::{PixelSampler, SamplerKind};
+use strata::shading::{Bsdf, EnvMap, GltfBrdf, LocalBsdf};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -137,68 +143,298 @@ fn warps(control: bool) -> Vec<Warp> {
     list
 }
 
+/// A grid of `nx` × `ny` cells over a rectangle of two coordinates, row-major by y.
+#[derive(Clone, Copy)]
+struct Grid {
+    nx: usize,
+    ny: usize,
+    x: (f64, f64, &'static str),
+    y: (f64, f64, &'static str),
+}
+
+/// The (φ, cos θ) grid of the upper hemisphere, an equal-area map (dω = dφ d cos θ).
+const HEMISPHERE: Grid = Grid {
+    nx: PHI_BINS,
+    ny: COS_BINS,
+    x: (0.0, TAU, "φ"),
+    y: (0.0, 1.0, "cos θ"),
+};
+
+/// A warp's counts of cos θ and the density of cos θ it claims.
+type CosHistogram = (Vec<f64>, fn(f64) -> f64);
+
 /// What one picture measured.
 struct Measured {
-    /// Counts over the (φ, cos θ) grid, row-major by cos θ bin; the last entry counts
-    /// directions outside the hemisphere or not finite.
-    grid: Vec<f64>,
-    /// Counts of cos θ in [`HIST_BINS`] bins.
-    hist: Vec<f64>,
+    grid: Grid,
+    /// Counts per cell; the last entry counts the samples outside the grid's domain (or
+    /// declined, or of a delta lobe).
+    counts: Vec<f64>,
+    /// Expected counts, the same layout.
     expected: Vec<f64>,
+    /// Each cell's solid angle, for densities per steradian.
+    solid_angle: Vec<f64>,
+    /// Warps: counts of cos θ in [`HIST_BINS`] bins, and the density of cos θ claimed.
+    hist: Option<CosHistogram>,
+    /// Colours on a log scale (maps whose density spans decades).
+    log_colour: bool,
     outcome: std::result::Result<Chi2Outcome, String>,
 }
 
-fn measure(warp: &Warp, samples: usize, seed: u64) -> Measured {
+impl Measured {
+    fn new(grid: Grid, counts: Vec<f64>, expected: Vec<f64>, solid_angle: Vec<f64>) -> Measured {
+        let outcome = chi2_test(&counts, &expected);
+        Measured {
+            grid,
+            counts,
+            expected,
+            solid_angle,
+            hist: None,
+            log_colour: false,
+            outcome,
+        }
+    }
+}
+
+/// The cell of the hemisphere grid of direction `v` (z up), or None below the horizon or
+/// for a direction that is not finite.
+fn hemisphere_cell(v: Vec3) -> Option<usize> {
+    let c = v.z as f64;
+    if !v.is_finite() || !(0.0..=1.0).contains(&c) {
+        return None;
+    }
+    let mut phi = (v.y as f64).atan2(v.x as f64);
+    if phi < 0.0 {
+        phi += TAU;
+    }
+    let ip = ((phi / TAU * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
+    let ic = ((c * COS_BINS as f64) as usize).min(COS_BINS - 1);
+    Some(ic * PHI_BINS + ip)
+}
+
+/// The bounds (φ0, φ1, c0, c1) of hemisphere cell `i`.
+fn hemisphere_bounds(i: usize) -> (f64, f64, f64, f64) {
+    let (ic, ip) = (i / PHI_BINS, i % PHI_BINS);
+    let dphi = TAU / PHI_BINS as f64;
+    let dc = 1.0 / COS_BINS as f64;
+    (
+        ip as f64 * dphi,
+        (ip + 1) as f64 * dphi,
+        ic as f64 * dc,
+        (ic + 1) as f64 * dc,
+    )
+}
+
+fn uniform_points(samples: usize, seed: u64) -> impl Iterator<Item = Vec2> {
     let mut rng = SplitMix64(seed);
+    (0..samples).map(move |_| Vec2::new(rng.next_f32(), rng.next_f32()))
+}
+
+fn measure(warp: &Warp, samples: usize, seed: u64) -> Measured {
     let cells = PHI_BINS * COS_BINS;
-    let mut grid = vec![0.0; cells + 1];
+    let mut counts = vec![0.0; cells + 1];
     let mut hist = vec![0.0; HIST_BINS];
-    for _ in 0..samples {
-        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+    for u in uniform_points(samples, seed) {
         let v = (warp.sample)(u);
-        let c = v.z as f64;
-        if !v.is_finite() || !(0.0..=1.0).contains(&c) {
-            grid[cells] += 1.0;
-            continue;
-        }
-        let mut phi = (v.y as f64).atan2(v.x as f64);
-        if phi < 0.0 {
-            phi += TAU;
-        }
-        let ip = ((phi / TAU * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
-        let ic = ((c * COS_BINS as f64) as usize).min(COS_BINS - 1);
-        grid[ic * PHI_BINS + ip] += 1.0;
-        hist[((c * HIST_BINS as f64) as usize).min(HIST_BINS - 1)] += 1.0;
-    }
-    let mut expected = Vec::with_capacity(cells + 1);
-    for ic in 0..COS_BINS {
-        for ip in 0..PHI_BINS {
-            let (p0, p1) = (
-                ip as f64 * TAU / PHI_BINS as f64,
-                (ip + 1) as f64 * TAU / PHI_BINS as f64,
-            );
-            let (c0, c1) = (
-                ic as f64 / COS_BINS as f64,
-                (ic + 1) as f64 / COS_BINS as f64,
-            );
-            expected.push((warp.cell)(p0, p1, c0, c1) * samples as f64);
+        match hemisphere_cell(v) {
+            Some(i) => {
+                counts[i] += 1.0;
+                hist[((v.z as f64 * HIST_BINS as f64) as usize).min(HIST_BINS - 1)] += 1.0;
+            }
+            None => counts[cells] += 1.0,
         }
     }
+    let mut expected: Vec<f64> = (0..cells)
+        .map(|i| {
+            let (p0, p1, c0, c1) = hemisphere_bounds(i);
+            (warp.cell)(p0, p1, c0, c1) * samples as f64
+        })
+        .collect();
     // Outside the hemisphere the pdf is 0: any sample there fails the test.
     expected.push(0.0);
-    let outcome = chi2_test(&grid, &expected);
-    Measured {
-        grid,
-        hist,
-        expected,
-        outcome,
+    let solid_angle = vec![TAU / cells as f64; cells];
+    let mut m = Measured::new(HEMISPHERE, counts, expected, solid_angle);
+    m.hist = Some((hist, warp.cos_density));
+    m
+}
+
+/// A glTF BSDF seen from `theta_o` (radians from the normal), for the BSDF pictures.
+struct BsdfCase {
+    name: &'static str,
+    title: &'static str,
+    base: [f32; 3],
+    metallic: f32,
+    roughness: f32,
+    theta_o: f32,
+}
+
+const BSDF_CASES: [BsdfCase; 4] = [
+    BsdfCase {
+        name: "bsdf-metal-0.3",
+        title: "Metal, roughness 0.3 (GGX visible normals), θo = 34°",
+        base: [0.9, 0.9, 0.9],
+        metallic: 1.0,
+        roughness: 0.3,
+        theta_o: 0.6,
+    },
+    BsdfCase {
+        name: "bsdf-metal-0.3-grazing",
+        title: "Metal, roughness 0.3, grazing: θo = 80°",
+        base: [0.9, 0.9, 0.9],
+        metallic: 1.0,
+        roughness: 0.3,
+        theta_o: 1.4,
+    },
+    BsdfCase {
+        name: "bsdf-metal-0.8",
+        title: "Metal, roughness 0.8, θo = 69°",
+        base: [0.9, 0.6, 0.3],
+        metallic: 1.0,
+        roughness: 0.8,
+        theta_o: 1.2,
+    },
+    BsdfCase {
+        name: "bsdf-plastic-0.5",
+        title: "Plastic, roughness 0.5 (specular + diffuse), θo = 34°",
+        base: [0.8, 0.5, 0.2],
+        metallic: 0.0,
+        roughness: 0.5,
+        theta_o: 0.6,
+    },
+];
+
+/// ∫ f over the rectangle `x` × `y` by the composite Simpson rule, `n` (even) panels per axis.
+fn simpson_2d(f: &dyn Fn(f64, f64) -> f64, x: (f64, f64), y: (f64, f64), n: usize) -> f64 {
+    let (hx, hy) = ((x.1 - x.0) / n as f64, (y.1 - y.0) / n as f64);
+    let weight = |i: usize| match i {
+        0 => 1.0,
+        i if i == n => 1.0,
+        i if i % 2 == 1 => 4.0,
+        _ => 2.0,
+    };
+    let mut sum = 0.0;
+    for i in 0..=n {
+        for j in 0..=n {
+            sum += weight(i) * weight(j) * f(x.0 + i as f64 * hx, y.0 + j as f64 * hy);
+        }
     }
+    sum * hx * hy / 9.0
+}
+
+/// The BSDF's sampled directions against its pdf over the hemisphere grid; samples it
+/// declines and those of a delta lobe land in the outside cell, expected to hold what the
+/// pdf leaves outside the hemisphere.
+fn measure_bsdf(case: &BsdfCase, samples: usize, seed: u64) -> Measured {
+    let bsdf = Bsdf::MetallicRoughness(GltfBrdf::new(
+        Vec3::from_array(case.base),
+        case.metallic,
+        case.roughness,
+    ));
+    let wo = Vec3::new(case.theta_o.sin(), 0.0, case.theta_o.cos());
+    let cells = PHI_BINS * COS_BINS;
+    let mut counts = vec![0.0; cells + 1];
+    for u in uniform_points(samples, seed) {
+        let cell = match bsdf.sample(wo, u) {
+            Some(s) if !s.flags.is_specular() => hemisphere_cell(s.wi),
+            _ => None,
+        };
+        counts[cell.unwrap_or(cells)] += 1.0;
+    }
+    // pdf per steradian over (φ, cos θ), where dω = dφ d cos θ.
+    let pdf = |phi: f64, c: f64| {
+        let s = (1.0 - c * c).max(0.0).sqrt();
+        let wi = Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, c as f32);
+        bsdf.pdf(wo, wi) as f64
+    };
+    let mut expected: Vec<f64> = (0..cells)
+        .map(|i| {
+            let (p0, p1, c0, c1) = hemisphere_bounds(i);
+            simpson_2d(&pdf, (p0, p1), (c0, c1), 16) * samples as f64
+        })
+        .collect();
+    let inside: f64 = expected.iter().sum::<f64>() / samples as f64;
+    expected.push((1.0 - inside).max(0.0) * samples as f64);
+    let solid_angle = vec![TAU / cells as f64; cells];
+    Measured::new(HEMISPHERE, counts, expected, solid_angle)
+}
+
+/// The bundled studio HDRI.
+const STUDIO: &str = "scenes/env/studio_small_05_1k/studio_small_05_1k.hdr";
+
+/// The map coordinates (u, v) in [0, 1)² of direction `d` (rotation 0), in DESIGN.md's
+/// convention (Blender's): u = 0.5 + atan2(d.z, d.x)/2π, v = acos(d.y)/π.
+fn env_uv(d: Vec3) -> (f64, f64) {
+    let d = d.as_dvec3().normalize();
+    let u = (0.5 + d.z.atan2(d.x) / TAU).rem_euclid(1.0);
+    (u, d.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI)
+}
+
+/// The environment map's samples against its pdf over its own (u, v) grid: the pdf is
+/// constant over a texel, so a cell's probability is the sum over its texels of the pdf at
+/// the centre times the texel's exact solid angle.
+fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
+    use std::f64::consts::PI;
+    let grid = Grid {
+        nx: 64,
+        ny: 32,
+        x: (0.0, 1.0, "u (longitude)"),
+        y: (0.0, 1.0, "1 − v (up)"),
+    };
+    let cells = grid.nx * grid.ny;
+    // Cell of map coordinates (u, v), rows from the bottom (v = 1) up.
+    let cell_of = |u: f64, v: f64| {
+        let ix = ((u * grid.nx as f64) as usize).min(grid.nx - 1);
+        let iy = (((1.0 - v) * grid.ny as f64) as usize).min(grid.ny - 1);
+        iy * grid.nx + ix
+    };
+    let (w, h) = map.size();
+    let (mut probability, mut solid_angle) = (vec![0.0; cells], vec![0.0; cells]);
+    for y in 0..h {
+        let (t0, t1) = (PI * y as f64 / h as f64, PI * (y + 1) as f64 / h as f64);
+        let texel = TAU / w as f64 * (t0.cos() - t1.cos());
+        let v = (y as f64 + 0.5) / h as f64;
+        for x in 0..w {
+            let u = (x as f64 + 0.5) / w as f64;
+            let (phi, theta) = (TAU * (u - 0.5), PI * v);
+            let centre = Vec3::new(
+                (theta.sin() * phi.cos()) as f32,
+                theta.cos() as f32,
+                (theta.sin() * phi.sin()) as f32,
+            );
+            let i = cell_of(u, v);
+            probability[i] += map.pdf(centre) as f64 * texel;
+            solid_angle[i] += texel;
+        }
+    }
+    // A point that lands exactly on a pole (u.y = 0 or 1, 2^-24 of the points) gets pdf 0:
+    // the sampler's documented degenerate case, which the renderer skips as weightless, so
+    // it is left out here too. A direction that is not finite counts outside the map.
+    let mut counts = vec![0.0; cells + 1];
+    let mut used = 0usize;
+    for u in uniform_points(samples, seed) {
+        let (d, _, p) = map.sample(u);
+        if p == 0.0 {
+            continue;
+        }
+        used += 1;
+        match d.is_finite() && p > 0.0 {
+            true => {
+                let (u, v) = env_uv(d);
+                counts[cell_of(u, v)] += 1.0;
+            }
+            false => counts[cells] += 1.0,
+        }
+    }
+    let mut expected: Vec<f64> = probability.iter().map(|p| p * used as f64).collect();
+    expected.push(0.0);
+    let mut m = Measured::new(grid, counts, expected, solid_angle);
+    m.log_colour = true;
+    m
 }
 
 fn caption(samples: usize, outcome: &std::result::Result<Chi2Outcome, String>) -> String {
     match outcome {
         Ok(o) => format!(
-            "{samples} samples; χ² over the (φ, cos θ) grid = {:.1} with {} dof, p = {}",
+            "{samples} samples; χ² over the grid = {:.1} with {} dof, p = {}",
             o.statistic,
             o.dof,
             float_label(o.p_value)
@@ -211,122 +447,129 @@ fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow!("plot: {e}")
 }
 
-/// The three panels of `warp`'s picture.
-fn draw(path: &Path, warp: &Warp, samples: usize, m: &Measured) -> Result<()> {
-    let (w, h) = (1500u32, 520u32);
+/// The picture: for a warp, the cos θ histogram beside its claimed density; then the
+/// sampled and the claimed densities per steradian over the grid, on one colour scale.
+fn draw(path: &Path, title: &str, samples: usize, m: &Measured) -> Result<()> {
+    let panes = if m.hist.is_some() { 3 } else { 2 };
+    let (w, h) = (500 * panes as u32, 520u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
         let root = root
             .titled(
-                &format!("{} — {}", warp.title, caption(samples, &m.outcome)),
-                ("sans-serif", 20),
+                &format!("{title} — {}", caption(samples, &m.outcome)),
+                ("sans-serif", 18),
             )
             .map_err(plot_err)?;
-        let panels = root.split_evenly((1, 3));
+        let panels = root.split_evenly((1, panes));
 
-        // 1: the histogram of cos θ against its claimed density.
-        let density: Vec<f64> = m
-            .hist
-            .iter()
-            .map(|c| c / samples as f64 * HIST_BINS as f64)
-            .collect();
-        let top = density
-            .iter()
-            .copied()
-            .chain((0..=HIST_BINS).map(|i| (warp.cos_density)(i as f64 / HIST_BINS as f64)))
-            .fold(0.0, f64::max)
-            * 1.1;
-        let mut chart = ChartBuilder::on(&panels[0])
-            .caption(
-                "cos θ: histogram (bars) and claimed density (line)",
-                ("sans-serif", 15),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..1.0, 0.0..top.max(1e-9))
-            .map_err(plot_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("cos θ")
-            .y_desc("density")
-            .x_label_formatter(&|v| float_label(*v))
-            .y_label_formatter(&|v| float_label(*v))
-            .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(plot_err)?;
-        let bar = RGBColor(120, 160, 220);
-        chart
-            .draw_series(density.iter().enumerate().map(|(i, &d)| {
-                let (x0, x1) = (
-                    i as f64 / HIST_BINS as f64,
-                    (i + 1) as f64 / HIST_BINS as f64,
-                );
-                Rectangle::new([(x0, 0.0), (x1, d)], bar.filled())
-            }))
-            .map_err(plot_err)?;
-        chart
-            .draw_series(LineSeries::new(
-                (0..=200).map(|i| {
-                    let c = i as f64 / 200.0;
-                    (c, (warp.cos_density)(c))
-                }),
-                BLACK.stroke_width(2),
-            ))
-            .map_err(plot_err)?;
-
-        // 2 and 3: sampled and claimed densities per steradian over (φ, cos θ).
-        let cell_area = TAU / PHI_BINS as f64 / COS_BINS as f64;
-        let per_sr = |counts: &[f64]| -> Vec<f64> {
-            counts[..PHI_BINS * COS_BINS]
+        if let Some((hist, cos_density)) = &m.hist {
+            let density: Vec<f64> = hist
                 .iter()
-                .map(|c| c / samples as f64 / cell_area)
+                .map(|c| c / samples as f64 * HIST_BINS as f64)
+                .collect();
+            let top = density
+                .iter()
+                .copied()
+                .chain((0..=HIST_BINS).map(|i| cos_density(i as f64 / HIST_BINS as f64)))
+                .fold(0.0, f64::max)
+                * 1.1;
+            let mut chart = ChartBuilder::on(&panels[0])
+                .caption(
+                    "cos θ: histogram (bars) and claimed density (line)",
+                    ("sans-serif", 15),
+                )
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d(0.0..1.0, 0.0..top.max(1e-9))
+                .map_err(plot_err)?;
+            chart
+                .configure_mesh()
+                .x_desc("cos θ")
+                .y_desc("density")
+                .x_label_formatter(&|v| float_label(*v))
+                .y_label_formatter(&|v| float_label(*v))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(plot_err)?;
+            let bar = RGBColor(120, 160, 220);
+            chart
+                .draw_series(density.iter().enumerate().map(|(i, &d)| {
+                    let (x0, x1) = (
+                        i as f64 / HIST_BINS as f64,
+                        (i + 1) as f64 / HIST_BINS as f64,
+                    );
+                    Rectangle::new([(x0, 0.0), (x1, d)], bar.filled())
+                }))
+                .map_err(plot_err)?;
+            chart
+                .draw_series(LineSeries::new(
+                    (0..=200).map(|i| {
+                        let c = i as f64 / 200.0;
+                        (c, cos_density(c))
+                    }),
+                    BLACK.stroke_width(2),
+                ))
+                .map_err(plot_err)?;
+        }
+
+        let g = m.grid;
+        let cells = g.nx * g.ny;
+        let per_sr = |counts: &[f64]| -> Vec<f64> {
+            counts[..cells]
+                .iter()
+                .zip(&m.solid_angle)
+                .map(|(c, sr)| c / samples as f64 / sr)
                 .collect()
         };
-        let (sampled, claimed) = (per_sr(&m.grid), per_sr(&m.expected));
+        let (sampled, claimed) = (per_sr(&m.counts), per_sr(&m.expected));
         let max = sampled
             .iter()
             .chain(&claimed)
             .copied()
             .fold(0.0, f64::max)
             .max(1e-9);
+        // A log scale spans four decades below the maximum.
+        let level = |v: f64| match m.log_colour {
+            false => v / max,
+            true => ((v / max).max(1e-4).log10() + 4.0) / 4.0,
+        };
+        let scale = match m.log_colour {
+            false => format!("0 to {}", float_label(max)),
+            true => format!("log, {} to {}", float_label(max * 1e-4), float_label(max)),
+        };
+        let first = panes - 2;
         for (panel, values, what) in [
-            (&panels[1], &sampled, "sampled density (per sr)"),
-            (&panels[2], &claimed, "claimed pdf (per sr)"),
+            (&panels[first], &sampled, "sampled density (per sr)"),
+            (&panels[first + 1], &claimed, "claimed pdf (per sr)"),
         ] {
-            let title = format!("{what}; colour scale 0 to {}", float_label(max));
+            let title = format!("{what}; colours {scale}");
             let mut chart = ChartBuilder::on(panel)
                 .caption(title, ("sans-serif", 15))
                 .margin(12)
                 .x_label_area_size(40)
                 .y_label_area_size(50)
-                .build_cartesian_2d(0.0..TAU, 0.0..1.0)
+                .build_cartesian_2d(g.x.0..g.x.1, g.y.0..g.y.1)
                 .map_err(plot_err)?;
             chart
                 .configure_mesh()
                 .disable_mesh()
-                .x_desc("φ")
-                .y_desc("cos θ")
+                .x_desc(g.x.2)
+                .y_desc(g.y.2)
                 .x_label_formatter(&|v| float_label(*v))
                 .y_label_formatter(&|v| float_label(*v))
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(plot_err)?;
+            let (dx, dy) = ((g.x.1 - g.x.0) / g.nx as f64, (g.y.1 - g.y.0) / g.ny as f64);
             chart
                 .draw_series(values.iter().enumerate().map(|(i, &v)| {
-                    let (ic, ip) = (i / PHI_BINS, i % PHI_BINS);
-                    let x0 = ip as f64 * TAU / PHI_BINS as f64;
-                    let y0 = ic as f64 / COS_BINS as f64;
-                    let colour = ViridisRGB::get_color((v / max).clamp(0.0, 1.0));
-                    Rectangle::new(
-                        [
-                            (x0, y0),
-                            (x0 + TAU / PHI_BINS as f64, y0 + 1.0 / COS_BINS as f64),
-                        ],
-                        colour.filled(),
-                    )
+                    let (iy, ix) = (i / g.nx, i % g.nx);
+                    let (x0, y0) = (g.x.0 + ix as f64 * dx, g.y.0 + iy as f64 * dy);
+                    let colour = ViridisRGB::get_color(level(v).clamp(0.0, 1.0));
+                    Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], colour.filled())
                 }))
                 .map_err(plot_err)?;
         }
@@ -533,22 +776,31 @@ fn main() -> Result<()> {
         .with_context(|| format!("{}: cannot create the directory", cli.out.display()))?;
     register_font()?;
     let mut summary = String::from("name,samples,statistic,dof,p_value\n");
-    for (k, warp) in warps(cli.control).iter().enumerate() {
-        // Each picture its own stream of points.
-        let m = measure(warp, cli.samples, cli.seed.wrapping_add(k as u64 * 0x1000));
-        let path = cli.out.join(format!("{}.png", warp.name));
-        draw(&path, warp, cli.samples, &m)?;
+    let mut record = |name: &str, title: &str, m: &Measured| -> Result<()> {
+        let path = cli.out.join(format!("{name}.png"));
+        draw(&path, title, cli.samples, m)?;
         let (statistic, dof, p) = match &m.outcome {
             Ok(o) => (o.statistic, o.dof, o.p_value),
             Err(_) => (f64::INFINITY, 0, 0.0),
         };
-        writeln!(
-            summary,
-            "{},{},{statistic},{dof},{p:e}",
-            warp.name, cli.samples
-        )?;
+        writeln!(summary, "{name},{},{statistic},{dof},{p:e}", cli.samples)?;
         println!("{}: {}", path.display(), caption(cli.samples, &m.outcome));
+        Ok(())
+    };
+    // Each picture its own stream of points.
+    let seed = |k: u64| cli.seed.wrapping_add(k * 0x1000);
+    for (k, warp) in warps(cli.control).iter().enumerate() {
+        let m = measure(warp, cli.samples, seed(k as u64));
+        record(warp.name, warp.title, &m)?;
     }
+    for (k, case) in BSDF_CASES.iter().enumerate() {
+        let m = measure_bsdf(case, cli.samples, seed(100 + k as u64));
+        record(case.name, case.title, &m)?;
+    }
+    let studio = Path::new(env!("CARGO_MANIFEST_DIR")).join(STUDIO);
+    let map = EnvMap::load(&studio, 0.0, 1.0).map_err(|e| anyhow!("{}: {e}", studio.display()))?;
+    let m = measure_env(&map, cli.samples, seed(200));
+    record("environment-studio", "Environment map, studio_small_05", &m)?;
     let csv = cli.out.join("summary.csv");
     std::fs::write(&csv, summary).with_context(|| format!("{}: cannot write", csv.display()))?;
     let path = cli.out.join("points.png");
