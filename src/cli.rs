@@ -172,6 +172,25 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     pub camera: Option<usize>,
 
+    /// Render frame F of the file's animation (at time F / --fps seconds), writing the EXR
+    /// with the frame number in its name: `####` in -o becomes the zero-padded number,
+    /// otherwise `.FFFF` goes before `.exr`.
+    #[arg(long, value_name = "F", conflicts_with = "frames")]
+    pub frame: Option<u32>,
+
+    /// Render frames A to B (inclusive) of the file's animation, one EXR each, named as for
+    /// --frame.
+    #[arg(long, value_name = "A..B", value_parser = parse_frame_range)]
+    pub frames: Option<(u32, u32)>,
+
+    /// Frames per second of --frame and --frames.
+    #[arg(long, value_name = "FPS", default_value_t = 24.0)]
+    pub fps: f64,
+
+    /// Which of the file's animations --frame and --frames play (its index).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub animation: usize,
+
     /// AO: occluders farther than this distance are ignored [default: unlimited].
     #[arg(long, value_name = "DISTANCE")]
     pub ao_distance: Option<f32>,
@@ -484,4 +503,23 @@ pub struct DenoiseArgs {
         allow_negative_numbers = true
     )]
     pub exposure: f32,
+}
+
+/// `A..B` with A ≤ B: a range of frames, both included.
+fn parse_frame_range(text: &str) -> Result<(u32, u32), String> {
+    let (a, b) = text
+        .split_once("..")
+        .ok_or_else(|| format!("'{text}' is not a range of frames A..B (e.g. 1..48)"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("'{v}' in '{text}' is not a frame number"))
+    };
+    let (a, b) = (parse(a)?, parse(b)?);
+    if a > b {
+        return Err(format!(
+            "the range {text} is empty: its first frame is after its last"
+        ));
+    }
+    Ok((a, b))
 }

@@ -70,6 +70,13 @@ pub struct Job {
     /// The PNG preview's view transform and exposure (`--view`, `--exposure`).
     pub view: ViewTransform,
     pub exposure: f32,
+    /// The animation frame this job renders (`--frame`; one of `--frames`), at time
+    /// frame / `fps` of animation `animation`; None: the rest pose.
+    pub frame: Option<u32>,
+    /// `--frames A..B`: the jobs of [`Job::frame_jobs`] render them.
+    pub frames: Option<(u32, u32)>,
+    pub fps: f64,
+    pub animation: usize,
     /// The passes written beside the beauty (`--passes`, and albedo and normal for
     /// `--denoise`), each once, in a fixed order.
     pub passes: Vec<Pass>,
@@ -149,13 +156,24 @@ impl Job {
     /// Checks the options together and resolves them into a job; the error names the
     /// option at fault.
     pub fn from_args(args: &Args) -> Result<Job, JobError> {
-        let output = args
+        let mut output = args
             .output
             .clone()
             .unwrap_or_else(|| default_output(&args.scene));
         output::check_output_path(&output)?;
         for extra in [&args.variance, &args.spp_image].into_iter().flatten() {
             output::check_output_path(extra)?;
+        }
+        if !(args.fps > 0.0 && args.fps.is_finite()) {
+            refuse!("--fps must be a positive number (got {})", args.fps);
+        }
+        // One frame's files carry its number ([`frame_path`]); --frames names each frame's
+        // in [`Job::frame_jobs`].
+        let (mut variance, mut spp_image) = (args.variance.clone(), args.spp_image.clone());
+        if let Some(f) = args.frame {
+            output = frame_path(&output, f);
+            variance = variance.map(|p| frame_path(&p, f));
+            spp_image = spp_image.map(|p| frame_path(&p, f));
         }
         let mut warnings = Vec::new();
 
@@ -282,10 +300,14 @@ impl Job {
             png: !args.no_png,
             view: args.view,
             exposure: args.exposure,
+            frame: args.frame,
+            frames: args.frames,
+            fps: args.fps,
+            animation: args.animation,
             passes: crate::render::passes::canonical(&passes),
             denoise,
-            variance: args.variance.clone(),
-            spp_image: args.spp_image.clone(),
+            variance,
+            spp_image,
             threads: args.threads,
             backend: args.backend,
             bvh_quality: args.bvh_quality,
@@ -379,11 +401,33 @@ impl Job {
     }
 
     /// How to load the scene: within the memory limit, less the image's share when its size
-    /// is known before the scene is.
+    /// is known before the scene is; in the pose of the job's frame, if it renders one.
     pub fn load_options(&self) -> LoadOptions {
         LoadOptions {
             memory_limit: self.memory_limit,
             other_memory: self.resolution.map_or(0, |(w, h)| self.image_memory(w, h)),
+            pose: self.frame.map(|f| crate::scene::PoseTime {
+                animation: self.animation,
+                seconds: f as f64 / self.fps,
+            }),
+        }
+    }
+
+    /// The jobs of the frames `--frame` and `--frames` ask for, each writing its own files
+    /// ([`frame_path`]); the job itself where none is asked for.
+    pub fn frame_jobs(&self) -> Vec<Job> {
+        match self.frames {
+            None => vec![self.clone()],
+            Some((a, b)) => (a..=b)
+                .map(|f| Job {
+                    frame: Some(f),
+                    frames: None,
+                    output: frame_path(&self.output, f),
+                    variance: self.variance.as_deref().map(|p| frame_path(p, f)),
+                    spp_image: self.spp_image.as_deref().map(|p| frame_path(p, f)),
+                    ..self.clone()
+                })
+                .collect(),
         }
     }
 
@@ -504,6 +548,28 @@ impl Job {
 }
 
 /// The default output: the scene's name with `.exr`, in the current directory.
+/// `path` for frame `frame`: a run of `#` in its file name becomes the frame number padded
+/// with zeros to the run's length (`shot.####.exr` → `shot.0012.exr`); a name without one
+/// gets `.FFFF` before its extension (`shot.exr` → `shot.0012.exr`).
+pub fn frame_path(path: &Path, frame: u32) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let renamed = match name.find('#') {
+        Some(start) => {
+            let width = name[start..].chars().take_while(|&c| c == '#').count();
+            let hashes = "#".repeat(width);
+            name.replacen(&hashes, &format!("{frame:0width$}"), 1)
+        }
+        None => match name.rsplit_once('.') {
+            Some((stem, ext)) => format!("{stem}.{frame:04}.{ext}"),
+            None => format!("{name}.{frame:04}"),
+        },
+    };
+    path.with_file_name(renamed)
+}
+
 fn default_output(scene: &Path) -> PathBuf {
     let stem = scene
         .file_stem()

@@ -141,12 +141,23 @@ fn progress_bar(job: &Job) -> ProgressBar {
 }
 
 fn run(args: Args) -> Result<Outcome> {
-    let mut job = Job::from_args(&args)?;
+    let job = Job::from_args(&args)?;
     for w in &job.warnings {
         eprintln!("warning: {w}");
     }
-    let cancel = install_interrupt_handler(job.temporaries());
+    // One job per animation frame asked for (--frames), or the job itself.
+    let jobs = job.frame_jobs();
+    let cancel = install_interrupt_handler(jobs.iter().flat_map(|j| j.temporaries()).collect());
+    for job in jobs {
+        if let Outcome::Interrupted = run_job(job, &cancel)? {
+            return Ok(Outcome::Interrupted);
+        }
+    }
+    Ok(Outcome::Finished)
+}
 
+/// Loads, builds, renders and writes one job (one frame).
+fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     // Load.
     let t_load = Instant::now();
     let scene = scene::load(&job.scene, &job.load_options())?;
@@ -247,7 +258,7 @@ fn run(args: Args) -> Result<Outcome> {
         save: &mut save_checkpoint,
     });
     let result =
-        render::render_with_checkpoints(&ctx, &settings, &pool, &progress, &cancel, checkpoint);
+        render::render_with_checkpoints(&ctx, &settings, &pool, &progress, cancel, checkpoint);
     progress.finish_and_clear();
 
     // Denoise. If the denoiser fails, the raw image is still written before the error.

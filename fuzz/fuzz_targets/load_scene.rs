@@ -58,6 +58,7 @@ fuzz_target!(|data: &[u8]| {
     let options = LoadOptions {
         memory_limit: Some(256 << 20),
         other_memory: 0,
+        pose: None,
     };
     let Ok(s) = scene::load_from_bytes(path, &file, &options) else {
         return;

@@ -75,6 +75,9 @@ pub struct LoadOptions {
     /// Memory the caller will need besides the scene (e.g. the film), counted against
     /// `memory_limit`.
     pub other_memory: u64,
+    /// Flatten the nodes in this animation's pose at this time; None: their rest pose
+    /// (their own transforms).
+    pub pose: Option<super::PoseTime>,
 }
 
 /// What loading a scene will allocate, estimated from the file's accessor counts and buffer
@@ -262,7 +265,36 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir)?;
 
+    let mut pose_warnings = Vec::new();
+    let pose = match options.pose {
+        Some(at) => super::animation::pose(&gltf.document, &buffers, at)?,
+        None => super::animation::Pose::default(),
+    };
+    let animations = gltf.document.animations().len();
+    if options.pose.is_none() && animations > 0 {
+        let names: Vec<String> = gltf
+            .document
+            .animations()
+            .map(|a| match a.name() {
+                Some(n) => format!("{} \"{n}\"", a.index()),
+                None => a.index().to_string(),
+            })
+            .collect();
+        pose_warnings.push(format!(
+            "the file has {animations} animation(s) ({}); strata renders the nodes' rest pose (--frame F renders frame F of one, --animation N chooses it)",
+            names.join(", ")
+        ));
+    }
+    if pose.weight_channels > 0 {
+        pose_warnings.push(format!(
+            "{} animation channel(s) animate morph target weights, which strata does not render",
+            pose.weight_channels
+        ));
+    }
     let mut loader = Loader {
+        pose,
+        skinned: 0,
+        morphed: 0,
         buffers: &buffers,
         scene: Scene::default(),
         warnings: Vec::new(),
@@ -297,6 +329,19 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
 
     let mut scene = loader.scene;
     let mut warnings = extension_warnings;
+    warnings.extend(pose_warnings);
+    if loader.skinned > 0 {
+        warnings.push(format!(
+            "{} skinned mesh instance(s) rendered in their bind pose: strata does not apply skins",
+            loader.skinned
+        ));
+    }
+    if loader.morphed > 0 {
+        warnings.push(format!(
+            "{} primitive(s) with morph targets rendered in their base shape: strata does not apply morph targets",
+            loader.morphed
+        ));
+    }
     warnings.extend(loader.warnings);
     if loader.bad_colors > 0 {
         warnings.push(format!(
@@ -584,6 +629,11 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
 }
 
 struct Loader<'a> {
+    /// The animated nodes' transforms (empty for the rest pose).
+    pose: super::animation::Pose,
+    /// Mesh instances with a skin, and primitives with morph targets (not applied).
+    skinned: usize,
+    morphed: usize,
     buffers: &'a [Vec<u8>],
     scene: Scene,
     warnings: Vec<String>,
@@ -752,7 +802,11 @@ impl Loader<'_> {
                 "the node hierarchy is deeper than {MAX_NODE_DEPTH} levels"
             ));
         }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        // An animated node's transform is the pose's; the others keep their own matrix.
+        let local = match self.pose.animates(index) {
+            true => self.pose.local(node),
+            false => Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4(),
+        };
         if !local.is_finite() {
             return Err(format!("node {index} has a non-finite transform"));
         }
@@ -764,7 +818,9 @@ impl Loader<'_> {
         }
 
         if let Some(mesh) = node.mesh() {
+            self.skinned += node.skin().is_some() as usize;
             for primitive in mesh.primitives() {
+                self.morphed += (primitive.morph_targets().len() > 0) as usize;
                 // The primitive's triangles are appended from here on (ID passes).
                 let first = u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX);
                 (self.scene.origins).start(first, index as u32, mesh.index() as u32);

@@ -4,11 +4,13 @@
 //! Every mesh of the glTF file is flattened into one triangle list in world space; a
 //! triangle's index is its primitive id in the acceleration structure's hits.
 
+pub mod animation;
 mod camera;
 mod gltf_loader;
 mod origins;
 mod tangents;
 
+pub use animation::PoseTime;
 pub use camera::{Camera, Projection, RayGenerator};
 pub use gltf_loader::{
     format_bytes, load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
