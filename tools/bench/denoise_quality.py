@@ -301,7 +301,7 @@ def main():
         meta["jobs"][key] = {"scene": job["scene"], "args": job["args"], "reference": job["reference"],
                              "reference_noise_rms": ref.noise_rms, **ref_info, "flip_params": ref.flip_params,
                              "wall_seconds": time.time() - t0}
-        md += [f"Load average after {key}: {os.getloadavg()[0]:.1f}; its wall time {time.time() - t0:.0f} s.", ""]
+        md += ["", f"Load average after {key}: {os.getloadavg()[0]:.1f}; its wall time {time.time() - t0:.0f} s.", ""]
         with open(os.path.join(args.out, "RESULTS.md"), "w") as f:
             f.write("\n".join(md))
         with open(os.path.join(args.out, "meta.json"), "w") as f:
