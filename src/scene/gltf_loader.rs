@@ -27,6 +27,7 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
 ];
@@ -215,9 +216,22 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         }
     }
     check_before_validation(gltf.document.as_json())?;
-    // Validation checks every index reference in the document (accessors, views, nodes...).
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
-        gltf::Error::Validation(errors) => {
+    // Validation checks every index reference in the document (accessors, views, nodes...),
+    // as the `gltf` crate's own does; its verdict on `extensionsRequired` is left out, since
+    // strata checked those above against what it supports (KHR_mesh_quantization, which the
+    // crate does not list).
+    {
+        use gltf::json::validation::{Error as Invalid, Validate};
+        let root = gltf.document.as_json();
+        let mut errors = Vec::new();
+        root.validate(root, gltf::json::Path::new, &mut |path, error| {
+            errors.push((path(), error))
+        });
+        errors.retain(|(path, error)| {
+            !(matches!(error, Invalid::Unsupported)
+                && path.as_str().starts_with("extensionsRequired"))
+        });
+        if !errors.is_empty() {
             let shown: Vec<String> = errors
                 .iter()
                 .take(3)
@@ -227,10 +241,9 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
                 n if n > 3 => format!(" (and {} more)", n - 3),
                 _ => String::new(),
             };
-            format!("invalid glTF: {}{more}", shown.join("; "))
+            return Err(format!("invalid glTF: {}{more}", shown.join("; ")));
         }
-        e => format!("invalid glTF: {e}"),
-    })?;
+    }
     let root_scene = gltf
         .document
         .default_scene()
@@ -947,13 +960,9 @@ impl Loader<'_> {
             self.skipped_primitives += 1;
             return Ok(());
         };
-        expect_format(
-            &pos_acc,
-            Dimensions::Vec3,
-            &[DataType::F32],
-            label,
-            "POSITION",
-        )?;
+        // KHR_mesh_quantization: positions, normals, tangents and texture coordinates may be
+        // (normalized) integers; the node transforms carry any dequantization.
+        expect_format(&pos_acc, Dimensions::Vec3, QUANTIZED, label, "POSITION")?;
         check_accessor(self.buffers, &pos_acc).map_err(|e| format!("{label} POSITION: {e}"))?;
         // Before reading: a sparse accessor without a bufferView is bounded by no buffer.
         let before = self.scene.positions.len() as u64;
@@ -967,23 +976,17 @@ impl Loader<'_> {
         }
         let normal_acc = primitive.get(&gltf::Semantic::Normals);
         if let Some(acc) = &normal_acc {
-            expect_format(acc, Dimensions::Vec3, &[DataType::F32], label, "NORMAL")?;
+            expect_format(acc, Dimensions::Vec3, QUANTIZED_UNIT, label, "NORMAL")?;
             check_accessor(self.buffers, acc).map_err(|e| format!("{label} NORMAL: {e}"))?;
         }
         let uv_acc = primitive.get(&gltf::Semantic::TexCoords(0));
         if let Some(acc) = &uv_acc {
-            expect_format(
-                acc,
-                Dimensions::Vec2,
-                &[DataType::F32, DataType::U8, DataType::U16],
-                label,
-                "TEXCOORD_0",
-            )?;
+            expect_format(acc, Dimensions::Vec2, QUANTIZED, label, "TEXCOORD_0")?;
             check_accessor(self.buffers, acc).map_err(|e| format!("{label} TEXCOORD_0: {e}"))?;
         }
         let tangent_acc = primitive.get(&gltf::Semantic::Tangents);
         if let Some(acc) = &tangent_acc {
-            expect_format(acc, Dimensions::Vec4, &[DataType::F32], label, "TANGENT")?;
+            expect_format(acc, Dimensions::Vec4, QUANTIZED_UNIT, label, "TANGENT")?;
             check_accessor(self.buffers, acc).map_err(|e| format!("{label} TANGENT: {e}"))?;
         }
         let color_acc = primitive.get(&gltf::Semantic::Colors(0));
@@ -1034,28 +1037,15 @@ impl Loader<'_> {
         let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let unreadable =
             |what: &str| format!("{label}: the {what} accessor cannot be read from its buffer");
-        let positions: Vec<[f32; 3]> = reader
-            .read_positions()
-            .ok_or_else(|| unreadable("POSITION"))?
-            .collect();
+        let positions: Vec<[f32; 3]> =
+            read_floats(&pos_acc, buffers).ok_or_else(|| unreadable("POSITION"))?;
         let n = positions.len();
-        let normals: Option<Vec<[f32; 3]>> = match normal_acc {
-            Some(_) => Some(
-                reader
-                    .read_normals()
-                    .ok_or_else(|| unreadable("NORMAL"))?
-                    .collect(),
-            ),
+        let normals: Option<Vec<[f32; 3]>> = match &normal_acc {
+            Some(acc) => Some(read_floats(acc, buffers).ok_or_else(|| unreadable("NORMAL"))?),
             None => None,
         };
-        let uvs: Option<Vec<[f32; 2]>> = match uv_acc {
-            Some(_) => Some(
-                reader
-                    .read_tex_coords(0)
-                    .ok_or_else(|| unreadable("TEXCOORD_0"))?
-                    .into_f32()
-                    .collect(),
-            ),
+        let uvs: Option<Vec<[f32; 2]>> = match &uv_acc {
+            Some(acc) => Some(read_floats(acc, buffers).ok_or_else(|| unreadable("TEXCOORD_0"))?),
             None => None,
         };
         let colors: Option<Vec<[f32; 4]>> = match color_acc {
@@ -1074,12 +1064,9 @@ impl Loader<'_> {
             .normal_texture
             .is_some();
         let tangents: Option<Vec<[f32; 4]>> = match &tangent_acc {
-            Some(_) if normal_mapped => Some(
-                reader
-                    .read_tangents()
-                    .ok_or_else(|| unreadable("TANGENT"))?
-                    .collect(),
-            ),
+            Some(acc) if normal_mapped => {
+                Some(read_floats(acc, buffers).ok_or_else(|| unreadable("TANGENT"))?)
+            }
             _ => None,
         };
         if normals.as_ref().is_some_and(|v| v.len() != n)
@@ -1352,6 +1339,89 @@ fn assemble_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .collect(),
         _ => Vec::new(),
     }
+}
+
+/// The component types a POSITION or TEXCOORD accessor may have: float, or with
+/// KHR_mesh_quantization (normalized or not) signed and unsigned bytes and shorts.
+const QUANTIZED: &[DataType] = &[
+    DataType::F32,
+    DataType::I8,
+    DataType::U8,
+    DataType::I16,
+    DataType::U16,
+];
+
+/// The component types of NORMAL and TANGENT: float, or with KHR_mesh_quantization normalized
+/// signed bytes and shorts.
+const QUANTIZED_UNIT: &[DataType] = &[DataType::F32, DataType::I8, DataType::I16];
+
+/// An accessor's elements as floats, whatever its component type: integers are mapped as
+/// glTF 2.0 §3.11 ("Animations", the normalized-integer table) and KHR_mesh_quantization
+/// say: normalized signed c ↦ max(c / (2ᵇ⁻¹ − 1), −1), unsigned c ↦ c / (2ᵇ − 1); not
+/// normalized, c itself. Sparse accessors and byte strides are the `gltf` crate's. None
+/// where the accessor's data cannot be read.
+fn read_floats<const N: usize>(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Option<Vec<[f32; N]>>
+where
+    [f32; N]: gltf::accessor::Item,
+    [i8; N]: gltf::accessor::Item,
+    [u8; N]: gltf::accessor::Item,
+    [i16; N]: gltf::accessor::Item,
+    [u16; N]: gltf::accessor::Item,
+{
+    use gltf::accessor::Iter;
+    let data = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
+    let normalized = acc.normalized();
+    fn map<T: Copy, const N: usize>(v: [T; N], f: impl Fn(T) -> f32) -> [f32; N] {
+        v.map(f)
+    }
+    Some(match acc.data_type() {
+        DataType::F32 => Iter::<[f32; N]>::new(acc.clone(), data)?.collect(),
+        DataType::I8 => Iter::<[i8; N]>::new(acc.clone(), data)?
+            .map(|v| {
+                map(v, |c| {
+                    if normalized {
+                        (c as f32 / 127.0).max(-1.0)
+                    } else {
+                        c as f32
+                    }
+                })
+            })
+            .collect(),
+        DataType::U8 => Iter::<[u8; N]>::new(acc.clone(), data)?
+            .map(|v| {
+                map(v, |c| {
+                    if normalized {
+                        c as f32 / 255.0
+                    } else {
+                        c as f32
+                    }
+                })
+            })
+            .collect(),
+        DataType::I16 => Iter::<[i16; N]>::new(acc.clone(), data)?
+            .map(|v| {
+                map(v, |c| {
+                    if normalized {
+                        (c as f32 / 32767.0).max(-1.0)
+                    } else {
+                        c as f32
+                    }
+                })
+            })
+            .collect(),
+        DataType::U16 => Iter::<[u16; N]>::new(acc.clone(), data)?
+            .map(|v| {
+                map(v, |c| {
+                    if normalized {
+                        c as f32 / 65535.0
+                    } else {
+                        c as f32
+                    }
+                })
+            })
+            .collect(),
+        DataType::U32 => return None,
+    })
 }
 
 fn expect_format(
