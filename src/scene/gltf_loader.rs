@@ -26,6 +26,7 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
     "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
@@ -252,7 +253,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
 
     // Before reading a buffer or allocating geometry: the node graph must be a forest, and
     // what the scene would need must fit the memory limit.
-    let mut estimate = estimate_memory(&root_scene)?;
+    let mut estimate = estimate_memory(&gltf.document, &root_scene)?;
     estimate.input_bytes = gltf.document.buffers().fold(bytes.len() as u64, |sum, b| {
         sum.saturating_add(b.length() as u64)
     });
@@ -305,6 +306,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         ));
     }
     let mut loader = Loader {
+        document: &gltf.document,
         pose,
         skinned: 0,
         morphed: 0,
@@ -478,8 +480,9 @@ fn check_before_validation(root: &gltf::json::Root) -> Result<()> {
 /// requires disjoint trees; shared subtrees would be flattened once per path, exponentially
 /// often) and hierarchies deeper than [`MAX_NODE_DEPTH`], and sums the vertex and triangle
 /// counts of every mesh instance from the accessors' declared counts.
-fn estimate_memory(scene: &gltf::Scene) -> Result<MemoryEstimate> {
+fn estimate_memory(doc: &gltf::Document, scene: &gltf::Scene) -> Result<MemoryEstimate> {
     fn walk(
+        doc: &gltf::Document,
         node: &gltf::Node,
         path: &mut Vec<usize>,
         seen: &mut std::collections::HashSet<usize>,
@@ -502,6 +505,8 @@ fn estimate_memory(scene: &gltf::Scene) -> Result<MemoryEstimate> {
             ));
         }
         if let Some(mesh) = node.mesh() {
+            // Instances are flattened: each is a copy.
+            let copies = instance_count(doc, node).unwrap_or(1) as u64;
             for primitive in mesh.primitives() {
                 let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
                     continue;
@@ -513,13 +518,15 @@ fn estimate_memory(scene: &gltf::Scene) -> Result<MemoryEstimate> {
                     Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
                     _ => continue,
                 };
-                est.vertices = est.vertices.saturating_add(vertices);
-                est.triangles = est.triangles.saturating_add(triangles);
+                est.vertices = est.vertices.saturating_add(vertices.saturating_mul(copies));
+                est.triangles = est
+                    .triangles
+                    .saturating_add(triangles.saturating_mul(copies));
             }
         }
         path.push(index);
         for child in node.children() {
-            walk(&child, path, seen, est)?;
+            walk(doc, &child, path, seen, est)?;
         }
         path.pop();
         Ok(())
@@ -527,7 +534,7 @@ fn estimate_memory(scene: &gltf::Scene) -> Result<MemoryEstimate> {
     let mut est = MemoryEstimate::default();
     let mut seen = std::collections::HashSet::new();
     for node in scene.nodes() {
-        walk(&node, &mut Vec::new(), &mut seen, &mut est)?;
+        walk(doc, &node, &mut Vec::new(), &mut seen, &mut est)?;
     }
     Ok(est)
 }
@@ -642,6 +649,7 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
 }
 
 struct Loader<'a> {
+    document: &'a gltf::Document,
     /// The animated nodes' transforms (empty for the rest pose).
     pose: super::animation::Pose,
     /// Mesh instances with a skin, and primitives with morph targets (not applied).
@@ -832,13 +840,28 @@ impl Loader<'_> {
 
         if let Some(mesh) = node.mesh() {
             self.skinned += node.skin().is_some() as usize;
-            for primitive in mesh.primitives() {
-                self.morphed += (primitive.morph_targets().len() > 0) as usize;
-                // The primitive's triangles are appended from here on (ID passes).
-                let first = u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX);
-                (self.scene.origins).start(first, index as u32, mesh.index() as u32);
-                let label = format!("mesh {} primitive {}", mesh.index(), primitive.index());
-                self.primitive(&primitive, &world, &label)?;
+            // EXT_mesh_gpu_instancing: the mesh once per instance, each placed by the
+            // instance's transform under the node's (flattened: each is a copy).
+            let placements = match instance_transforms(self.document, node, self.buffers)? {
+                Some(instances) => instances.iter().map(|m| world * *m).collect(),
+                None => vec![world],
+            };
+            for (k, placed) in placements.iter().enumerate() {
+                if !placed.is_finite() {
+                    return Err(format!(
+                        "node {index}: instance {k}'s transform is not finite"
+                    ));
+                }
+                for primitive in mesh.primitives() {
+                    if k == 0 {
+                        self.morphed += (primitive.morph_targets().len() > 0) as usize;
+                    }
+                    // The primitive's triangles are appended from here on (ID passes).
+                    let first = u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX);
+                    (self.scene.origins).start(first, index as u32, mesh.index() as u32);
+                    let label = format!("mesh {} primitive {}", mesh.index(), primitive.index());
+                    self.primitive(&primitive, placed, &label)?;
+                }
             }
         }
         if let Some(camera) = node.camera() {
@@ -1339,6 +1362,95 @@ fn assemble_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .collect(),
         _ => Vec::new(),
     }
+}
+
+/// A node's `EXT_mesh_gpu_instancing` attributes (TRANSLATION, ROTATION, SCALE) as accessor
+/// indices, or None without the extension.
+fn instancing_attributes(node: &gltf::Node) -> Option<Vec<(String, usize)>> {
+    let ext = node.extension_value("EXT_mesh_gpu_instancing")?;
+    let attributes = ext.get("attributes").and_then(|a| a.as_object());
+    Some(
+        attributes
+            .into_iter()
+            .flatten()
+            .filter_map(|(k, v)| Some((k.clone(), v.as_u64()? as usize)))
+            .collect(),
+    )
+}
+
+/// The number of instances a node's `EXT_mesh_gpu_instancing` draws (its attributes'
+/// largest accessor count: they must all agree, which reading them checks), or None without
+/// the extension.
+fn instance_count(doc: &gltf::Document, node: &gltf::Node) -> Option<usize> {
+    let attributes = instancing_attributes(node)?;
+    Some(
+        attributes
+            .iter()
+            .filter_map(|&(_, i)| doc.accessors().nth(i).map(|a| a.count()))
+            .max()
+            .unwrap_or(0),
+    )
+}
+
+/// The transforms of a node's `EXT_mesh_gpu_instancing` instances, each translation ×
+/// rotation × scale of its attributes (any may be absent: identity), or None without the
+/// extension. Errors name the node and what is wrong.
+fn instance_transforms(
+    doc: &gltf::Document,
+    node: &gltf::Node,
+    buffers: &[Vec<u8>],
+) -> Result<Option<Vec<DMat4>>> {
+    let Some(attributes) = instancing_attributes(node) else {
+        return Ok(None);
+    };
+    let label = format!("node {} EXT_mesh_gpu_instancing", node.index());
+    let count = instance_count(doc, node).unwrap_or(0);
+    let mut t = vec![glam::DVec3::ZERO; count];
+    let mut r = vec![glam::DQuat::IDENTITY; count];
+    let mut sc = vec![glam::DVec3::ONE; count];
+    for (name, index) in attributes {
+        let acc = doc.accessors().nth(index).ok_or_else(|| {
+            format!("{label}: {name} names accessor {index}, which does not exist")
+        })?;
+        check_accessor(buffers, &acc).map_err(|e| format!("{label} {name}: {e}"))?;
+        if acc.count() != count {
+            return Err(format!(
+                "{label}: {name} has {} instances, another attribute {count}",
+                acc.count()
+            ));
+        }
+        let unreadable = || format!("{label}: {name} cannot be read from its buffer");
+        match name.as_str() {
+            "TRANSLATION" | "SCALE" => {
+                expect_format(&acc, Dimensions::Vec3, &[DataType::F32], &label, &name)?;
+                let v: Vec<[f32; 3]> = read_floats(&acc, buffers).ok_or_else(unreadable)?;
+                let target = if name == "SCALE" { &mut sc } else { &mut t };
+                for (dst, src) in target.iter_mut().zip(v) {
+                    *dst = glam::Vec3::from_array(src).as_dvec3();
+                }
+            }
+            "ROTATION" => {
+                expect_format(&acc, Dimensions::Vec4, QUANTIZED_UNIT, &label, &name)?;
+                let v: Vec<[f32; 4]> = read_floats(&acc, buffers).ok_or_else(unreadable)?;
+                for (k, (dst, src)) in r.iter_mut().zip(v).enumerate() {
+                    let q = glam::Quat::from_array(src).as_dquat();
+                    if !q.is_finite() || q.length() == 0.0 {
+                        return Err(format!(
+                            "{label}: instance {k}'s rotation is not a rotation"
+                        ));
+                    }
+                    *dst = q.normalize();
+                }
+            }
+            // Custom attributes (_ID and the like) place nothing.
+            _ => {}
+        }
+    }
+    Ok(Some(
+        (0..count)
+            .map(|k| DMat4::from_scale_rotation_translation(sc[k], r[k], t[k]))
+            .collect(),
+    ))
 }
 
 /// The component types a POSITION or TEXCOORD accessor may have: float, or with
