@@ -295,23 +295,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE.exr")]
     pub spp_image: Option<PathBuf>,
 
-    /// Do not write the PNG preview beside the EXR.
-    #[arg(long)]
-    pub no_png: bool,
-
-    /// The PNG preview's view transform: agx (highlights roll off, as Blender 4 shows by
-    /// default) or standard (clamped sRGB). The EXR stays linear.
-    #[arg(long, value_name = "VIEW", default_value_t = ViewTransform::Agx)]
-    pub view: ViewTransform,
-
-    /// Scale the PNG preview's radiance by 2^EV before its view transform.
-    #[arg(
-        long,
-        value_name = "EV",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub preview: PreviewArgs,
 
     /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
     /// same; for measuring what packets gain)
@@ -487,15 +472,23 @@ pub struct DenoiseArgs {
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
 
+    #[command(flatten)]
+    pub preview: PreviewArgs,
+}
+
+/// The PNG preview's options, shared by `render` and `render denoise`.
+#[derive(clap::Args, Debug)]
+pub struct PreviewArgs {
     /// Do not write the PNG preview beside the EXR.
     #[arg(long)]
     pub no_png: bool,
 
-    /// The PNG preview's view transform (as `render --view`).
+    /// The PNG preview's view transform: agx (highlights roll off, as Blender 4 shows by
+    /// default) or standard (clamped sRGB). The EXR stays linear.
     #[arg(long, value_name = "VIEW", default_value_t = ViewTransform::Agx)]
     pub view: ViewTransform,
 
-    /// The PNG preview's exposure in stops (as `render --exposure`).
+    /// Scale the PNG preview's radiance by 2^EV before its view transform.
     #[arg(
         long,
         value_name = "EV",

@@ -231,7 +231,7 @@ impl Job {
                 })
             }
         };
-        if !args.exposure.is_finite() {
+        if !args.preview.exposure.is_finite() {
             refuse!("--exposure must be a finite number of stops");
         }
         if !args.env_rotate.is_finite() {
@@ -297,9 +297,9 @@ impl Job {
         Ok(Job {
             scene: args.scene.clone(),
             output,
-            png: !args.no_png,
-            view: args.view,
-            exposure: args.exposure,
+            png: !args.preview.no_png,
+            view: args.preview.view,
+            exposure: args.preview.exposure,
             frame: args.frame,
             frames: args.frames,
             fps: args.fps,

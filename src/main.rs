@@ -59,6 +59,9 @@ fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
         args.input.with_file_name(format!("{stem}-denoised.exr"))
     });
     output::check_output_path(&output)?;
+    if !args.preview.exposure.is_finite() {
+        return Err(anyhow!("--exposure must be a finite number of stops"));
+    }
     if !args.input.is_file() {
         return Err(anyhow!("{}: no such file", args.input.display()));
     }
@@ -70,8 +73,9 @@ fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
     for w in &report.warnings {
         eprintln!("warning: {}: {w}", args.input.display());
     }
-    if args.exposure.is_finite() && !args.no_png {
-        let display = strata::render::view::Display::new(args.view, args.exposure);
+    let preview = &args.preview;
+    if !preview.no_png {
+        let display = strata::render::view::Display::new(preview.view, preview.exposure);
         let (w, h) = (report.width as u32, report.height as u32);
         output::write_png_pixels(
             &output.with_extension("png"),

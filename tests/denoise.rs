@@ -42,36 +42,6 @@ mod with_oidn {
 
     use super::*;
 
-    /// Every channel of the EXR's one part, by name, and its text attributes.
-    fn read_channels(path: &Path) -> (HashMap<String, Vec<f32>>, HashMap<String, String>) {
-        use exr::prelude::*;
-        let image = read_all_flat_layers_from_file(path).unwrap();
-        assert_eq!(image.layer_data.len(), 1, "one part");
-        let layer = &image.layer_data[0];
-        let channels = layer
-            .channel_data
-            .list
-            .iter()
-            .map(|c| {
-                let values = match &c.sample_data {
-                    FlatSamples::F32(v) => v.clone(),
-                    other => panic!("{}: not float32: {other:?}", c.name),
-                };
-                (c.name.to_string(), values)
-            })
-            .collect();
-        let texts = layer
-            .attributes
-            .other
-            .iter()
-            .filter_map(|(k, v)| match v {
-                AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
-                _ => None,
-            })
-            .collect();
-        (channels, texts)
-    }
-
     /// The Cornell box as its Mitsuba reference was rendered, at `spp`.
     fn cornell(dir: &Path, name: &str, spp: u32, extra: &[&str]) -> std::path::PathBuf {
         let scene = repo_path("scenes/cornell-box.gltf");
