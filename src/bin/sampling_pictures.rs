@@ -171,8 +171,10 @@ struct Measured {
     counts: Vec<f64>,
     /// Expected counts, the same layout.
     expected: Vec<f64>,
-    /// Each cell's solid angle, for densities per steradian.
-    solid_angle: Vec<f64>,
+    /// Each cell's measure (its solid angle, or its area in the map's (u, v) square), and
+    /// what the densities are per.
+    measure: Vec<f64>,
+    per: &'static str,
     /// Warps: counts of cos θ in [`HIST_BINS`] bins, and the density of cos θ claimed.
     hist: Option<CosHistogram>,
     /// Colours on a log scale (maps whose density spans decades).
@@ -187,7 +189,8 @@ impl Measured {
             grid,
             counts,
             expected,
-            solid_angle,
+            measure: solid_angle,
+            per: "per sr",
             hist: None,
             log_colour: false,
             outcome,
@@ -387,7 +390,7 @@ fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
         iy * grid.nx + ix
     };
     let (w, h) = map.size();
-    let (mut probability, mut solid_angle) = (vec![0.0; cells], vec![0.0; cells]);
+    let mut probability = vec![0.0; cells];
     for y in 0..h {
         let (t0, t1) = (PI * y as f64 / h as f64, PI * (y + 1) as f64 / h as f64);
         let texel = TAU / w as f64 * (t0.cos() - t1.cos());
@@ -402,7 +405,6 @@ fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
             );
             let i = cell_of(u, v);
             probability[i] += map.pdf(centre) as f64 * texel;
-            solid_angle[i] += texel;
         }
     }
     // A point that lands exactly on a pole (u.y = 0 or 1, 2^-24 of the points) gets pdf 0:
@@ -426,7 +428,10 @@ fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
     }
     let mut expected: Vec<f64> = probability.iter().map(|p| p * used as f64).collect();
     expected.push(0.0);
-    let mut m = Measured::new(grid, counts, expected, solid_angle);
+    // Densities over the (u, v) square, where the claimed pdf is the texels' luminance
+    // times sin θ (per steradian it would be the luminance alone).
+    let mut m = Measured::new(grid, counts, expected, vec![1.0 / cells as f64; cells]);
+    m.per = "per unit (u, v) area";
     m.log_colour = true;
     m
 }
@@ -520,7 +525,7 @@ fn draw(path: &Path, title: &str, samples: usize, m: &Measured) -> Result<()> {
         let per_sr = |counts: &[f64]| -> Vec<f64> {
             counts[..cells]
                 .iter()
-                .zip(&m.solid_angle)
+                .zip(&m.measure)
                 .map(|(c, sr)| c / samples as f64 / sr)
                 .collect()
         };
@@ -542,8 +547,16 @@ fn draw(path: &Path, title: &str, samples: usize, m: &Measured) -> Result<()> {
         };
         let first = panes - 2;
         for (panel, values, what) in [
-            (&panels[first], &sampled, "sampled density (per sr)"),
-            (&panels[first + 1], &claimed, "claimed pdf (per sr)"),
+            (
+                &panels[first],
+                &sampled,
+                format!("sampled density ({})", m.per),
+            ),
+            (
+                &panels[first + 1],
+                &claimed,
+                format!("claimed pdf ({})", m.per),
+            ),
         ] {
             let title = format!("{what}; colours {scale}");
             let mut chart = ChartBuilder::on(panel)
