@@ -518,10 +518,10 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
             let progress = ProgressBar::hidden();
             render::render(&ctx, &settings, &pool, &progress, &AtomicBool::new(false))
         });
-        let sums = |r: &render::RenderResult| -> Vec<[u64; 3]> {
+        let sums = |r: &render::RenderResult| -> Vec<[i128; 3]> {
             (0..r.film.height)
                 .flat_map(|y| (0..r.film.width).map(move |x| (x, y)))
-                .map(|(x, y)| r.film.totals(x, y).0.map(f64::to_bits))
+                .map(|(x, y)| r.film.totals(x, y).0)
                 .collect()
         };
         let (a, b) = (sums(&on), sums(&off));

@@ -44,7 +44,8 @@ use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
 pub use film::{
-    BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals, FEATURE_SLOTS, NO_HIT,
+    BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals,
+    FEATURE_SLOTS, NO_HIT, NO_TOTALS,
 };
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -126,7 +127,8 @@ pub struct RenderStats {
     pub seconds: f64,
     /// Passes that rendered tiles, the probe of a fixed-spp render included.
     pub passes: u32,
-    /// Samples rejected because their value was NaN or infinite.
+    /// Samples rejected because their value was NaN, infinite or out of the film's range
+    /// ([`film::MAX_SAMPLE_VALUE`]).
     pub bad_samples: u64,
     /// The first few of them, in pixel order, for replay.
     pub first_bad: Vec<BadSample>,
@@ -315,9 +317,9 @@ impl TileSums {
         }
         let n = offsets[tiles.len()];
         TileSums {
-            data: vec![([0f64; 3], [0f64; 3], 0); n],
+            data: vec![NO_TOTALS; n],
             features: if features {
-                vec![[0f64; FEATURE_SLOTS]; n]
+                vec![[0; FEATURE_SLOTS]; n]
             } else {
                 Vec::new()
             },
@@ -506,14 +508,12 @@ fn render_tile(
             let mut acc: [PixelTotals; PACKET] = std::array::from_fn(|i| {
                 lanes
                     .get(i)
-                    .map_or(([0f64; 3], [0f64; 3], 0), |&(x, y, _, _)| {
-                        round.film.totals(x, y)
-                    })
+                    .map_or(NO_TOTALS, |&(x, y, _, _)| round.film.totals(x, y))
             });
             let mut feature_acc: [FeatureTotals; PACKET] =
                 std::array::from_fn(|i| match lanes.get(i) {
                     Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
-                    _ => [0.0; FEATURE_SLOTS],
+                    _ => [0; FEATURE_SLOTS],
                 });
             // Each pixel's first hit: the film's, until its sample 0 is taken. A block that
             // cannot see the scene, and a packet that misses the scene's box, leave it at
@@ -526,7 +526,7 @@ fn render_tile(
             }
             // A block that cannot see the scene (`mask`) takes the estimate of a miss for
             // each of its samples, untraced and unsampled: the sums a traced miss would have
-            // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, never −0).
+            // added. A zero estimate (AO) adds nothing to the sums.
             if unseen {
                 for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
                     out.rays.camera += (b - a) as u64;
@@ -686,8 +686,9 @@ const PACKET_W: u32 = culling::BLOCK_W;
 const PACKET_H: u32 = culling::BLOCK_H;
 const _: () = assert!((PACKET_W * PACKET_H) as usize == PACKET);
 
-/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums, or counts it as
-/// bad (NaN or infinite) and keeps the first few.
+/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums (exactly, in
+/// fixed point: [`film`]), or counts it as bad (NaN, infinite, or beyond the film's range,
+/// [`film::MAX_SAMPLE_VALUE`]) and keeps the first few.
 #[inline]
 fn accumulate(
     pixel: &mut PixelTotals,
@@ -696,11 +697,8 @@ fn accumulate(
     bad: &mut u64,
     first_bad: &mut Vec<BadSample>,
 ) {
-    if l.is_finite() {
-        for (c, v) in l.to_array().into_iter().enumerate() {
-            pixel.0[c] += v as f64;
-            pixel.1[c] += v as f64 * v as f64;
-        }
+    if film::in_range(l) {
+        film::add_sample(pixel, l.to_array());
     } else {
         *bad += 1;
         if first_bad.len() < BAD_SAMPLES_KEPT {
