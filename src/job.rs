@@ -497,6 +497,7 @@ impl Job {
             sampler: self.sampler,
             integrator: self.integrator,
             tile_size: self.tile_size,
+            sample_range: None,
             min_pass_seconds: self.min_pass_seconds,
             stopping: self.stopping(),
         }

@@ -511,6 +511,7 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
                 sampler: SamplerKind::Sobol,
                 integrator: Integrator::Ao(AoSettings::default()),
                 tile_size: 16,
+                sample_range: None,
                 min_pass_seconds: 0.0,
                 crop: None,
                 stopping: Default::default(),

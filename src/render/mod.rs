@@ -20,6 +20,10 @@
 //! same on any thread count, so an adaptive image is bit-identical across thread counts too.
 //! A time limit stops the render between tiles; how far it got depends on the machine's
 //! speed, so a time-limited image is not reproducible (each pixel's samples still are).
+//!
+//! [`RenderSettings::sample_range`] renders only the samples of index a..b of every pixel (a
+//! farm shard's part). The film's sums are exact integers ([`film`]), so [`Film::merge`] of
+//! the films of disjoint ranges is the film of their union, bit for bit.
 
 pub mod adaptive;
 pub mod culling;
@@ -79,6 +83,18 @@ pub struct RenderSettings {
     pub crop: Option<(u32, u32, u32, u32)>,
     /// When to stop before `spp` samples per pixel.
     pub stopping: Stopping,
+    /// Take only the samples of index a ≤ i < b of every pixel (a ≤ b ≤ `spp`; None: all
+    /// `spp`), into a film that holds just those (its counts are b − a): a farm shard's
+    /// part of the image, whose films [`Film::merge`] joins into the film of the whole
+    /// range, bit for bit. Fixed-spp renders only (no [`Stopping`]).
+    pub sample_range: Option<(u32, u32)>,
+}
+
+impl RenderSettings {
+    /// The sample indices every pixel takes, [a, b) ([`RenderSettings::sample_range`]).
+    pub fn samples(&self) -> (u32, u32) {
+        self.sample_range.unwrap_or((0, self.spp))
+    }
 }
 
 /// Early stopping: adaptive sampling per pixel, and a time limit for the whole render. With
@@ -245,6 +261,8 @@ pub fn progressive_next(count: u32, min_spp: u32, spp: u32) -> u32 {
 /// marks takes the samples from its count up to `next(count)`.
 struct Round<'a> {
     film: &'a Film,
+    /// The index of each pixel's first sample in the film ([`RenderSettings::sample_range`]).
+    offset: u32,
     /// Indexed like the film; `None`: every pixel of the window.
     selection: Option<&'a [bool]>,
     next: &'a (dyn Fn(u32) -> u32 + Sync),
@@ -261,7 +279,7 @@ impl Round<'_> {
             return (0, 0);
         }
         let c = self.film.count(x, y);
-        (c, (self.next)(c).max(c))
+        (self.offset + c, self.offset + (self.next)(c).max(c))
     }
 
     fn tile_has_work(&self, t: &Tile) -> bool {
@@ -386,7 +404,8 @@ struct TileResult {
 /// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
 /// scanline order; the tile's part of [`TileSums`]): each pixel's totals in the film, with
 /// the round's samples added one by one in index order. A pixel's totals are thus the same
-/// sequential sums however its samples were split into rounds.
+/// however its samples were split into rounds (and would be in any order: the sums are
+/// exact).
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
@@ -761,7 +780,18 @@ pub fn render_with_checkpoints(
     let setup = pool.install(|| TileSetup::new(ctx, settings));
     let mut tile_sums = TileSums::new(&tiles, ctx.features, ctx.ids);
     let stopping = settings.stopping;
-    let spp = settings.spp;
+    // The samples each pixel takes, from index `first_sample` on (the film counts them from 0).
+    let (first_sample, end_sample) = settings.samples();
+    assert!(
+        first_sample <= end_sample && end_sample <= settings.spp,
+        "sample range {first_sample}..{end_sample} outside 0..{}",
+        settings.spp
+    );
+    assert!(
+        settings.sample_range.is_none() || !stopping.is_progressive(),
+        "a sample range is for fixed-spp renders"
+    );
+    let spp = end_sample - first_sample;
     // Each round takes every pixel from its count to the next pass end: in a progressive
     // render by the pixel's count, otherwise the same for all (`done` samples so far).
     let progressive = stopping.is_progressive();
@@ -872,6 +902,7 @@ pub fn render_with_checkpoints(
         let next_fixed = |c: u32| fixed_end.map_or(c, |end| end.max(c));
         let round = Round {
             film: &film,
+            offset: first_sample,
             selection: selected.as_deref().or(active.as_deref()),
             next: if progressive {
                 &next_progressive
