@@ -19,8 +19,8 @@
 //!   must have |v| < 2^55 ≈ 3.6·10¹⁶ in every channel ([`MAX_SAMPLE_VALUE`]); one that does
 //!   not is rejected like a NaN and reported ([`BadSample`]). Then |q| ≤ 2^95 and a pixel of
 //!   at most 2^32 − 1 samples (its count is a `u32`) sums to less than 2^127 in magnitude: a
-//!   sum cannot leave the range of `i128`. (The additions saturate all the same, never
-//!   wrap.)
+//!   sum cannot leave the range of `i128`. (The additions are checked all the same: they
+//!   would panic, never wrap.)
 //! - **Squares** (for the variance): `trunc(v² · 2^48)` ([`SQUARE_FRACTION_BITS`]), v² taken
 //!   exactly in f64 and truncated by less than 2^−48 ≈ 3.6·10⁻¹⁵ (not at all where v is a
 //!   multiple of 2^−24, e.g. every |v| ≥ 0.5), summed in `u128` with saturating addition,
@@ -185,18 +185,42 @@ pub fn add_features(totals: &mut FeatureTotals, features: Option<crate::integrat
             f.uv.y,
         ];
         for (t, v) in totals.iter_mut().zip(values) {
-            *t = t.saturating_add(fixed_feature(v));
+            *t = add_sum(*t, fixed_feature(v));
         }
     }
+}
+
+/// Below this in magnitude (2^7), a value's fixed-point form and its square's both fit an
+/// i64: |v| · 2^40 < 2^47 and v² · 2^48 < 2^62.
+const SMALL_VALUE: f32 = 128.0;
+
+/// `a + b` for sums of values or features, which cannot overflow: each addend is below 2^95
+/// in magnitude ([`MAX_SAMPLE_VALUE`], and features are clamped to it) and a pixel takes
+/// fewer than 2^32 samples (module docs). Checked all the same: an overflow would panic,
+/// never wrap.
+#[inline]
+fn add_sum(a: i128, b: i128) -> i128 {
+    a.checked_add(b)
+        .expect("a film sum stays below 2^127 for fewer than 2^32 samples below 2^55")
 }
 
 /// Adds sample value `l` (every channel finite and below [`MAX_SAMPLE_VALUE`] in magnitude:
 /// [`in_range`]) to a pixel's sums and squares; the count is the caller's.
 #[inline]
-pub fn add_sample(pixel: &mut PixelTotals, l: [f32; 3]) {
-    for (c, v) in l.into_iter().enumerate() {
-        pixel.0[c] = pixel.0[c].saturating_add(fixed_value(v));
-        pixel.1[c] = pixel.1[c].saturating_add(fixed_square(v));
+pub fn add_sample(pixel: &mut PixelTotals, l: glam::Vec3A) {
+    if l.abs().cmplt(glam::Vec3A::splat(SMALL_VALUE)).all() {
+        // The common case, one test for the three channels: both conversions through i64
+        // (one instruction each), the same integers as `fixed_value` and `fixed_square`.
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            let v = v as f64;
+            pixel.0[c] = add_sum(pixel.0[c], (v * VALUE_SCALE) as i64 as i128);
+            pixel.1[c] = pixel.1[c].saturating_add((v * v * SQUARE_SCALE) as i64 as u128);
+        }
+    } else {
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            pixel.0[c] = add_sum(pixel.0[c], fixed_value(v));
+            pixel.1[c] = pixel.1[c].saturating_add(fixed_square(v));
+        }
     }
 }
 
@@ -519,7 +543,7 @@ impl Film {
         let i = self.index(x, y);
         let mut totals = (self.sums[i], self.sq_sums[i], self.counts[i] + 1);
         if in_range(l.into()) {
-            add_sample(&mut totals, l.to_array());
+            add_sample(&mut totals, l.into());
         }
         self.rows_mut(&[(y, y + 1)])[0].set(x, y, totals);
     }
@@ -561,11 +585,11 @@ impl Film {
                 return Err(MergeError::BothHaveSampleZero(at(i), row(i)));
             }
         }
-        // Sums stay below 2^127 in magnitude for counts below 2^32 (module docs); they
-        // saturate rather than wrap all the same. Squares saturate by design.
+        // Sums stay below 2^127 in magnitude for counts below 2^32 ([`add_sum`]). Squares
+        // saturate by design.
         for (a, b) in self.sums.iter_mut().zip(&other.sums) {
             for c in 0..3 {
-                a[c] = a[c].saturating_add(b[c]);
+                a[c] = add_sum(a[c], b[c]);
             }
         }
         for (a, b) in self.sq_sums.iter_mut().zip(&other.sq_sums) {
@@ -579,7 +603,7 @@ impl Film {
         if let (Some(a), Some(b)) = (&mut self.features, &other.features) {
             for (a, b) in a.iter_mut().zip(b) {
                 for (a, b) in a.iter_mut().zip(b) {
-                    *a = a.saturating_add(*b);
+                    *a = add_sum(*a, *b);
                 }
             }
         }
@@ -806,6 +830,13 @@ mod tests {
         let (exact, q) = (0.1f32 as f64 * 0.1f32 as f64, square_of(fixed_square(0.1)));
         assert!(q <= exact && exact - q < 2f64.powi(-48));
         assert_eq!(fixed_square(f32::MAX), u128::MAX);
+        // `add_sample`'s path for small values gives the same integers.
+        for v in [0.1f32, -127.9, 1.0e-7, 3.0, 127.99, 128.0, -1.0e9] {
+            let mut t = NO_TOTALS;
+            add_sample(&mut t, glam::Vec3A::new(v, 0.5, -v));
+            assert_eq!((t.0[0], t.1[0]), (fixed_value(v), fixed_square(v)), "{v}");
+            assert_eq!((t.0[2], t.1[2]), (fixed_value(-v), fixed_square(v)), "{v}");
+        }
     }
 
     #[test]

@@ -717,7 +717,7 @@ fn accumulate(
     first_bad: &mut Vec<BadSample>,
 ) {
     if film::in_range(l) {
-        film::add_sample(pixel, l.to_array());
+        film::add_sample(pixel, l);
     } else {
         *bad += 1;
         if first_bad.len() < BAD_SAMPLES_KEPT {
