@@ -808,7 +808,7 @@ mod tests {
     #[test]
     fn fixed_point_is_exact_above_its_resolution_and_truncates_below() {
         // Every f32 of magnitude at least 2^-17 converts exactly.
-        for v in [1.0f32, -1.0, 0.1, 3.0e-5, 7.62939453125e-6, 1.0e16, -2.5e7] {
+        for v in [1.0f32, -1.0, 0.1, 3.0e-5, 2f32.powi(-17), 1.0e16, -2.5e7] {
             assert_eq!(value_of(fixed_value(v)), v as f64, "{v}");
         }
         // Below, toward zero, by less than 2^-40.
