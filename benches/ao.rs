@@ -102,6 +102,7 @@ fn bench(c: &mut Criterion) {
         sampler: SamplerKind::Sobol,
         integrator: Integrator::Ao(AoSettings::default()),
         tile_size: 16,
+        sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
     g.throughput(Throughput::Elements((W * H * settings.spp) as u64));

@@ -279,6 +279,7 @@ fn measure(scene: &Scene, accel: &Accel, pool: &rayon::ThreadPool, n: u32, spp: 
             ..AoSettings::default()
         }),
         tile_size: TILE,
+        sample_range: None,
         min_pass_seconds: MIN_PASS_SECONDS,
     };
     // The render as it runs, and with every pixel block's camera rays generated and tested

@@ -541,6 +541,7 @@ impl Job {
             sampler: self.sampler,
             integrator: self.integrator,
             tile_size: self.tile_size,
+            sample_range: None,
             min_pass_seconds: self.min_pass_seconds,
             stopping: self.stopping(),
         }
@@ -802,11 +803,11 @@ mod tests {
     fn passes_cost_image_memory() {
         let plain = job(&[]).unwrap().image_memory(100, 100);
         let with = |passes: &str| job(&["--passes", passes]).unwrap().image_memory(100, 100);
-        // Feature totals: 13 f64 in the film and as many in a round's tiles.
-        assert_eq!(with("depth") - plain, 100 * 100 * 2 * 13 * 8);
-        assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 2 * 13 * 8);
+        // Feature totals: 13 16-byte integers in the film and as many in a round's tiles.
+        assert_eq!(with("depth") - plain, 100 * 100 * 2 * 13 * 16);
+        assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 2 * 13 * 16);
         // IDs: one u32 triangle index in the film and one in a round's tiles.
         assert_eq!(with("object_id") - plain, 100 * 100 * 8);
-        assert_eq!(with("depth,mesh_id") - plain, 100 * 100 * (2 * 13 * 8 + 8));
+        assert_eq!(with("depth,mesh_id") - plain, 100 * 100 * (2 * 13 * 16 + 8));
     }
 }

@@ -43,14 +43,15 @@ pub struct Run<'a> {
     pub checkpoint_seconds: f64,
 }
 
-/// The warning about samples left out of the image as NaN or infinite, with the first few;
+/// The warning about samples left out of the image as NaN, infinite or too large for the
+/// film ([`crate::render::film::MAX_SAMPLE_VALUE`]), with the first few;
 /// empty when there were none.
 pub fn bad_samples(stats: &RenderStats) -> String {
     let mut s = String::new();
     if stats.bad_samples > 0 {
         let _ = writeln!(
             s,
-            "warning: {} sample(s) were NaN or infinite and left out of the image; first:",
+            "warning: {} sample(s) were NaN, infinite or beyond ±2^55 and left out of the image; first:",
             stats.bad_samples
         );
         for b in &stats.first_bad {

@@ -98,6 +98,7 @@ fn render_scene_with(
         sampler: SamplerKind::Sobol,
         integrator,
         tile_size: 16,
+        sample_range: None,
         min_pass_seconds,
         crop: None,
         stopping,

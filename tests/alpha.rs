@@ -240,6 +240,7 @@ fn render_film_with(
         sampler: SamplerKind::Sobol,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: 0.0,
     };
     let pool = render::thread_pool(threads).unwrap();

@@ -65,6 +65,7 @@ fn render_ao_film(
             samples: ao_samples,
         }),
         tile_size: 16,
+        sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
     let prepared = Prepared::default();

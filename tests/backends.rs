@@ -139,6 +139,7 @@ fn ao_images_agree_between_backends() {
             sampler: SamplerKind::Sobol,
             integrator,
             tile_size: 16,
+            sample_range: None,
             min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
         };
         let pool = render::thread_pool(0).unwrap();

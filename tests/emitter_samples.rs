@@ -99,6 +99,7 @@ fn cornell(setup: Setup) -> RenderResult {
         sampler,
         integrator,
         tile_size: 16,
+        sample_range: None,
         min_pass_seconds: 0.0,
         crop: None,
         stopping,

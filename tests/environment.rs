@@ -45,6 +45,7 @@ fn render_under(
         sampler: SamplerKind::Sobol,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: 0.0,
     };
     let result = common::render_quietly(&ctx, &settings);
@@ -282,6 +283,7 @@ fn mean_radiance(
         sampler: SamplerKind::Random,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: 0.0,
     };
     let result = common::render_quietly(&ctx, &settings);

@@ -67,6 +67,7 @@ fn render_film(scene: &Scene, camera: Camera, integrator: Integrator, features: 
         sampler: SamplerKind::Sobol,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: 0.0,
     };
     let result = common::render_quietly(&ctx, &settings);

@@ -129,6 +129,7 @@ fn render_film(
         sampler: setup.sampler,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
     let pool = render::thread_pool(0).unwrap();

@@ -511,6 +511,7 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
                 sampler: SamplerKind::Sobol,
                 integrator: Integrator::Ao(AoSettings::default()),
                 tile_size: 16,
+                sample_range: None,
                 min_pass_seconds: 0.0,
                 crop: None,
                 stopping: Default::default(),
@@ -518,10 +519,10 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
             let progress = ProgressBar::hidden();
             render::render(&ctx, &settings, &pool, &progress, &AtomicBool::new(false))
         });
-        let sums = |r: &render::RenderResult| -> Vec<[u64; 3]> {
+        let sums = |r: &render::RenderResult| -> Vec<[i128; 3]> {
             (0..r.film.height)
                 .flat_map(|y| (0..r.film.width).map(move |x| (x, y)))
-                .map(|(x, y)| r.film.totals(x, y).0.map(f64::to_bits))
+                .map(|(x, y)| r.film.totals(x, y).0)
                 .collect()
         };
         let (a, b) = (sums(&on), sums(&off));

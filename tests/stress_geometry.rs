@@ -299,6 +299,7 @@ fn render_checked(scene: &Scene, integrator: Integrator, background: Vec3) -> Ve
         sampler: SamplerKind::Random,
         integrator,
         tile_size: 8,
+        sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
     let pool = render::thread_pool(0).unwrap();

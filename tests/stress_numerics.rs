@@ -312,6 +312,7 @@ fn render_raw(scene: &Scene, cam: &Camera, integrator: Integrator, o: Opts) -> R
         sampler: o.sampler,
         integrator,
         tile_size: 16,
+        sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
     let pool = render::thread_pool(0).unwrap();

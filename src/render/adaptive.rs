@@ -266,6 +266,7 @@ pub fn select_most_useful(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// A film whose pixels hold `n` samples alternating between `a` and `b` (grey).
     fn film_with(w: u32, h: u32, f: impl Fn(u32, u32) -> (f64, f64, u32)) -> Film {
@@ -275,7 +276,7 @@ mod tests {
                 let (a, b, n) = f(x, y);
                 for i in 0..n {
                     let v = if i % 2 == 0 { a } else { b };
-                    film.add(x, y, [v; 3], [v * v; 3], 1);
+                    film.add_sample(x, y, Vec3::splat(v as f32));
                 }
             }
         }
@@ -292,9 +293,9 @@ mod tests {
         film.keep_halves();
         for i in 0..32u32 {
             let first = if i < 16 { 0.0 } else { 1.0 };
-            let alternating = (i % 2) as f64;
-            film.add(0, 0, [first; 3], [first; 3], 1);
-            film.add(1, 0, [alternating; 3], [alternating; 3], 1);
+            let alternating = (i % 2) as f32;
+            film.add_sample(0, 0, Vec3::splat(first));
+            film.add_sample(1, 0, Vec3::splat(alternating));
         }
         let e = |x| pixel_error(&film, x, 0, ErrorMetric::Absolute, 0.0, 16);
         // Pixel 0: ((0 − 1)/2)² = ¼ per channel, a standard error of ½; three channels.
@@ -310,8 +311,8 @@ mod tests {
         // Without halves: σ/√n for both.
         let mut plain = Film::new(1, 1);
         for i in 0..32u32 {
-            let v = (i % 2) as f64;
-            plain.add(0, 0, [v; 3], [v; 3], 1);
+            let v = (i % 2) as f32;
+            plain.add_sample(0, 0, Vec3::splat(v));
         }
         let e = pixel_error(&plain, 0, 0, ErrorMetric::Absolute, 0.0, 16);
         assert!((e - 3.0 * sigma).abs() < 1e-6, "{e}");

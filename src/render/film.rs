@@ -2,10 +2,43 @@
 //! contributes to its own pixel only, like Mitsuba's `box` reconstruction filter); where
 //! passes ask, sums of the samples' first-hit features, and the triangle each pixel's sample 0
 //! met (for the exact ID passes).
+//!
+//! # Exact sums
+//!
+//! Every sum is an integer in fixed point, so adding is associative and exact: a pixel's sums
+//! are the same bits whatever order or grouping its samples were added in — one sample at a
+//! time, in rounds of passes over the image, or as films of disjoint sample ranges rendered
+//! apart and joined by [`Film::merge`] (a farm's shards). Floating-point sums are not: f64
+//! addition rounds, so partial sums added together differ in the last bits from the
+//! sequential sum.
+//!
+//! - **Values** (a sample's f32 channel): `q = trunc(v · 2^40)` ([`VALUE_FRACTION_BITS`]),
+//!   summed in `i128`. Truncation (toward zero) is the only rounding, and only for
+//!   |v| < 2^−17 (≈ 7.6·10⁻⁶): every f32 of at least that magnitude is a multiple of 2^−40,
+//!   so it converts exactly; smaller ones lose less than 2^−40 ≈ 9.1·10⁻¹³ each. A sample
+//!   must have |v| < 2^55 ≈ 3.6·10¹⁶ in every channel ([`MAX_SAMPLE_VALUE`]); one that does
+//!   not is rejected like a NaN and reported ([`BadSample`]). Then |q| ≤ 2^95 and a pixel of
+//!   at most 2^32 − 1 samples (its count is a `u32`) sums to less than 2^127 in magnitude: a
+//!   sum cannot leave the range of `i128`. (The additions are checked all the same: they
+//!   would panic, never wrap.)
+//! - **Squares** (for the variance): `trunc(v² · 2^48)` ([`SQUARE_FRACTION_BITS`]), v² taken
+//!   exactly in f64 and truncated by less than 2^−48 ≈ 3.6·10⁻¹⁵ (not at all where v is a
+//!   multiple of 2^−24, e.g. every |v| ≥ 0.5), summed in `u128` with saturating addition,
+//!   which is still associative for addends that are never negative. A pixel whose squares
+//!   reach 2^80 ≈ 1.2·10²⁴ (e.g. two samples of 10¹²) saturates at `u128::MAX` and reports
+//!   an infinite variance.
+//! - **Features** (albedo, normal, depth, position, UV, and the number of hits, 13 slots):
+//!   as values, in `i128` at 2^−40, each clamped to ±2^55 first (a depth or position
+//!   farther than that is clamped; a NaN counts as 0), so they cannot overflow either.
+//! - **Output**: a mean is the exact sum converted to f64 and divided by the count (times
+//!   the scale), rounded to f32: a deterministic function of the exact integers.
+//! - **Halves** (adaptive sampling only, which a farm shard cannot use) stay f64, copied
+//!   from the exact sums when a pixel's count lands on a power of two.
 
 use glam::{Vec2, Vec3};
 
-/// A sample whose value was NaN or infinite, kept out of the film and reported.
+/// A sample whose value was NaN, infinite or out of the film's range ([`MAX_SAMPLE_VALUE`]),
+/// kept out of the film and reported.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BadSample {
     pub x: u32,
@@ -14,21 +47,87 @@ pub struct BadSample {
     pub value: Vec3,
 }
 
+/// Fractional bits of a sample value's (and a feature's) fixed-point form.
+pub const VALUE_FRACTION_BITS: u32 = 40;
+
+/// Fractional bits of a squared sample value's fixed-point form.
+pub const SQUARE_FRACTION_BITS: u32 = 48;
+
+/// Sample values must be smaller than this in magnitude (2^55) to reach the film, so that
+/// the sums of 2^32 of them fit an `i128` ([`fixed_value`]).
+pub const MAX_SAMPLE_VALUE: f32 = (1u64 << 55) as f32;
+
+/// 2^[`VALUE_FRACTION_BITS`].
+const VALUE_SCALE: f64 = (1u64 << VALUE_FRACTION_BITS) as f64;
+
+/// 2^[`SQUARE_FRACTION_BITS`].
+const SQUARE_SCALE: f64 = (1u64 << SQUARE_FRACTION_BITS) as f64;
+
+/// 2^63: below this in magnitude an f64 converts to an integer in one instruction (through
+/// i64) rather than through the slower 128-bit conversion.
+const TWO_TO_63: f64 = 9_223_372_036_854_775_808.0;
+
+/// A value's fixed-point form, `trunc(v · 2^40)` (NaN gives 0; beyond the range of `i128`
+/// saturates, which [`MAX_SAMPLE_VALUE`] keeps sample values from reaching). The product is
+/// exact (f32 to f64, times a power of two).
+#[inline]
+pub fn fixed_value(v: f32) -> i128 {
+    let x = v as f64 * VALUE_SCALE;
+    if x.abs() < TWO_TO_63 {
+        x as i64 as i128
+    } else {
+        x as i128
+    }
+}
+
+/// A value's square in fixed point, `trunc(v² · 2^48)`, saturating at `u128::MAX`. v² is
+/// exact in f64 (two 24-bit significands make at most 48 bits).
+#[inline]
+pub fn fixed_square(v: f32) -> u128 {
+    let x = v as f64 * v as f64 * SQUARE_SCALE;
+    if x < TWO_TO_63 {
+        x as i64 as u128
+    } else {
+        x as u128
+    }
+}
+
+/// A feature's fixed-point form: [`fixed_value`] of it clamped to ±[`MAX_SAMPLE_VALUE`].
+#[inline]
+fn fixed_feature(v: f32) -> i128 {
+    fixed_value(v.clamp(-MAX_SAMPLE_VALUE, MAX_SAMPLE_VALUE))
+}
+
+/// A fixed-point value back in f64 (rounded to nearest once).
+#[inline]
+pub fn value_of(q: i128) -> f64 {
+    q as f64 / VALUE_SCALE
+}
+
+/// A fixed-point square back in f64; infinite where the sum saturated.
+#[inline]
+pub fn square_of(q: u128) -> f64 {
+    match q {
+        u128::MAX => f64::INFINITY,
+        q => q as f64 / SQUARE_SCALE,
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Sum of sample values per pixel, row 0 at the top; f64 so long renders do not lose
-    /// precision.
-    sums: Vec<[f64; 3]>,
-    /// Sum of squared sample values per pixel, for the variance estimate.
-    sq_sums: Vec<[f64; 3]>,
-    /// Samples taken per pixel (rejected NaN/Inf samples count as taken).
+    /// Sum of sample values per pixel in fixed point ([`fixed_value`]), row 0 at the top.
+    sums: Vec<[i128; 3]>,
+    /// Sum of squared sample values per pixel in fixed point ([`fixed_square`]), for the
+    /// variance estimate.
+    sq_sums: Vec<[u128; 3]>,
+    /// Samples taken per pixel (rejected samples count as taken).
     counts: Vec<u32>,
     /// For adaptive sampling ([`Film::keep_halves`]): per pixel, the sums of sample values
     /// when its count last reached a power of two p and when it reached p/2, from which
     /// [`Film::halves_variance_of_mean`] compares the first and second halves of its first p
-    /// samples.
+    /// samples (f64, from the exact sums).
     halves: Option<Vec<Halves>>,
     /// For feature layers ([`Film::keep_features`]): per pixel, the sums of its samples'
     /// first-hit features.
@@ -44,11 +143,12 @@ pub const NO_HIT: u32 = u32::MAX;
 /// The slots of [`FeatureTotals`].
 pub const FEATURE_SLOTS: usize = 13;
 
-/// A pixel's sums of its samples' first-hit features: albedo (0–2), shading normal (3–5),
-/// depth (6), position (8–10) and texture coordinates (11–12) over the samples whose camera
-/// ray met a surface, and their number (7). Albedo and normal are averaged over all of the
-/// pixel's samples (a miss adds zero), depth, position and UV over the samples that hit.
-pub type FeatureTotals = [f64; FEATURE_SLOTS];
+/// A pixel's sums of its samples' first-hit features, in fixed point like the values
+/// ([`fixed_value`]): albedo (0–2), shading normal (3–5), depth (6), position (8–10) and
+/// texture coordinates (11–12) over the samples whose camera ray met a surface, and their
+/// number (7, as 1.0 each). Albedo and normal are averaged over all of the pixel's samples (a
+/// miss adds zero), depth, position and UV over the samples that hit.
+pub type FeatureTotals = [i128; FEATURE_SLOTS];
 
 /// A pixel's mean first-hit features ([`Film::features`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,9 +185,65 @@ pub fn add_features(totals: &mut FeatureTotals, features: Option<crate::integrat
             f.uv.y,
         ];
         for (t, v) in totals.iter_mut().zip(values) {
-            *t += v as f64;
+            *t = add_sum(*t, fixed_feature(v));
         }
     }
+}
+
+/// Below this in magnitude (2^7), a value's fixed-point form and its square's both fit an
+/// i64: |v| · 2^40 < 2^47 and v² · 2^48 < 2^62.
+const SMALL_VALUE: f32 = 128.0;
+
+/// `a + b` for sums of values or features, which cannot overflow: each addend is below 2^95
+/// in magnitude ([`MAX_SAMPLE_VALUE`], and features are clamped to it) and a pixel takes
+/// fewer than 2^32 samples (module docs). Checked all the same: an overflow would panic,
+/// never wrap.
+#[inline]
+fn add_sum(a: i128, b: i128) -> i128 {
+    a.checked_add(b)
+        .expect("a film sum stays below 2^127 for fewer than 2^32 samples below 2^55")
+}
+
+/// Adds sample value `l` (every channel finite and below [`MAX_SAMPLE_VALUE`] in magnitude:
+/// [`in_range`]) to a pixel's sums and squares; the count is the caller's.
+#[inline]
+pub fn add_sample(pixel: &mut PixelTotals, l: glam::Vec3A) {
+    if l.abs().cmplt(glam::Vec3A::splat(SMALL_VALUE)).all() {
+        // The common case, one test for the three channels: both conversions through i64
+        // (one instruction each), the same integers as `fixed_value` and `fixed_square`.
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            let v = v as f64;
+            pixel.0[c] = add_sum(pixel.0[c], (v * VALUE_SCALE) as i64 as i128);
+            pixel.1[c] = pixel.1[c].saturating_add((v * v * SQUARE_SCALE) as i64 as u128);
+        }
+    } else {
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            pixel.0[c] = add_sum(pixel.0[c], fixed_value(v));
+            pixel.1[c] = pixel.1[c].saturating_add(fixed_square(v));
+        }
+    }
+}
+
+/// Whether a sample value can reach the film: every channel finite and smaller than
+/// [`MAX_SAMPLE_VALUE`] in magnitude (NaN is not).
+#[inline]
+pub fn in_range(l: glam::Vec3A) -> bool {
+    l.abs().cmplt(glam::Vec3A::splat(MAX_SAMPLE_VALUE)).all()
+}
+
+/// Why [`Film::merge`] refused a film.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MergeError {
+    #[error("films of {0}x{1} and {2}x{3} pixels cannot be merged")]
+    Size(u32, u32, u32, u32),
+    #[error("the films keep different layers (features, first hits)")]
+    Layers,
+    #[error("a film of adaptive sampling (with halves) cannot be merged")]
+    Halves,
+    #[error("pixel ({0}, {1}) would hold more than 2^32 - 1 samples")]
+    TooManySamples(u32, u32),
+    #[error("pixel ({0}, {1}) has its sample 0 in both films: their sample ranges overlap")]
+    BothHaveSampleZero(u32, u32),
 }
 
 /// The largest power of two at most `n` (> 0).
@@ -139,8 +295,8 @@ fn filled_by_writing<T: Clone>(n: usize, value: T) -> Vec<T> {
 pub struct FilmRows<'a> {
     y0: u32,
     width: u32,
-    sums: &'a mut [[f64; 3]],
-    sq_sums: &'a mut [[f64; 3]],
+    sums: &'a mut [[i128; 3]],
+    sq_sums: &'a mut [[u128; 3]],
     counts: &'a mut [u32],
     halves: Option<&'a mut [Halves]>,
     features: Option<&'a mut [FeatureTotals]>,
@@ -154,7 +310,7 @@ impl FilmRows<'_> {
     pub fn set(&mut self, x: u32, y: u32, (sum, sq_sum, count): PixelTotals) {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
         if let Some(h) = self.halves.as_deref_mut() {
-            record_halves(&mut h[i], self.counts[i], count, sum);
+            record_halves(&mut h[i], self.counts[i], count, sum.map(value_of));
         }
         self.sums[i] = sum;
         self.sq_sums[i] = sq_sum;
@@ -180,16 +336,20 @@ impl FilmRows<'_> {
     }
 }
 
-/// A pixel's sum of sample values, sum of their squares, and number of samples.
-pub type PixelTotals = ([f64; 3], [f64; 3], u32);
+/// A pixel's sum of sample values, sum of their squares (both in fixed point:
+/// [`fixed_value`], [`fixed_square`]), and number of samples.
+pub type PixelTotals = ([i128; 3], [u128; 3], u32);
+
+/// The totals of a pixel without samples.
+pub const NO_TOTALS: PixelTotals = ([0; 3], [0; 3], 0);
 
 impl Film {
-    /// Memory a render needs per pixel: the film's sums, squares and count (52 bytes), a
-    /// round's tile results collected before they are merged (sums, squares and count: 52
-    /// bytes), and the float32 RGB image made for output (12 bytes). Adaptive sampling and
-    /// checkpoints need more ([`Film::ADAPTIVE_BYTES_PER_PIXEL`],
-    /// [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
-    pub const BYTES_PER_PIXEL: u64 = 52 + 52 + 12;
+    /// Memory a render needs per pixel: the film's sums, squares (three 16-byte integers
+    /// each) and count (100 bytes), a round's tile results collected before they are merged
+    /// ([`PixelTotals`]: the same, padded to 16-byte alignment, 112 bytes), and the float32
+    /// RGB image made for output (12 bytes). Adaptive sampling and checkpoints need more
+    /// ([`Film::ADAPTIVE_BYTES_PER_PIXEL`], [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
+    pub const BYTES_PER_PIXEL: u64 = 100 + 112 + 12;
 
     /// Adaptive sampling's extra memory per pixel: the active and selected masks (2 bytes),
     /// the judgement's three f64 error images (own, row maximum, neighbourhood maximum)
@@ -201,8 +361,8 @@ impl Film {
     /// ([`Film::keep_halves`]).
     pub const HALVES_BYTES_PER_PIXEL: u64 = 48;
 
-    /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (52 bytes).
-    pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 52;
+    /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (100 bytes).
+    pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 100;
 
     /// The memory a `width` × `height` render needs for its image ([`Film::BYTES_PER_PIXEL`]
     /// per pixel), for checks before anything is allocated.
@@ -225,8 +385,8 @@ impl Film {
     }
 
     /// The memory [`Film::keep_features`] adds, per pixel: the film's feature totals and a
-    /// round's copy of them for its tiles ([`FEATURE_SLOTS`] f64 each).
-    pub const FEATURES_BYTES_PER_PIXEL: u64 = 2 * 8 * FEATURE_SLOTS as u64;
+    /// round's copy of them for its tiles ([`FEATURE_SLOTS`] 16-byte integers each).
+    pub const FEATURES_BYTES_PER_PIXEL: u64 = 2 * 16 * FEATURE_SLOTS as u64;
 
     /// Keeps, from now on, each pixel's first-hit feature totals ([`Film::features`]). Call
     /// on a new film.
@@ -276,13 +436,13 @@ impl Film {
     pub fn feature_totals(&self, x: u32, y: u32) -> FeatureTotals {
         self.features
             .as_ref()
-            .map_or([0.0; FEATURE_SLOTS], |f| f[self.index(x, y)])
+            .map_or([0; FEATURE_SLOTS], |f| f[self.index(x, y)])
     }
 
     /// Pixel (x, y)'s mean first-hit features; None where the film keeps none or the pixel
     /// has no samples.
     pub fn features(&self, x: u32, y: u32) -> Option<PixelFeatures> {
-        let f = self.features.as_ref()?[self.index(x, y)];
+        let f = self.features.as_ref()?[self.index(x, y)].map(value_of);
         let n = self.counts[self.index(x, y)] as f64;
         if n == 0.0 {
             return None;
@@ -377,24 +537,89 @@ impl Film {
         y as usize * self.width as usize + x as usize
     }
 
-    /// Adds `count` samples whose values sum to `sum` (and whose squares sum to `sq_sum`) to
-    /// pixel (x, y).
-    #[inline]
-    pub fn add(&mut self, x: u32, y: u32, sum: [f64; 3], sq_sum: [f64; 3], count: u32) {
+    /// Adds one sample of value `l` to pixel (x, y) (a sample out of range, [`in_range`],
+    /// counts without adding to the sums, as a render rejects it).
+    pub fn add_sample(&mut self, x: u32, y: u32, l: Vec3) {
         let i = self.index(x, y);
-        for c in 0..3 {
-            self.sums[i][c] += sum[c];
-            self.sq_sums[i][c] += sq_sum[c];
+        let mut totals = (self.sums[i], self.sq_sums[i], self.counts[i] + 1);
+        if in_range(l.into()) {
+            add_sample(&mut totals, l.into());
         }
-        let old = self.counts[i];
-        self.counts[i] += count;
-        if let Some(h) = self.halves.as_mut() {
-            record_halves(&mut h[i], old, old + count, self.sums[i]);
+        self.rows_mut(&[(y, y + 1)])[0].set(x, y, totals);
+    }
+
+    /// Adds the samples of `other`, a film of the same size and layers, to this one: sums,
+    /// squares, counts and features add (exactly: the result is the film that would have
+    /// taken both films' samples), and each pixel's first hit is the one that is set, since
+    /// only the film that took sample 0 sets it. The films should hold disjoint sample
+    /// ranges; a pixel whose first hit both set is refused as an overlap, as is a pixel whose
+    /// count would pass `u32::MAX`. On error the film is unchanged. Films of adaptive
+    /// sampling (which keep halves) are refused.
+    pub fn merge(&mut self, other: &Film) -> Result<(), MergeError> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return Err(MergeError::Size(
+                self.width,
+                self.height,
+                other.width,
+                other.height,
+            ));
         }
+        if self.keeps_features() != other.keeps_features()
+            || self.keeps_first_hits() != other.keeps_first_hits()
+        {
+            return Err(MergeError::Layers);
+        }
+        if self.halves.is_some() || other.halves.is_some() {
+            return Err(MergeError::Halves);
+        }
+        // Check every pixel before changing any.
+        let at = |i: usize| (i % self.width as usize) as u32;
+        let row = |i: usize| (i / self.width as usize) as u32;
+        for (i, (a, b)) in self.counts.iter().zip(&other.counts).enumerate() {
+            if a.checked_add(*b).is_none() {
+                return Err(MergeError::TooManySamples(at(i), row(i)));
+            }
+        }
+        if let (Some(a), Some(b)) = (&self.first_hits, &other.first_hits) {
+            if let Some(i) = (a.iter().zip(b)).position(|(&a, &b)| a != NO_HIT && b != NO_HIT) {
+                return Err(MergeError::BothHaveSampleZero(at(i), row(i)));
+            }
+        }
+        // Sums stay below 2^127 in magnitude for counts below 2^32 ([`add_sum`]). Squares
+        // saturate by design.
+        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
+            for c in 0..3 {
+                a[c] = add_sum(a[c], b[c]);
+            }
+        }
+        for (a, b) in self.sq_sums.iter_mut().zip(&other.sq_sums) {
+            for c in 0..3 {
+                a[c] = a[c].saturating_add(b[c]);
+            }
+        }
+        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
+            *a += b;
+        }
+        if let (Some(a), Some(b)) = (&mut self.features, &other.features) {
+            for (a, b) in a.iter_mut().zip(b) {
+                for (a, b) in a.iter_mut().zip(b) {
+                    *a = add_sum(*a, *b);
+                }
+            }
+        }
+        if let (Some(a), Some(b)) = (&mut self.first_hits, &other.first_hits) {
+            for (a, &b) in a.iter_mut().zip(b) {
+                if b != NO_HIT {
+                    *a = b;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The estimated variance of pixel (x, y)'s mean: the unbiased sample variance of its
-    /// samples divided by their number (0 with fewer than two samples).
+    /// samples divided by their number (0 with fewer than two samples; infinite where the
+    /// sum of squares saturated), computed in f64 from the exact sums.
     pub fn variance_of_mean(&self, x: u32, y: u32) -> Vec3 {
         let i = self.index(x, y);
         let n = self.counts[i] as f64;
@@ -402,8 +627,9 @@ impl Film {
             return Vec3::ZERO;
         }
         let v = |c: usize| {
-            let mean = self.sums[i][c] / n;
-            (((self.sq_sums[i][c] - mean * self.sums[i][c]) / (n - 1.0)).max(0.0) / n) as f32
+            let (sum, sq_sum) = (value_of(self.sums[i][c]), square_of(self.sq_sums[i][c]));
+            let mean = sum / n;
+            (((sq_sum - mean * sum) / (n - 1.0)).max(0.0) / n) as f32
         };
         Vec3::new(v(0), v(1), v(2))
     }
@@ -477,13 +703,11 @@ impl Film {
         if n == 0 {
             return Vec3::ZERO;
         }
-        let s = self.sums[i];
-        let inv = 1.0 / n as f64;
-        Vec3::new(
-            (s[0] * inv) as f32,
-            (s[1] * inv) as f32,
-            (s[2] * inv) as f32,
-        )
+        // One conversion of the exact sum to f64, one division (by the count times the
+        // scale, itself exact: a count times a power of two).
+        let scale = n as f64 * VALUE_SCALE;
+        let mean = |c: usize| (self.sums[i][c] as f64 / scale) as f32;
+        Vec3::new(mean(0), mean(1), mean(2))
     }
 
     /// All pixel estimates, row-major from the top row.
@@ -511,12 +735,15 @@ mod tests {
 
     #[test]
     fn the_halves_follow_the_power_of_two_counts() {
-        let samples: Vec<f64> = (0..70).map(|i| ((i * 37 % 11) as f64).sqrt()).collect();
+        // Values that f32 holds exactly, as the film takes them.
+        let samples: Vec<f64> = (0..70)
+            .map(|i| ((i * 37 % 11) as f32).sqrt() as f64)
+            .collect();
         // One sample at a time through `add`.
         let mut film = Film::new(1, 1);
         film.keep_halves();
         for (k, &v) in samples.iter().enumerate() {
-            film.add(0, 0, [v; 3], [v * v; 3], 1);
+            film.add_sample(0, 0, Vec3::splat(v as f32));
             let got = film.halves_variance_of_mean(0, 0);
             if k == 0 {
                 assert_eq!(got, None, "one sample");
@@ -533,8 +760,8 @@ mod tests {
         // Rounds as a progressive render writes them (FilmRows::set with the totals), from
         // 16 to 24, 32, 40: the same estimate.
         let totals = |n: usize| -> PixelTotals {
-            let s: f64 = samples[..n].iter().sum();
-            let q: f64 = samples[..n].iter().map(|v| v * v).sum();
+            let s: i128 = samples[..n].iter().map(|&v| fixed_value(v as f32)).sum();
+            let q: u128 = samples[..n].iter().map(|&v| fixed_square(v as f32)).sum();
             ([s; 3], [q; 3], n as u32)
         };
         let mut film = Film::new(1, 1);
@@ -552,8 +779,8 @@ mod tests {
         film.keep_halves();
         let long: Vec<f64> = (0..128).map(|i| (i % 7) as f64).collect();
         let totals = |n: usize| -> PixelTotals {
-            let s: f64 = long[..n].iter().sum();
-            ([s; 3], [0.0; 3], n as u32)
+            let s: i128 = long[..n].iter().map(|&v| fixed_value(v as f32)).sum();
+            ([s; 3], [0; 3], n as u32)
         };
         for n in [1, 2, 4, 8, 16, 24] {
             film.rows_mut(&[(0, 1)])[0].set(0, 0, totals(n));
@@ -579,15 +806,103 @@ mod tests {
     }
 
     #[test]
+    fn fixed_point_is_exact_above_its_resolution_and_truncates_below() {
+        // Every f32 of magnitude at least 2^-17 converts exactly.
+        for v in [1.0f32, -1.0, 0.1, 3.0e-5, 2f32.powi(-17), 1.0e16, -2.5e7] {
+            assert_eq!(value_of(fixed_value(v)), v as f64, "{v}");
+        }
+        // Below, toward zero, by less than 2^-40.
+        let tiny = 1.0e-7f32;
+        let q = fixed_value(tiny);
+        assert!(value_of(q) <= tiny as f64 && tiny as f64 - value_of(q) < 2f64.powi(-40));
+        assert_eq!(fixed_value(-tiny), -q);
+        assert_eq!(fixed_value(f32::NAN), 0);
+        // The largest admitted value, 2^55 less an ulp, times 2^32 - 1 samples, fits i128.
+        let largest = fixed_value(MAX_SAMPLE_VALUE.next_down());
+        assert!(largest.checked_mul(u32::MAX as i128).is_some());
+        assert!(!in_range(glam::Vec3A::new(0.0, MAX_SAMPLE_VALUE, 0.0)));
+        assert!(!in_range(glam::Vec3A::new(f32::NAN, 0.0, 0.0)));
+        assert!(in_range(glam::Vec3A::splat(-MAX_SAMPLE_VALUE.next_down())));
+        // Squares exactly where v is a multiple of 2^-24 (every |v| ≥ 0.5), otherwise
+        // truncated by less than 2^-48.
+        assert_eq!(square_of(fixed_square(3.0)), 9.0);
+        assert_eq!(square_of(fixed_square(-0.75)), 0.5625);
+        let (exact, q) = (0.1f32 as f64 * 0.1f32 as f64, square_of(fixed_square(0.1)));
+        assert!(q <= exact && exact - q < 2f64.powi(-48));
+        assert_eq!(fixed_square(f32::MAX), u128::MAX);
+        // `add_sample`'s path for small values gives the same integers.
+        for v in [0.1f32, -127.9, 1.0e-7, 3.0, 127.99, 128.0, -1.0e9] {
+            let mut t = NO_TOTALS;
+            add_sample(&mut t, glam::Vec3A::new(v, 0.5, -v));
+            assert_eq!((t.0[0], t.1[0]), (fixed_value(v), fixed_square(v)), "{v}");
+            assert_eq!((t.0[2], t.1[2]), (fixed_value(-v), fixed_square(v)), "{v}");
+        }
+    }
+
+    #[test]
+    fn saturated_squares_report_an_infinite_variance() {
+        let mut film = Film::new(1, 1);
+        film.add_sample(0, 0, Vec3::new(1.0, 1.0e12, 2.0));
+        film.add_sample(0, 0, Vec3::new(3.0, 1.0e12, 2.0));
+        let v = film.variance_of_mean(0, 0);
+        assert_eq!(v.y, f32::INFINITY);
+        assert_eq!((v.x, v.z), (1.0, 0.0));
+        assert_eq!(film.pixel(0, 0), Vec3::new(2.0, 1.0e12, 2.0));
+    }
+
+    #[test]
+    fn merged_films_hold_the_sums_of_all_their_samples_in_any_grouping() {
+        // Values whose f64 sums depend on the grouping: ((a + b) + c) ≠ (a + (b + c)).
+        let values = [1.0e8f32, 1.0e-3, 3.3e-3, -1.0e8, 0.7, 1.9e-6];
+        let film_of = |range: std::ops::Range<usize>| {
+            let mut f = Film::new(2, 1);
+            f.keep_features();
+            for &v in &values[range] {
+                f.add_sample(1, 0, Vec3::splat(v));
+            }
+            f
+        };
+        let whole = film_of(0..6);
+        let mut merged = film_of(4..6);
+        merged.merge(&film_of(0..1)).unwrap();
+        merged.merge(&film_of(1..4)).unwrap();
+        for x in 0..2 {
+            assert_eq!(merged.totals(x, 0), whole.totals(x, 0));
+            assert_eq!(merged.pixel(x, 0), whole.pixel(x, 0));
+        }
+        // A film of adaptive sampling is refused, and so is a count past u32::MAX.
+        let mut halves = Film::new(2, 1);
+        halves.keep_features();
+        halves.keep_halves();
+        assert_eq!(merged.clone().merge(&halves), Err(MergeError::Halves));
+        let mut full = Film::new(2, 1);
+        full.counts[1] = u32::MAX;
+        assert_eq!(
+            Film::new(2, 1).merge(&full),
+            Ok(()),
+            "an empty film takes any count"
+        );
+        assert_eq!(
+            film_of(0..1).merge(&full),
+            Err(MergeError::Layers),
+            "features in one only"
+        );
+        let mut one = Film::new(2, 1);
+        one.add_sample(1, 0, Vec3::ONE);
+        assert_eq!(one.merge(&full), Err(MergeError::TooManySamples(1, 0)));
+    }
+
+    #[test]
     fn variance_of_the_mean_matches_the_textbook_formula() {
         let samples = [0.0f64, 1.0, 1.0, 3.0, 5.0];
+        // Added in two films, merged.
         let mut film = Film::new(1, 1);
-        // Added in two parts.
-        for part in [&samples[..2], &samples[2..]] {
-            let sum = part.iter().sum::<f64>();
-            let sq = part.iter().map(|v| v * v).sum::<f64>();
-            film.add(0, 0, [sum; 3], [sq; 3], part.len() as u32);
+        let mut rest = Film::new(1, 1);
+        for (k, &v) in samples.iter().enumerate() {
+            let part = if k < 2 { &mut film } else { &mut rest };
+            part.add_sample(0, 0, Vec3::splat(v as f32));
         }
+        film.merge(&rest).unwrap();
         let n = samples.len() as f64;
         let mean = samples.iter().sum::<f64>() / n;
         let var = samples.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);

@@ -20,6 +20,10 @@
 //! same on any thread count, so an adaptive image is bit-identical across thread counts too.
 //! A time limit stops the render between tiles; how far it got depends on the machine's
 //! speed, so a time-limited image is not reproducible (each pixel's samples still are).
+//!
+//! [`RenderSettings::sample_range`] renders only the samples of index a..b of every pixel (a
+//! farm shard's part). The film's sums are exact integers ([`film`]), so [`Film::merge`] of
+//! the films of disjoint ranges is the film of their union, bit for bit.
 
 pub mod adaptive;
 pub mod culling;
@@ -44,7 +48,8 @@ use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
 pub use film::{
-    BadSample, FeatureTotals, Film, FilmRows, PixelFeatures, PixelTotals, FEATURE_SLOTS, NO_HIT,
+    BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals,
+    FEATURE_SLOTS, NO_HIT, NO_TOTALS,
 };
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -78,6 +83,18 @@ pub struct RenderSettings {
     pub crop: Option<(u32, u32, u32, u32)>,
     /// When to stop before `spp` samples per pixel.
     pub stopping: Stopping,
+    /// Take only the samples of index a ≤ i < b of every pixel (a ≤ b ≤ `spp`; None: all
+    /// `spp`), into a film that holds just those (its counts are b − a): a farm shard's
+    /// part of the image, whose films [`Film::merge`] joins into the film of the whole
+    /// range, bit for bit. Fixed-spp renders only (no [`Stopping`]).
+    pub sample_range: Option<(u32, u32)>,
+}
+
+impl RenderSettings {
+    /// The sample indices every pixel takes, [a, b) ([`RenderSettings::sample_range`]).
+    pub fn samples(&self) -> (u32, u32) {
+        self.sample_range.unwrap_or((0, self.spp))
+    }
 }
 
 /// Early stopping: adaptive sampling per pixel, and a time limit for the whole render. With
@@ -126,7 +143,8 @@ pub struct RenderStats {
     pub seconds: f64,
     /// Passes that rendered tiles, the probe of a fixed-spp render included.
     pub passes: u32,
-    /// Samples rejected because their value was NaN or infinite.
+    /// Samples rejected because their value was NaN, infinite or out of the film's range
+    /// ([`film::MAX_SAMPLE_VALUE`]).
     pub bad_samples: u64,
     /// The first few of them, in pixel order, for replay.
     pub first_bad: Vec<BadSample>,
@@ -243,6 +261,8 @@ pub fn progressive_next(count: u32, min_spp: u32, spp: u32) -> u32 {
 /// marks takes the samples from its count up to `next(count)`.
 struct Round<'a> {
     film: &'a Film,
+    /// The index of each pixel's first sample in the film ([`RenderSettings::sample_range`]).
+    offset: u32,
     /// Indexed like the film; `None`: every pixel of the window.
     selection: Option<&'a [bool]>,
     next: &'a (dyn Fn(u32) -> u32 + Sync),
@@ -259,7 +279,7 @@ impl Round<'_> {
             return (0, 0);
         }
         let c = self.film.count(x, y);
-        (c, (self.next)(c).max(c))
+        (self.offset + c, self.offset + (self.next)(c).max(c))
     }
 
     fn tile_has_work(&self, t: &Tile) -> bool {
@@ -315,9 +335,9 @@ impl TileSums {
         }
         let n = offsets[tiles.len()];
         TileSums {
-            data: vec![([0f64; 3], [0f64; 3], 0); n],
+            data: vec![NO_TOTALS; n],
             features: if features {
-                vec![[0f64; FEATURE_SLOTS]; n]
+                vec![[0; FEATURE_SLOTS]; n]
             } else {
                 Vec::new()
             },
@@ -384,7 +404,8 @@ struct TileResult {
 /// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
 /// scanline order; the tile's part of [`TileSums`]): each pixel's totals in the film, with
 /// the round's samples added one by one in index order. A pixel's totals are thus the same
-/// sequential sums however its samples were split into rounds.
+/// however its samples were split into rounds (and would be in any order: the sums are
+/// exact).
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
@@ -506,14 +527,12 @@ fn render_tile(
             let mut acc: [PixelTotals; PACKET] = std::array::from_fn(|i| {
                 lanes
                     .get(i)
-                    .map_or(([0f64; 3], [0f64; 3], 0), |&(x, y, _, _)| {
-                        round.film.totals(x, y)
-                    })
+                    .map_or(NO_TOTALS, |&(x, y, _, _)| round.film.totals(x, y))
             });
             let mut feature_acc: [FeatureTotals; PACKET] =
                 std::array::from_fn(|i| match lanes.get(i) {
                     Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
-                    _ => [0.0; FEATURE_SLOTS],
+                    _ => [0; FEATURE_SLOTS],
                 });
             // Each pixel's first hit: the film's, until its sample 0 is taken. A block that
             // cannot see the scene, and a packet that misses the scene's box, leave it at
@@ -526,7 +545,7 @@ fn render_tile(
             }
             // A block that cannot see the scene (`mask`) takes the estimate of a miss for
             // each of its samples, untraced and unsampled: the sums a traced miss would have
-            // added. A zero estimate (AO) adds nothing (x + 0 = x for the sums, never −0).
+            // added. A zero estimate (AO) adds nothing to the sums.
             if unseen {
                 for (acc, &(x, y, a, b)) in acc.iter_mut().zip(lanes) {
                     out.rays.camera += (b - a) as u64;
@@ -686,8 +705,9 @@ const PACKET_W: u32 = culling::BLOCK_W;
 const PACKET_H: u32 = culling::BLOCK_H;
 const _: () = assert!((PACKET_W * PACKET_H) as usize == PACKET);
 
-/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums, or counts it as
-/// bad (NaN or infinite) and keeps the first few.
+/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums (exactly, in
+/// fixed point: [`film`]), or counts it as bad (NaN, infinite, or beyond the film's range,
+/// [`film::MAX_SAMPLE_VALUE`]) and keeps the first few.
 #[inline]
 fn accumulate(
     pixel: &mut PixelTotals,
@@ -696,11 +716,8 @@ fn accumulate(
     bad: &mut u64,
     first_bad: &mut Vec<BadSample>,
 ) {
-    if l.is_finite() {
-        for (c, v) in l.to_array().into_iter().enumerate() {
-            pixel.0[c] += v as f64;
-            pixel.1[c] += v as f64 * v as f64;
-        }
+    if film::in_range(l) {
+        film::add_sample(pixel, l);
     } else {
         *bad += 1;
         if first_bad.len() < BAD_SAMPLES_KEPT {
@@ -763,7 +780,18 @@ pub fn render_with_checkpoints(
     let setup = pool.install(|| TileSetup::new(ctx, settings));
     let mut tile_sums = TileSums::new(&tiles, ctx.features, ctx.ids);
     let stopping = settings.stopping;
-    let spp = settings.spp;
+    // The samples each pixel takes, from index `first_sample` on (the film counts them from 0).
+    let (first_sample, end_sample) = settings.samples();
+    assert!(
+        first_sample <= end_sample && end_sample <= settings.spp,
+        "sample range {first_sample}..{end_sample} outside 0..{}",
+        settings.spp
+    );
+    assert!(
+        settings.sample_range.is_none() || !stopping.is_progressive(),
+        "a sample range is for fixed-spp renders"
+    );
+    let spp = end_sample - first_sample;
     // Each round takes every pixel from its count to the next pass end: in a progressive
     // render by the pixel's count, otherwise the same for all (`done` samples so far).
     let progressive = stopping.is_progressive();
@@ -874,6 +902,7 @@ pub fn render_with_checkpoints(
         let next_fixed = |c: u32| fixed_end.map_or(c, |end| end.max(c));
         let round = Round {
             film: &film,
+            offset: first_sample,
             selection: selected.as_deref().or(active.as_deref()),
             next: if progressive {
                 &next_progressive

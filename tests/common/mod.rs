@@ -270,14 +270,11 @@ pub fn inward_geodesic_sphere(subdivisions: u32) -> (Vec<glam::DVec3>, Vec<[u32;
     (points, triangles)
 }
 
-/// A film's f64 sums and sample counts, as bits: for comparing renders bit for bit.
-pub fn film_totals(film: &strata::render::Film) -> Vec<([u64; 3], [u64; 3], u32)> {
+/// A film's exact (fixed-point) sums and sample counts: for comparing renders bit for bit.
+pub fn film_totals(film: &strata::render::Film) -> Vec<strata::render::PixelTotals> {
     (0..film.height)
         .flat_map(|y| (0..film.width).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (s, q, n) = film.totals(x, y);
-            (s.map(f64::to_bits), q.map(f64::to_bits), n)
-        })
+        .map(|(x, y)| film.totals(x, y))
         .collect()
 }
 
