@@ -41,4 +41,7 @@ for f in 0 1 2 3; do
         || { log "frame $f differs from the local render"; exit 1; }
 done
 log "4 frames rendered on Slurm (one retried) are bit-identical to local renders"
+# Stop the cluster before its state (pid files) goes.
+tools/farm/slurm/local-cluster.sh stop "$state"
+trap - EXIT
 rm -rf "$work"

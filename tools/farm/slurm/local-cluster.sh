@@ -20,6 +20,9 @@ stop() {
     for pidfile in "$state"/slurmd.pid "$state"/slurmctld.pid "$state"/munged.pid; do
         [[ -f $pidfile ]] && kill "$(cat "$pidfile")" 2>/dev/null || true
     done
+    # Daemons whose pid files are gone: found by the configuration they were started with.
+    pkill -f -- "-f $state/slurm.conf" 2>/dev/null || true
+    pkill -f -- "--socket $state/munge/munge.socket" 2>/dev/null || true
     sleep 0.5
     log "stopped (state in $state)"
 }
@@ -36,6 +39,10 @@ for tool in munged slurmctld slurmd sinfo; do
 done
 host=$(hostname -s)
 cpus=$(nproc)
+# The ports below must be free: another cluster (or one left running) would take the jobs.
+if pgrep -x slurmctld >/dev/null || pgrep -x slurmd >/dev/null; then
+    die "a slurmctld or slurmd is already running on this machine (pgrep -a slurm); stop it first"
+fi
 mkdir -p "$state"/{spool,ctld,log,munge}
 chmod 700 "$state/munge"
 
