@@ -93,7 +93,7 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
         })
         .collect();
     let get = |s: &str, p: &str| sets[&(s.to_string(), p.to_string())];
-    for pair in ["film", "slot3"] {
+    for pair in ["first", "film", "slot3"] {
         assert_eq!(get("stratified", pair).0, 1.0, "stratified {pair}");
         assert_eq!(get("sobol", pair).0, 1.0, "sobol {pair}");
         assert!(
@@ -102,11 +102,13 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
             get("random", pair)
         );
     }
-    // Sobol's dimensions 0–1 (slot 3) are a (0, 6, 2)-net; the film position's 2–3 are not.
+    // Sobol's dimensions 0–1 (the first pair, slot 3) are (0, 6, 2)-nets; the film
+    // position's 2–3 are not.
+    assert_eq!(get("sobol", "first").1, 1.0);
     assert_eq!(get("sobol", "slot3").1, 1.0);
     assert!(get("sobol", "film").1 < 1.0);
     let png = image::open(dir.path().join("points.png")).unwrap();
-    assert_eq!((png.width(), png.height()), (900, 1380));
+    assert_eq!((png.width(), png.height()), (1350, 1380));
 
     // The same seed draws the same numbers.
     let again = run(&dir.path().join("again"), 200_000);

@@ -600,20 +600,27 @@ const POINTS: u32 = 64;
 const POINTS_LOG2: u32 = 6;
 
 /// The pairs drawn: the film position, and the 2D point of the sample's fourth slot.
-const PAIRS: [(&str, &str); 2] = [("film", "film position"), ("slot3", "slot 3")];
+const PAIRS: [(&str, &str); 3] = [
+    ("first", "dims 0–1"),
+    ("film", "film position"),
+    ("slot3", "slot 3"),
+];
 
-/// `POINTS` samples of pixel (3, 5) from `kind`: the film position and slot 3's point.
-fn pixel_points(kind: SamplerKind, seed: u64) -> [Vec<Vec2>; 2] {
+/// `POINTS` samples of pixel (3, 5) from `kind`: the sample's first two dimensions (the
+/// value drawn with the film position: its slot's dimensions 0–1), the film position (with
+/// `sobol`, dimensions 2–3 of that slot's 4D point) and slot 3's point.
+fn pixel_points(kind: SamplerKind, seed: u64) -> [Vec<Vec2>; 3] {
     let mut sampler = PixelSampler::new(kind, POINTS, seed);
-    let (mut film, mut later) = (Vec::new(), Vec::new());
+    let (mut first, mut film, mut later) = (Vec::new(), Vec::new(), Vec::new());
     for index in 0..POINTS {
         sampler.start(3, 5, index);
         film.push(sampler.next_film());
+        first.push(sampler.paired_with_film());
         sampler.next_2d();
         sampler.next_2d();
         later.push(sampler.next_2d());
     }
-    [film, later]
+    [first, film, later]
 }
 
 /// The fraction of the 2^kx × 2^ky cells of the unit square holding exactly `per_cell` of
@@ -659,8 +666,8 @@ fn claim(kind: SamplerKind, pair: usize) -> Claim {
         },
         // The film position is dimensions 2–3 of the slot's 4D Sobol point, a (1, m, 2)-net:
         // every elementary interval of area 2^(1-m) holds two points (the sampler keeps
-        // dimensions 0–1, a (0, m, 2)-net, for the value paired with it).
-        (SamplerKind::Sobol, 0) => Claim {
+        // dimensions 0–1, a (0, m, 2)-net, for the value paired with it, pair 0).
+        (SamplerKind::Sobol, 1) => Claim {
             shapes: intervals(POINTS_LOG2 - 1),
             per_cell: 2,
             words: "(1, 6, 2)-net",
@@ -696,7 +703,7 @@ fn draw_points(path: &Path, seed: u64) -> Result<String> {
         words: "",
     };
     let mut csv = String::new();
-    let (w, h) = (900u32, 1380u32);
+    let (w, h) = (1350u32, 1380u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
@@ -707,7 +714,7 @@ fn draw_points(path: &Path, seed: u64) -> Result<String> {
                 ("sans-serif", 18),
             )
             .map_err(plot_err)?;
-        let panels = root.split_evenly((3, 2));
+        let panels = root.split_evenly((3, 3));
         for (row, &kind) in kinds.iter().enumerate() {
             for (col, points) in pixel_points(kind, seed).iter().enumerate() {
                 let claim = claim(kind, col);
@@ -720,7 +727,7 @@ fn draw_points(path: &Path, seed: u64) -> Result<String> {
                     claim.words,
                     held * 100.0
                 );
-                let mut chart = ChartBuilder::on(&panels[row * 2 + col])
+                let mut chart = ChartBuilder::on(&panels[row * 3 + col])
                     .caption(caption, ("sans-serif", 14))
                     .margin(10)
                     .x_label_area_size(25)
