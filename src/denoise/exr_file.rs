@@ -132,15 +132,17 @@ pub fn denoise_exr(input: &Path, output: &Path, options: &Options) -> Result<Rep
     // R, G, B become the denoised image; the raw one goes to (or stays in) `noisy`.
     let mut list = std::mem::take(&mut layer.channel_data.list).into_vec();
     if !again {
-        for c in list
-            .clone()
+        // Copies of R, G, B only (not of every layer), renamed.
+        let raw: Vec<_> = list
             .iter()
             .filter(|c| ["R", "G", "B"].iter().any(|n| c.name.eq(n)))
-        {
-            let mut raw = c.clone();
-            raw.name = Text::new_or_panic(format!("{NOISY_LAYER}.{}", c.name));
-            list.push(raw);
-        }
+            .map(|c| {
+                let mut raw = c.clone();
+                raw.name = Text::new_or_panic(format!("{NOISY_LAYER}.{}", c.name));
+                raw
+            })
+            .collect();
+        list.extend(raw);
     }
     for c in list.iter_mut() {
         if let Some(k) = ["R", "G", "B"].iter().position(|n| c.name.eq(n)) {

@@ -141,7 +141,9 @@ pub fn describe(options: &Options, aux: bool) -> String {
 
 /// The library's version ("2.5.1"), or None in a build without it.
 pub fn version() -> Option<String> {
-    imp::version()
+    // Asked of a device of its own: once per process.
+    static VERSION: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+    VERSION.get_or_init(imp::version).clone()
 }
 
 mod exr_file;

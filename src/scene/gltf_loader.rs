@@ -1482,58 +1482,36 @@ where
 {
     use gltf::accessor::Iter;
     let data = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
-    let normalized = acc.normalized();
-    fn map<T: Copy, const N: usize>(v: [T; N], f: impl Fn(T) -> f32) -> [f32; N] {
-        v.map(f)
+    // Integers of one type: `max` is the type's largest value (signed ones reach −max − 1,
+    // which normalizes to below −1 and is clamped).
+    fn ints<'s, T, const N: usize>(
+        acc: &gltf::Accessor,
+        data: impl Clone + Fn(gltf::Buffer) -> Option<&'s [u8]>,
+        max: f32,
+    ) -> Option<Vec<[f32; N]>>
+    where
+        T: Copy + Into<f32>,
+        [T; N]: gltf::accessor::Item,
+    {
+        let normalized = acc.normalized();
+        let map = move |c: T| match normalized {
+            true => (c.into() / max).max(-1.0),
+            false => c.into(),
+        };
+        Some(
+            Iter::<[T; N]>::new(acc.clone(), data)?
+                .map(|v| v.map(map))
+                .collect(),
+        )
     }
-    Some(match acc.data_type() {
-        DataType::F32 => Iter::<[f32; N]>::new(acc.clone(), data)?.collect(),
-        DataType::I8 => Iter::<[i8; N]>::new(acc.clone(), data)?
-            .map(|v| {
-                map(v, |c| {
-                    if normalized {
-                        (c as f32 / 127.0).max(-1.0)
-                    } else {
-                        c as f32
-                    }
-                })
-            })
-            .collect(),
-        DataType::U8 => Iter::<[u8; N]>::new(acc.clone(), data)?
-            .map(|v| {
-                map(v, |c| {
-                    if normalized {
-                        c as f32 / 255.0
-                    } else {
-                        c as f32
-                    }
-                })
-            })
-            .collect(),
-        DataType::I16 => Iter::<[i16; N]>::new(acc.clone(), data)?
-            .map(|v| {
-                map(v, |c| {
-                    if normalized {
-                        (c as f32 / 32767.0).max(-1.0)
-                    } else {
-                        c as f32
-                    }
-                })
-            })
-            .collect(),
-        DataType::U16 => Iter::<[u16; N]>::new(acc.clone(), data)?
-            .map(|v| {
-                map(v, |c| {
-                    if normalized {
-                        c as f32 / 65535.0
-                    } else {
-                        c as f32
-                    }
-                })
-            })
-            .collect(),
-        DataType::U32 => return None,
-    })
+    match acc.data_type() {
+        DataType::F32 => Some(Iter::<[f32; N]>::new(acc.clone(), data)?.collect()),
+        DataType::I8 => ints::<i8, N>(acc, data, 127.0),
+        DataType::U8 => ints::<u8, N>(acc, data, 255.0),
+        DataType::I16 => ints::<i16, N>(acc, data, 32767.0),
+        DataType::U16 => ints::<u16, N>(acc, data, 65535.0),
+        DataType::U32 => None,
+    }
 }
 
 fn expect_format(
