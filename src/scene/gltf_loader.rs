@@ -277,7 +277,8 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     }
 
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir)?;
+    let mut files = vec![path.to_path_buf()];
+    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
 
     let mut pose_warnings = Vec::new();
     let pose = match options.pose {
@@ -401,6 +402,11 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     scene.update_summary();
     scene.load_warnings = warnings;
     scene.memory_estimate = estimate;
+    files.extend(scene.images.iter().filter_map(|image| match image {
+        ImageSource::File(file) => Some(file.clone()),
+        ImageSource::Bytes { .. } => None,
+    }));
+    scene.files = files;
     Ok(scene)
 }
 
@@ -539,10 +545,12 @@ fn estimate_memory(doc: &gltf::Document, scene: &gltf::Scene) -> Result<MemoryEs
     Ok(est)
 }
 
+/// The document's buffers; the external files read are added to `files`.
 fn load_buffers(
     doc: &gltf::Document,
     blob: Option<&[u8]>,
     base_dir: &Path,
+    files: &mut Vec<PathBuf>,
 ) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     for buffer in doc.buffers() {
@@ -558,7 +566,10 @@ fn load_buffers(
             }
             gltf::buffer::Source::Uri(uri) => {
                 let file = resolve_uri(uri, base_dir).map_err(|e| format!("buffer {i}: {e}"))?;
-                read_buffer_file(&file, buffer.length()).map_err(|e| format!("buffer {i}: {e}"))?
+                let data = read_buffer_file(&file, buffer.length())
+                    .map_err(|e| format!("buffer {i}: {e}"))?;
+                files.push(file);
+                data
             }
         };
         if data.len() < buffer.length() {

@@ -255,6 +255,10 @@ pub struct Scene {
     /// The loader's estimate of the memory the scene needs (geometry and BVH), made from the
     /// file's declared counts before loading.
     pub memory_estimate: MemoryEstimate,
+    /// The files the scene was read from: the glTF file, then its external buffers and
+    /// images in the document's order (a farm's shards check they rendered the same bytes:
+    /// [`crate::render::merge`]). Empty for a scene built in code.
+    pub files: Vec<std::path::PathBuf>,
 }
 
 impl Scene {
