@@ -719,6 +719,50 @@ impl Film {
     }
 }
 
+/// A film's exact sums, for writing a farm shard's partial file and reading it back
+/// ([`Film::exact_sums`], [`Film::from_exact_sums`]): per pixel, row-major from the top row.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExactSums {
+    pub sums: Vec<[i128; 3]>,
+    pub sq_sums: Vec<[u128; 3]>,
+    pub counts: Vec<u32>,
+    /// Present where the film keeps features ([`Film::keep_features`]).
+    pub features: Option<Vec<FeatureTotals>>,
+}
+
+impl Film {
+    /// A copy of the film's exact sums, squares, counts and feature totals (not its first hits
+    /// or halves).
+    pub fn exact_sums(&self) -> ExactSums {
+        ExactSums {
+            sums: self.sums.clone(),
+            sq_sums: self.sq_sums.clone(),
+            counts: self.counts.clone(),
+            features: self.features.clone(),
+        }
+    }
+
+    /// The film that holds `sums` (each vector `width × height` long, else None): keeping
+    /// features where `sums` has them, and no first hits or halves.
+    pub fn from_exact_sums(width: u32, height: u32, sums: ExactSums) -> Option<Film> {
+        let n = width as usize * height as usize;
+        let lengths_match = sums.sums.len() == n
+            && sums.sq_sums.len() == n
+            && sums.counts.len() == n
+            && sums.features.as_ref().is_none_or(|f| f.len() == n);
+        lengths_match.then_some(Film {
+            width,
+            height,
+            sums: sums.sums,
+            sq_sums: sums.sq_sums,
+            counts: sums.counts,
+            halves: None,
+            features: sums.features,
+            first_hits: None,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

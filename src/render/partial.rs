@@ -1,0 +1,161 @@
+//! A farm shard's partial EXR: the usual image of its samples (beauty, passes, header), plus
+//! the film's exact sums as `uint` channels of the layer `exact`, from which `render merge`
+//! rebuilds the film and adds the shards' films exactly ([`super::film`], "Exact sums").
+//!
+//! | channels | each pixel |
+//! |---|---|
+//! | `exact.R0` … `exact.R3` (and G, B) | the sum of its sample values' R in fixed point, an `i128` as four 32-bit words, least significant first |
+//! | `exact.RR0` … `exact.RR3` (and GG, BB) | the sum of their squares, a `u128` likewise |
+//! | `exact.N` | its number of samples |
+//! | `exact.F00_0` … `exact.F12_3` | its 13 feature sums (where passes asked for features), `i128` each |
+//!
+//! Most high words are 0 or all ones, which the file's ZIP compression packs to little.
+
+use exr::prelude::{AnyChannel, AnyChannels, FlatSamples};
+
+use super::film::{ExactSums, FeatureTotals, Film, FEATURE_SLOTS};
+
+/// The layer that holds the exact sums.
+pub const EXACT_LAYER: &str = "exact";
+
+const RGB: [&str; 3] = ["R", "G", "B"];
+
+/// The words of a 128-bit integer, least significant first.
+fn words(v: u128) -> [u32; 4] {
+    [0, 1, 2, 3].map(|w| (v >> (32 * w)) as u32)
+}
+
+/// The 128-bit integer of `words`, least significant first.
+fn from_words(words: [u32; 4]) -> u128 {
+    (0..4).fold(0u128, |v, w| v | (words[w] as u128) << (32 * w))
+}
+
+fn channel(name: String, values: Vec<u32>) -> AnyChannel<FlatSamples> {
+    AnyChannel::new(name.as_str(), FlatSamples::U32(values))
+}
+
+/// Four channels `name0` … `name3` holding the words of each pixel's `value`.
+fn wide_channels(
+    name: &str,
+    values: impl Fn(usize) -> u128,
+    n: usize,
+) -> Vec<AnyChannel<FlatSamples>> {
+    let all: Vec<[u32; 4]> = (0..n).map(|i| words(values(i))).collect();
+    (0..4)
+        .map(|w| {
+            channel(
+                format!("{EXACT_LAYER}.{name}{w}"),
+                all.iter().map(|v| v[w]).collect(),
+            )
+        })
+        .collect()
+}
+
+/// The exact layer's channels of `film`.
+pub fn exact_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
+    let exact = film.exact_sums();
+    let n = exact.counts.len();
+    let mut out = Vec::new();
+    for (c, name) in RGB.iter().enumerate() {
+        out.extend(wide_channels(name, |i| exact.sums[i][c] as u128, n));
+        out.extend(wide_channels(&name.repeat(2), |i| exact.sq_sums[i][c], n));
+    }
+    out.push(channel(format!("{EXACT_LAYER}.N"), exact.counts));
+    if let Some(features) = &exact.features {
+        out.extend((0..FEATURE_SLOTS).flat_map(|slot| {
+            wide_channels(&format!("F{slot:02}_"), |i| features[i][slot] as u128, n)
+        }));
+    }
+    out
+}
+
+/// The exact sums of the layer `channels` (of `n` pixels), or why there are none.
+pub fn read_exact(channels: &AnyChannels<FlatSamples>, n: usize) -> Result<ExactSums, String> {
+    let find = |name: String| -> Result<Option<&Vec<u32>>, String> {
+        let Some(c) = channels.list.iter().find(|c| c.name.eq(name.as_str())) else {
+            return Ok(None);
+        };
+        match &c.sample_data {
+            FlatSamples::U32(v) if v.len() == n => Ok(Some(v)),
+            FlatSamples::U32(v) => Err(format!("channel {name} holds {} values, not {n}", v.len())),
+            _ => Err(format!("channel {name} is not of 32-bit unsigned integers")),
+        }
+    };
+    let required = |name: String| -> Result<&Vec<u32>, String> {
+        find(name.clone())?.ok_or_else(|| format!("it has no channel {name}"))
+    };
+    let wide = |name: &str| -> Result<Vec<u128>, String> {
+        let w: Vec<&Vec<u32>> = (0..4)
+            .map(|w| required(format!("{EXACT_LAYER}.{name}{w}")))
+            .collect::<Result<_, _>>()?;
+        Ok((0..n)
+            .map(|i| from_words([w[0][i], w[1][i], w[2][i], w[3][i]]))
+            .collect())
+    };
+    let (mut sums, mut sq_sums) = (vec![[0i128; 3]; n], vec![[0u128; 3]; n]);
+    for (c, name) in RGB.iter().enumerate() {
+        for (i, v) in wide(name)?.into_iter().enumerate() {
+            sums[i][c] = v as i128;
+        }
+        for (i, v) in wide(&name.repeat(2))?.into_iter().enumerate() {
+            sq_sums[i][c] = v;
+        }
+    }
+    let counts = required(format!("{EXACT_LAYER}.N"))?.clone();
+    let features = match find(format!("{EXACT_LAYER}.F00_0"))? {
+        None => None,
+        Some(_) => {
+            let slots: Vec<Vec<u128>> = (0..FEATURE_SLOTS)
+                .map(|slot| wide(&format!("F{slot:02}_")))
+                .collect::<Result<_, _>>()?;
+            let pixel =
+                |i: usize| -> FeatureTotals { std::array::from_fn(|s| slots[s][i] as i128) };
+            Some((0..n).map(pixel).collect())
+        }
+    };
+    Ok(ExactSums {
+        sums,
+        sq_sums,
+        counts,
+        features,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn words_round_trip_negative_and_wide_integers() {
+        for v in [0i128, -1, 1 << 100, -(1 << 95) - 7, i128::MAX, i128::MIN] {
+            assert_eq!(from_words(words(v as u128)) as i128, v);
+        }
+        assert_eq!(
+            words(0x0000_0004_0000_0003_0000_0002_0000_0001),
+            [1, 2, 3, 4]
+        );
+    }
+
+    #[test]
+    fn the_exact_layer_holds_the_films_sums() {
+        let mut film = Film::new(3, 2);
+        film.keep_features();
+        film.add_sample(0, 0, Vec3::new(-1.0e9, 0.25, 3.0e-7));
+        film.add_sample(2, 1, Vec3::new(1.0e12, -5.0, 1.0));
+        film.add_sample(2, 1, Vec3::new(1.0e12, -5.0, 1.0));
+        let channels = AnyChannels::sort(exact_channels(&film).into());
+        // 3 colours × (4 + 4) words, the count, 13 features × 4 words.
+        assert_eq!(channels.list.len(), 3 * 8 + 1 + 13 * 4);
+        let read = read_exact(&channels, 6).unwrap();
+        assert_eq!(read, film.exact_sums());
+        let back = Film::from_exact_sums(3, 2, read).unwrap();
+        assert_eq!(back.totals(2, 1), film.totals(2, 1));
+        assert_eq!(back.pixel(0, 0), film.pixel(0, 0));
+        // A layer without the count, or of the wrong size, is refused by name.
+        let mut short = channels.clone();
+        short.list.retain(|c| !c.name.eq("exact.N"));
+        assert!(read_exact(&short, 6).unwrap_err().contains("exact.N"));
+        assert!(read_exact(&channels, 5).unwrap_err().contains("not 5"));
+    }
+}
