@@ -22,7 +22,7 @@ use crate::shading::MaterialModel;
     version,
     about,
     long_about = None,
-    after_help = "Denoise a strata EXR after the render: render denoise IN.exr [-o OUT.exr] (render denoise --help)"
+    after_help = "Denoise a strata EXR after the render: render denoise IN.exr [-o OUT.exr] (render denoise --help)\nMerge the partial EXRs of --shard: render merge PART.exr... -o OUT.exr (render merge --help)"
 )]
 pub struct Args {
     /// The scene: a .gltf (embedded or external buffers) or .glb file.
@@ -190,6 +190,18 @@ pub struct Args {
     /// Which of the file's animations --frame and --frames play (its index).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub animation: usize,
+
+    /// Render shard I of N (I from 0: a farm's task index, e.g. $SLURM_ARRAY_TASK_ID), the
+    /// samples spp·I/N to spp·(I+1)/N of every pixel, as a partial EXR named -o with
+    /// `.shard-I-of-N` before `.exr`. `render merge` joins the N partial files into the image
+    /// one machine would have rendered, bit for bit. No PNG preview.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard, conflicts_with = "samples")]
+    pub shard: Option<(u32, u32)>,
+
+    /// Render the samples of index A to B − 1 of every pixel as a partial EXR named -o with
+    /// `.samples-A-B` before `.exr`, as --shard does for its share.
+    #[arg(long, value_name = "A..B", value_parser = parse_sample_range)]
+    pub samples: Option<(u32, u32)>,
 
     /// AO: occluders farther than this distance are ignored [default: unlimited].
     #[arg(long, value_name = "DISTANCE")]
@@ -476,7 +488,38 @@ pub struct DenoiseArgs {
     pub preview: PreviewArgs,
 }
 
-/// The PNG preview's options, shared by `render` and `render denoise`.
+/// The options of `render merge`: join the partial EXRs of a farm's shards (`render --shard`,
+/// `--samples`) into the image one machine would have rendered, bit for bit, with every pass.
+/// The parts must be of the same scene (the same file contents), settings and seed, hold
+/// disjoint sample ranges, and together hold every sample; denoise after the merge
+/// (`render denoise`).
+#[derive(clap::Parser, Debug)]
+#[command(name = "render merge", version, long_about = None)]
+pub struct MergeArgs {
+    /// The partial EXRs, in any order.
+    #[arg(required = true, value_name = "PART.exr")]
+    pub parts: Vec<PathBuf>,
+
+    /// The merged EXR.
+    #[arg(
+        short,
+        long,
+        value_name = "FILE.exr",
+        required_unless_present = "check"
+    )]
+    pub output: Option<PathBuf>,
+
+    /// Only check the parts (their headers): list the sample ranges, and the shards, that
+    /// are missing for a re-run. Exit status 0 when the parts are complete, 3 when samples
+    /// are missing, 1 when the parts do not belong together.
+    #[arg(long)]
+    pub check: bool,
+
+    #[command(flatten)]
+    pub preview: PreviewArgs,
+}
+
+/// The PNG preview's options, shared by `render`, `render denoise` and `render merge`.
 #[derive(clap::Args, Debug)]
 pub struct PreviewArgs {
     /// Do not write the PNG preview beside the EXR.
@@ -498,17 +541,52 @@ pub struct PreviewArgs {
     pub exposure: f32,
 }
 
-/// `A..B` with A ≤ B: a range of frames, both included.
-fn parse_frame_range(text: &str) -> Result<(u32, u32), String> {
+/// Two whole numbers `A<separator>B`; the errors call the form `form` (with an example) and
+/// each number `what`.
+fn parse_pair(text: &str, separator: &str, form: &str, what: &str) -> Result<(u32, u32), String> {
     let (a, b) = text
-        .split_once("..")
-        .ok_or_else(|| format!("'{text}' is not a range of frames A..B (e.g. 1..48)"))?;
+        .split_once(separator)
+        .ok_or_else(|| format!("'{text}' is not {form}"))?;
     let parse = |v: &str| {
         v.trim()
             .parse::<u32>()
-            .map_err(|_| format!("'{v}' in '{text}' is not a frame number"))
+            .map_err(|_| format!("'{v}' in '{text}' is not {what}"))
     };
-    let (a, b) = (parse(a)?, parse(b)?);
+    Ok((parse(a)?, parse(b)?))
+}
+
+/// `I/N` with I < N: shard I (from 0) of N.
+fn parse_shard(text: &str) -> Result<(u32, u32), String> {
+    let form = "a shard I/N (e.g. 0/4, the first of four)";
+    let (i, n) = parse_pair(text, "/", form, "a whole number")?;
+    if n == 0 {
+        return Err(format!("'{text}': there must be at least one shard"));
+    }
+    if i >= n {
+        return Err(format!(
+            "'{text}': the shard index counts from 0 and must be below the number of shards (0/{n} to {}/{n})",
+            n - 1
+        ));
+    }
+    Ok((i, n))
+}
+
+/// `A..B` with A < B: the sample indices A to B − 1.
+fn parse_sample_range(text: &str) -> Result<(u32, u32), String> {
+    let form = "a range of samples A..B (e.g. 0..64)";
+    let (a, b) = parse_pair(text, "..", form, "a sample index")?;
+    if a >= b {
+        return Err(format!(
+            "the range {text} holds no samples: A..B takes A to B - 1"
+        ));
+    }
+    Ok((a, b))
+}
+
+/// `A..B` with A ≤ B: a range of frames, both included.
+fn parse_frame_range(text: &str) -> Result<(u32, u32), String> {
+    let form = "a range of frames A..B (e.g. 1..48)";
+    let (a, b) = parse_pair(text, "..", form, "a frame number")?;
     if a > b {
         return Err(format!(
             "the range {text} is empty: its first frame is after its last"

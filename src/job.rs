@@ -18,6 +18,7 @@ use crate::integrators::{
     AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions,
 };
 use crate::render::adaptive::ErrorMetric;
+use crate::render::merge::Share;
 use crate::render::output::{self, OutputError};
 use crate::render::passes::Pass;
 use crate::render::view::ViewTransform;
@@ -77,6 +78,9 @@ pub struct Job {
     pub frames: Option<(u32, u32)>,
     pub fps: f64,
     pub animation: usize,
+    /// The share of every pixel's samples this farm task renders (`--shard`, `--samples`),
+    /// written as a partial file for `render merge`; None: all of them.
+    pub share: Option<Share>,
     /// The passes written beside the beauty (`--passes`, and albedo and normal for
     /// `--denoise`), each once, in a fixed order.
     pub passes: Vec<Pass>,
@@ -170,6 +174,15 @@ impl Job {
         // One frame's files carry its number ([`frame_path`]); --frames names each frame's
         // in [`Job::frame_jobs`].
         let (mut variance, mut spp_image) = (args.variance.clone(), args.spp_image.clone());
+        let share = match (args.shard, args.samples) {
+            (Some((index, count)), _) => Some(Share::Shard { index, count }),
+            (None, Some((begin, end))) => Some(Share::Samples { begin, end }),
+            (None, None) => None,
+        };
+        // A shard's file carries its share before the frame number.
+        if let Some(share) = share {
+            output = share.path(&output);
+        }
         if let Some(f) = args.frame {
             output = frame_path(&output, f);
             variance = variance.map(|p| frame_path(&p, f));
@@ -199,6 +212,29 @@ impl Job {
         let min_spp = args.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
         if min_spp == 0 || min_spp > spp {
             refuse!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
+        }
+        if let Some(share) = share {
+            let option = share.option();
+            let refused = [
+                (args.target_error.is_some(), "--target-error: adaptive sampling stops each pixel at its own count, so a shard's share of samples is not fixed"),
+                (args.time_limit.is_some(), "--time-limit: a time limit stops the render after as many samples as the machine managed, not a fixed share"),
+                (args.checkpoint.is_some(), "--checkpoint: a checkpoint of a shard holds only part of its samples, and a merge must not take it for the whole"),
+                (args.pixel.is_some(), "--pixel: a shard renders the whole image"),
+                (args.denoise, "--denoise: denoise the merged image (render denoise MERGED.exr)"),
+                (args.variance.is_some() || args.spp_image.is_some(), "--variance and --spp-image: the shards' files would overwrite each other; the merged image's variance follows from its sums"),
+            ];
+            if let Some((_, why)) = refused.iter().find(|(given, _)| *given) {
+                refuse!("{option} cannot be combined with {why}");
+            }
+            match share {
+                Share::Shard { count, .. } if count > spp => refuse!(
+                    "{option}: {count} shards of --spp {spp} would leave some without samples; use at most {spp} shards"
+                ),
+                Share::Samples { end, .. } if end > spp => {
+                    refuse!("{option} passes --spp {spp}: the last sample index is {}", spp - 1)
+                }
+                _ => {}
+            }
         }
         if args.target_error.is_some() && spp < 2 {
             refuse!("--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp {spp})");
@@ -297,13 +333,15 @@ impl Job {
         Ok(Job {
             scene: args.scene.clone(),
             output,
-            png: !args.preview.no_png,
+            // A shard's preview would show a fraction of the samples; the merge writes one.
+            png: !args.preview.no_png && share.is_none(),
             view: args.preview.view,
             exposure: args.preview.exposure,
             frame: args.frame,
             frames: args.frames,
             fps: args.fps,
             animation: args.animation,
+            share,
             passes: crate::render::passes::canonical(&passes),
             denoise,
             variance,
@@ -541,7 +579,7 @@ impl Job {
             sampler: self.sampler,
             integrator: self.integrator,
             tile_size: self.tile_size,
-            sample_range: None,
+            sample_range: self.share.map(|s| s.range(self.spp)),
             min_pass_seconds: self.min_pass_seconds,
             stopping: self.stopping(),
         }

@@ -13,10 +13,11 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use strata::accel::Accel;
-use strata::cli::{Args, DenoiseArgs};
+use strata::cli::{Args, DenoiseArgs, MergeArgs};
 use strata::integrators::Prepared;
 use strata::job::Job;
-use strata::render::output::{self, Attr};
+use strata::render::merge::{self, Part};
+use strata::render::output::{self, Attr, Ids};
 use strata::render::{self, Checkpoint, Film, RenderStats};
 use strata::report::{self, Phases, Run};
 use strata::scene;
@@ -26,22 +27,27 @@ use strata::shading::Need;
 enum Outcome {
     Finished,
     Interrupted,
+    /// `render merge --check` found samples missing.
+    Incomplete,
 }
 
 fn main() -> ExitCode {
-    // `render denoise …` is the one subcommand; anything else is a scene to render.
+    // `render denoise …` and `render merge …` are the subcommands; anything else is a scene
+    // to render.
+    let rest = || std::env::args_os().skip(2);
     let result = match std::env::args_os().nth(1) {
-        Some(a) if a == "denoise" => {
-            let rest = std::env::args_os().skip(2);
-            denoise_file(DenoiseArgs::parse_from(
-                std::iter::once("render denoise".into()).chain(rest),
-            ))
-        }
+        Some(a) if a == "denoise" => denoise_file(DenoiseArgs::parse_from(
+            std::iter::once("render denoise".into()).chain(rest()),
+        )),
+        Some(a) if a == "merge" => merge_files(MergeArgs::parse_from(
+            std::iter::once("render merge".into()).chain(rest()),
+        )),
         _ => run(Args::parse()),
     };
     match result {
         Ok(Outcome::Finished) => ExitCode::SUCCESS,
         Ok(Outcome::Interrupted) => ExitCode::from(130),
+        Ok(Outcome::Incomplete) => ExitCode::from(3),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
@@ -105,6 +111,75 @@ fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
     Ok(Outcome::Finished)
 }
 
+/// `render merge`: checks the partial files of a farm's shards and merges them
+/// ([`strata::render::merge`]); with `--check`, only lists what is missing.
+fn merge_files(args: MergeArgs) -> Result<Outcome> {
+    let parts: Vec<Part> = args
+        .parts
+        .iter()
+        .map(|p| Part::read(p))
+        .collect::<Result<_, _>>()
+        .map_err(|e| anyhow!(e))?;
+    let coverage = merge::check(&parts).map_err(|e| anyhow!(e))?;
+    if args.check {
+        let held: u32 = coverage.parts.iter().map(|p| p.range.1 - p.range.0).sum();
+        println!(
+            "{} part(s) hold {held} of the {} samples per pixel",
+            coverage.parts.len(),
+            coverage.spp
+        );
+        for m in &coverage.missing {
+            println!("{m}");
+        }
+        return Ok(match coverage.complete() {
+            true => Outcome::Finished,
+            false => Outcome::Incomplete,
+        });
+    }
+    let output = args
+        .output
+        .clone()
+        .expect("clap requires -o without --check");
+    output::check_output_path(&output)?;
+    if !args.preview.exposure.is_finite() {
+        return Err(anyhow!("--exposure must be a finite number of stops"));
+    }
+    let t = Instant::now();
+    let merged = merge::merge(&coverage).map_err(|e| anyhow!(e))?;
+    let film = &merged.film;
+    let mut attrs = merged.attrs.clone();
+    attrs.extend(output::film_attributes(film, merged.seconds, false, false));
+    attrs.push((
+        "strata:merged_parts".into(),
+        Attr::Int(coverage.parts.len() as i32),
+    ));
+    let preview = &args.preview;
+    attrs.push((
+        "strata:preview_view".into(),
+        Attr::Text(preview.view.to_string()),
+    ));
+    attrs.push((
+        "strata:preview_exposure".into(),
+        Attr::Float(preview.exposure),
+    ));
+    let ids = Ids::Given(&merged.ids);
+    output::write_exr(&output, film, &merged.passes, ids, None, &attrs, false)?;
+    if !args.preview.no_png {
+        let display = strata::render::view::Display::new(args.preview.view, args.preview.exposure);
+        output::write_png(&output.with_extension("png"), film, &display)?;
+    }
+    println!(
+        "{}: {}×{}, {} samples per pixel merged from {} parts in {:.3} s",
+        output.display(),
+        film.width,
+        film.height,
+        coverage.spp,
+        coverage.parts.len(),
+        t.elapsed().as_secs_f64()
+    );
+    Ok(Outcome::Finished)
+}
+
 /// Ctrl-C: the first stops the render after the tiles in flight and saves the image; the
 /// second exits at once, removing the temporary files of a write in progress (`temporaries`)
 /// so nothing half-written is left; a file already in place (a checkpoint) stays.
@@ -162,6 +237,8 @@ fn run(args: Args) -> Result<Outcome> {
 
 /// Loads, builds, renders and writes one job (one frame).
 fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
+    // A shard's settings, from the options alone (before the scene changes the job).
+    let settings_hash = job.share.map(|_| merge::settings_hash(&job));
     // Load.
     let t_load = Instant::now();
     let scene = scene::load(&job.scene, &job.load_options())?;
@@ -229,11 +306,25 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     };
     let settings = job.render_settings(&view);
     let progress = progress_bar(&job);
-    let header = output::header_attributes(&job, &accel.describe());
+    let mut header = output::header_attributes(&job, &accel.describe());
+    if let (Some(share), Some(hash)) = (job.share, &settings_hash) {
+        header.extend(
+            merge::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
+        );
+    }
     let write_images =
         |film: &Film, denoised: Option<&[glam::Vec3]>, state: Vec<(String, Attr)>| -> Result<()> {
             let attrs = [header.clone(), state].concat();
-            output::write_exr(&job.output, film, &job.passes, &scene, denoised, &attrs)?;
+            let (ids, partial) = (Ids::Scene(&scene), job.share.is_some());
+            output::write_exr(
+                &job.output,
+                film,
+                &job.passes,
+                ids,
+                denoised,
+                &attrs,
+                partial,
+            )?;
             if let Some(v) = &job.variance {
                 output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
             }

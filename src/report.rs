@@ -80,10 +80,15 @@ pub fn summary(run: &Run) -> String {
         s,
         "{}: {width}x{height}, {} spp, {:.2} s, {:.2} Mrays, {:.2} Mrays/s{}",
         job.output.display(),
-        if spp_min == spp_max {
-            spp_max.to_string()
-        } else {
-            format!("{spp_min}-{spp_max} (mean {:.1})", result.film.count_mean())
+        match (job.share, spp_min == spp_max) {
+            (Some(share), _) => {
+                let (a, b) = share.range(job.spp);
+                format!("{spp_max} of {} (samples {a}..{b})", job.spp)
+            }
+            (None, true) => spp_max.to_string(),
+            (None, false) => {
+                format!("{spp_min}-{spp_max} (mean {:.1})", result.film.count_mean())
+            }
         },
         stats.seconds,
         rays as f64 * 1e-6,

@@ -29,7 +29,9 @@ pub mod adaptive;
 pub mod culling;
 mod emitters;
 pub mod film;
+pub mod merge;
 pub mod output;
+pub mod partial;
 pub mod passes;
 pub mod view;
 

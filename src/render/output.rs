@@ -112,18 +112,29 @@ pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
     }
 }
 
+/// Where the ID passes' values come from.
+#[derive(Clone, Copy)]
+pub enum Ids<'a> {
+    /// The film's first hits, whose document indices `Scene` (the scene rendered) gives.
+    Scene(&'a Scene),
+    /// Each pass's values, row-major (a merge's, from the part that holds sample 0).
+    Given(&'a [(Pass, Vec<f32>)]),
+}
+
 /// Writes the film as a float32 RGB EXR (ZIP compression) with `attrs` in the header, and
 /// `passes` as layers beside the beauty ([`super::passes`]; the film must keep features when
-/// a feature pass is asked for, first hits when an ID pass is, whose indices come from
-/// `scene`, the scene rendered). With a `denoised` beauty, that is R, G, B and the film's own is
-/// the layer `noisy` (Cycles' "Noisy Image").
+/// a feature pass is asked for, and first hits when an ID pass is whose values `ids` takes
+/// from the scene). With a `denoised` beauty, that is R, G, B and the film's own is the layer
+/// `noisy` (Cycles' "Noisy Image"). A `partial` file (a farm shard's) also holds the film's
+/// exact sums ([`super::partial`]).
 pub fn write_exr(
     path: &Path,
     film: &Film,
     passes: &[Pass],
-    scene: &Scene,
+    ids: Ids,
     denoised: Option<&[glam::Vec3]>,
     attrs: &[(String, Attr)],
+    partial: bool,
 ) -> Result<(), OutputError> {
     let mut channels = match denoised {
         None => rgb_channels(&film.pixels()),
@@ -133,17 +144,20 @@ pub fn write_exr(
             c
         }
     };
+    if partial {
+        channels.extend(super::partial::exact_channels(film));
+    }
     if passes.is_empty() {
         return write_channels(path, film.width, film.height, channels, attrs);
     }
-    let ids = passes.iter().any(|p| p.is_id());
+    let with_ids = passes.iter().any(|p| p.is_id());
     if passes.iter().any(|p| !p.is_id()) && !film.keeps_features() {
         return Err(err(
             path,
             "passes asked for, but the render kept no features",
         ));
     }
-    if ids && !film.keeps_first_hits() {
+    if with_ids && matches!(ids, Ids::Scene(_)) && !film.keeps_first_hits() {
         return Err(err(
             path,
             "ID passes asked for, but the render kept no first hits",
@@ -153,17 +167,30 @@ pub fn write_exr(
     let pixels = || (0..film.height).flat_map(|y| (0..film.width).map(move |x| (x, y)));
     let features: Vec<_> = pixels().map(|(x, y)| film.features(x, y)).collect();
     let origins: Vec<_> = match ids {
-        true => pixels()
+        Ids::Scene(scene) if with_ids => pixels()
             .map(|(x, y)| film.first_hit(x, y).map(|t| scene.origin(t)))
             .collect(),
-        false => vec![None; features.len()],
+        _ => vec![None; features.len()],
     };
     let mut attrs = attrs.to_vec();
     for &pass in passes {
+        let given = match ids {
+            Ids::Given(given) if pass.is_id() => {
+                let values = given.iter().find(|(p, _)| *p == pass).map(|(_, v)| v);
+                match values {
+                    Some(v) if v.len() == features.len() => Some(v),
+                    _ => return Err(err(path, format!("no values for the {pass} pass"))),
+                }
+            }
+            _ => None,
+        };
         for (i, c) in pass.channels().iter().enumerate() {
-            let values = (features.iter().zip(&origins))
-                .map(|(&f, &o)| pass.values(f, o)[i])
-                .collect();
+            let values = match given {
+                Some(v) => v.clone(),
+                None => (features.iter().zip(&origins))
+                    .map(|(&f, &o)| pass.values(f, o)[i])
+                    .collect(),
+            };
             let name = format!("{}.{c}", pass.layer());
             channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
         }
