@@ -16,14 +16,35 @@ state=${2:-/tmp/strata-slurm}
 log() { printf '[local-cluster] %s\n' "$*" >&2; }
 die() { printf '[local-cluster] error: %s\n' "$*" >&2; exit 1; }
 
+# Whether any of these processes still runs (a zombie has exited: init reaps it in its own time).
+running() {
+    (($#)) && ps -o stat= -p "$(IFS=,; echo "$*")" 2>/dev/null | grep -qv '^Z'
+}
+
 stop() {
+    # Jobs first: a job's slurmstepd (and what it runs) outlives slurmd.
+    if pgrep -f -- "-f $state/slurm.conf" >/dev/null; then
+        SLURM_CONF=$state/slurm.conf scancel --user="$(id -un)" 2>/dev/null || true
+        for _ in $(seq 50); do
+            [[ -z $(SLURM_CONF=$state/slurm.conf squeue -h 2>/dev/null) ]] && break
+            sleep 0.1
+        done
+    fi
+    local pids=()
     for pidfile in "$state"/slurmd.pid "$state"/slurmctld.pid "$state"/munged.pid; do
-        [[ -f $pidfile ]] && kill "$(cat "$pidfile")" 2>/dev/null || true
+        if [[ -f $pidfile ]]; then pids+=("$(cat "$pidfile")"); fi
     done
     # Daemons whose pid files are gone: found by the configuration they were started with.
-    pkill -f -- "-f $state/slurm.conf" 2>/dev/null || true
-    pkill -f -- "--socket $state/munge/munge.socket" 2>/dev/null || true
-    sleep 0.5
+    mapfile -t -O "${#pids[@]}" pids < <(pgrep -f -- "-f $state/slurm.conf" || true
+        pgrep -f -- "--socket $state/munge/munge.socket" || true)
+    if ((${#pids[@]})); then kill "${pids[@]}" 2>/dev/null || true; fi
+    # Until they have exited: a cluster started next needs the ports, and start refuses to
+    # run beside a live slurmctld (slurmctld takes a second or so to save its state).
+    for _ in $(seq 100); do
+        running "${pids[@]}" || break
+        sleep 0.1
+    done
+    if running "${pids[@]}"; then log "still running after 10 s: ${pids[*]}"; fi
     log "stopped (state in $state)"
 }
 
@@ -40,7 +61,8 @@ done
 host=$(hostname -s)
 cpus=$(nproc)
 # The ports below must be free: another cluster (or one left running) would take the jobs.
-if pgrep -x slurmctld >/dev/null || pgrep -x slurmd >/dev/null; then
+# (Zombies do not count: they hold no port, and init may take a while to reap them.)
+if pgrep -r D,R,S,T,t -x 'slurm(ctld|d)' >/dev/null; then
     die "a slurmctld or slurmd is already running on this machine (pgrep -a slurm); stop it first"
 fi
 mkdir -p "$state"/{spool,ctld,log,munge}
