@@ -83,7 +83,7 @@ pub fn summary(run: &Run) -> String {
         match (job.share, spp_min == spp_max) {
             (Some(share), _) => {
                 let (a, b) = share.range(job.spp);
-                format!("{spp_max} of {} (samples {a}..{b})", job.spp)
+                format!("samples {a}..{b} of {}", job.spp)
             }
             (None, true) => spp_max.to_string(),
             (None, false) => {

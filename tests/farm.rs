@@ -76,9 +76,12 @@ fn shards_merge_to_the_whole(dir: &Path, name: &str, args: &[&str], counts: &[u3
             all.extend(["-o", s(&out), "--shard", &shard, "--threads", &threads]);
             let run = render(dir, &all);
             run.assert_success();
+            // The README's split: shard I of N takes samples ⌊spp·I/N⌋ to ⌊spp·(I+1)/N⌋ − 1.
+            let spp: u32 = args_spp(args).parse().unwrap();
+            let (a, b) = (spp * i / n, spp * (i + 1) / n);
             assert!(
                 run.stdout
-                    .contains(&format!("of {} (samples", args_spp(args))),
+                    .contains(&format!("samples {a}..{b} of {spp} spp,")),
                 "{}",
                 run.stdout
             );

@@ -7,8 +7,8 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes,
-    LayerAttributes, SmallVec, Text, WritableImage,
+    AnyChannel, AnyChannels, AttributeValue, Compression, Encoding, FlatSamples, Image,
+    ImageAttributes, LayerAttributes, SmallVec, Text, WritableImage,
 };
 
 use super::passes::Pass;
@@ -148,7 +148,7 @@ pub fn write_exr(
         channels.extend(super::partial::exact_channels(film));
     }
     if passes.is_empty() {
-        return write_channels(path, film.width, film.height, channels, attrs);
+        return write_channels(path, film.width, film.height, channels, attrs, partial);
     }
     let with_ids = passes.iter().any(|p| p.is_id());
     if passes.iter().any(|p| !p.is_id()) && !film.keeps_features() {
@@ -201,7 +201,7 @@ pub fn write_exr(
     }
     let names: Vec<&str> = passes.iter().map(|p| p.layer()).collect();
     attrs.push(("strata:passes".into(), Attr::Text(names.join(","))));
-    write_channels(path, film.width, film.height, channels, &attrs)
+    write_channels(path, film.width, film.height, channels, &attrs, partial)
 }
 
 /// Writes row-major RGB `pixels` (top row first) as a float32 EXR with `attrs` in the header.
@@ -212,7 +212,7 @@ pub fn write_rgb_exr(
     pixels: &[glam::Vec3],
     attrs: &[(String, Attr)],
 ) -> Result<(), OutputError> {
-    write_channels(path, width, height, rgb_channels(pixels), attrs)
+    write_channels(path, width, height, rgb_channels(pixels), attrs, false)
 }
 
 /// The layer that keeps the raw beauty of a denoised image.
@@ -240,17 +240,28 @@ fn rgb_channels_named(pixels: &[glam::Vec3], layer: &str) -> Vec<AnyChannel<Flat
 }
 
 /// Writes `channels` (each `width × height` row-major floats) as one part of a ZIP-compressed
-/// EXR, with strata's software name and `attrs` in its header, atomically.
+/// EXR, with strata's software name and `attrs` in its header, atomically. A `partial` file
+/// (a shard's, mostly 32-bit integer words) is compressed one scanline per block rather than
+/// sixteen: the same size, and half the time to write and to read at 4K
+/// (BENCHMARKS.md, "Farm shards").
 fn write_channels(
     path: &Path,
     width: u32,
     height: u32,
     channels: Vec<AnyChannel<FlatSamples>>,
     attrs: &[(String, Attr)],
+    partial: bool,
 ) -> Result<(), OutputError> {
+    let encoding = match partial {
+        false => Encoding::SMALL_LOSSLESS,
+        true => Encoding {
+            compression: Compression::ZIP1,
+            ..Encoding::SMALL_LOSSLESS
+        },
+    };
     let mut image = Image::from_encoded_channels(
         (width as usize, height as usize),
-        Encoding::SMALL_LOSSLESS,
+        encoding,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     set_attributes(
