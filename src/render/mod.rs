@@ -50,8 +50,8 @@ use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
 pub use film::{
-    BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals,
-    FEATURE_SLOTS, NO_HIT, NO_TOTALS,
+    BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals, RoundTotals,
+    WideTotals, FEATURE_SLOTS, NO_HIT,
 };
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a
@@ -300,13 +300,17 @@ impl Round<'_> {
     }
 }
 
-/// Every tile's [`PixelTotals`] after the current round, tile after tile in one allocation made
-/// once per render. Buffers allocated per round came back from the allocator as fresh zero
-/// pages, each taking a copy-on-write fault (and a TLB flush of the other threads) on first
-/// use; buffers allocated per tile grew the per-thread heaps by some 4 000 `mprotect` calls
-/// in the first round.
+/// Every tile's [`RoundTotals`] of the current round (what the round adds to each pixel), tile
+/// after tile in one allocation made once per render, and each tile's list of wide entries
+/// for its pixels that overflow them (kept from round to round). Buffers allocated per round
+/// came back from the allocator as fresh zero pages, each taking a copy-on-write fault (and a
+/// TLB flush of the other threads) on first use; buffers allocated per tile grew the
+/// per-thread heaps by some 4 000 `mprotect` calls in the first round.
 struct TileSums {
-    data: Vec<PixelTotals>,
+    data: Vec<RoundTotals>,
+    /// Per tile, the wide entries of its pixels ([`RoundTotals`]), emptied as the tile starts
+    /// a round (its allocation kept).
+    wide: Vec<Vec<WideTotals>>,
     /// The same pixels' [`FeatureTotals`], where the film keeps them; empty otherwise.
     features: Vec<FeatureTotals>,
     /// The same pixels' first hits ([`Film::first_hit`]), where the film keeps them; empty
@@ -316,16 +320,22 @@ struct TileSums {
     offsets: Vec<usize>,
 }
 
-/// A tile's part of [`TileSums`]: its pixels' totals, their feature totals and their first
-/// hits (each empty when the film keeps none).
+/// A tile's part of [`TileSums`]: its pixels' round totals and their wide entries, their
+/// feature totals and their first hits (these two empty when the film keeps none).
 type TileTotals<'a> = (
-    &'a mut [PixelTotals],
+    &'a mut [RoundTotals],
+    &'a mut Vec<WideTotals>,
     &'a mut [FeatureTotals],
     &'a mut [u32],
 );
 
 /// A tile's part of [`TileSums`] to read.
-type TileTotalsRef<'a> = (&'a [PixelTotals], &'a [FeatureTotals], &'a [u32]);
+type TileTotalsRef<'a> = (
+    &'a [RoundTotals],
+    &'a [WideTotals],
+    &'a [FeatureTotals],
+    &'a [u32],
+);
 
 impl TileSums {
     fn new(tiles: &[Tile], features: bool, first_hits: bool) -> TileSums {
@@ -337,7 +347,8 @@ impl TileSums {
         }
         let n = offsets[tiles.len()];
         TileSums {
-            data: vec![NO_TOTALS; n],
+            data: vec![RoundTotals::default(); n],
+            wide: vec![Vec::new(); tiles.len()],
             features: if features {
                 vec![[0; FEATURE_SLOTS]; n]
             } else {
@@ -362,10 +373,10 @@ impl TileSums {
             true => &[][..],
             false => &self.first_hits[range.clone()],
         };
-        (&self.data[range], features, first_hits)
+        (&self.data[range], &self.wide[tile], features, first_hits)
     }
 
-    /// The sums of tiles `range`, one mutable triple of slices per tile.
+    /// The sums of tiles `range`, one mutable [`TileTotals`] per tile.
     fn split_mut(&mut self, range: std::ops::Range<usize>) -> Vec<TileTotals<'_>> {
         let all = self.offsets[range.start]..self.offsets[range.end];
         let keep = !self.features.is_empty();
@@ -379,6 +390,7 @@ impl TileSums {
             true => &mut self.first_hits[all],
             false => &mut [][..],
         };
+        let mut wide = self.wide[range.clone()].iter_mut();
         let mut out = Vec::with_capacity(range.len());
         for i in range {
             let n = self.offsets[i + 1] - self.offsets[i];
@@ -390,13 +402,14 @@ impl TileSums {
             let (first_hits, tail) =
                 std::mem::take(&mut rest_h).split_at_mut(if keep_hits { n } else { 0 });
             rest_h = tail;
-            out.push((tile, features, first_hits));
+            let wide = wide.next().expect("a wide list per tile");
+            out.push((tile, wide, features, first_hits));
         }
         out
     }
 }
 
-/// What a tile's round produced besides its [`PixelTotals`].
+/// What a tile's round produced besides its [`RoundTotals`].
 struct TileResult {
     rays: RayCounts,
     bad: u64,
@@ -404,17 +417,18 @@ struct TileResult {
 }
 
 /// Renders the round's samples of every pixel of `tile` into `sums` (one entry per pixel, in
-/// scanline order; the tile's part of [`TileSums`]): each pixel's totals in the film, with
-/// the round's samples added one by one in index order. A pixel's totals are thus the same
-/// however its samples were split into rounds (and would be in any order: the sums are
-/// exact).
+/// scanline order, and the tile's wide entries in `wide`; the tile's part of [`TileSums`]):
+/// the round's samples of each pixel, added in index order, for the film to add to its
+/// totals ([`FilmRows::add_round`]). A pixel's totals are thus the same however its samples
+/// were split into rounds (and would be in any order: the sums are exact). Feature totals
+/// and first hits are each pixel's in the film, continued by the round.
 fn render_tile(
     ctx: &Context,
     settings: &RenderSettings,
     setup: &TileSetup,
     tile: Tile,
     round: &Round,
-    (sums, features, first_hits): TileTotals,
+    (sums, wide, features, first_hits): TileTotals,
 ) -> TileResult {
     let TileSetup {
         camera,
@@ -425,6 +439,7 @@ fn render_tile(
     } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
+    wide.clear();
     // Feature totals and first hits, where the film keeps them (empty otherwise).
     let keep_features = !features.is_empty();
     let keep_first_hits = !first_hits.is_empty();
@@ -445,7 +460,7 @@ fn render_tile(
             for x in tile.x0..tile.x1 {
                 let samples = round.samples(x, y);
                 let pixel = &mut sums[at(x, y)];
-                *pixel = round.film.totals(x, y);
+                *pixel = RoundTotals::default();
                 let mut pixel_features = round.film.feature_totals(x, y);
                 if keep_first_hits {
                     first_hits[at(x, y)] = round.film.first_hit_raw(x, y);
@@ -484,13 +499,14 @@ fn render_tile(
                         }
                     }
                     let l = record[0].l;
-                    accumulate(pixel, l, (x, y, index), &mut out.bad, &mut out.first_bad);
+                    let bad = (&mut out.bad, &mut out.first_bad);
+                    accumulate((pixel, wide), l, (x, y, index), bad);
                     add_features(&mut pixel_features, record[0].features);
                     if keep_first_hits && index == 0 {
                         first_hits[at(x, y)] = record[0].triangle.unwrap_or(NO_HIT);
                     }
                 }
-                pixel.2 += samples.1 - samples.0;
+                pixel.count = samples.1 - samples.0;
                 if keep_features {
                     features[at(x, y)] = pixel_features;
                 }
@@ -526,11 +542,7 @@ fn render_tile(
                 true => 0,
                 false => lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0),
             };
-            let mut acc: [PixelTotals; PACKET] = std::array::from_fn(|i| {
-                lanes
-                    .get(i)
-                    .map_or(NO_TOTALS, |&(x, y, _, _)| round.film.totals(x, y))
-            });
+            let mut acc = [RoundTotals::default(); PACKET];
             let mut feature_acc: [FeatureTotals; PACKET] =
                 std::array::from_fn(|i| match lanes.get(i) {
                     Some(&(x, y, _, _)) if keep_features => round.film.feature_totals(x, y),
@@ -554,7 +566,8 @@ fn render_tile(
                     out.rays.culled += (b - a) as u64;
                     if miss != Vec3A::ZERO {
                         for index in a..b {
-                            accumulate(acc, miss, (x, y, index), &mut out.bad, &mut out.first_bad);
+                            let bad = (&mut out.bad, &mut out.first_bad);
+                            accumulate((acc, wide), miss, (x, y, index), bad);
                         }
                     }
                 }
@@ -620,13 +633,8 @@ fn render_tile(
                 for (k, record) in records[..n].iter().enumerate() {
                     let (l, lane) = (record.l, which[k]);
                     let (x, y, a, _) = lanes[lane];
-                    accumulate(
-                        &mut acc[lane],
-                        l,
-                        (x, y, a + j),
-                        &mut out.bad,
-                        &mut out.first_bad,
-                    );
+                    let bad = (&mut out.bad, &mut out.first_bad);
+                    accumulate((&mut acc[lane], wide), l, (x, y, a + j), bad);
                     if keep_features {
                         add_features(&mut feature_acc[lane], record.features);
                     }
@@ -636,7 +644,7 @@ fn render_tile(
                 }
             }
             for (lane, (acc, &(x, y, a, b))) in acc.iter_mut().zip(lanes).enumerate() {
-                acc.2 += b - a;
+                acc.count = b - a;
                 sums[at(x, y)] = *acc;
                 if keep_features {
                     features[at(x, y)] = feature_acc[lane];
@@ -707,19 +715,18 @@ const PACKET_W: u32 = culling::BLOCK_W;
 const PACKET_H: u32 = culling::BLOCK_H;
 const _: () = assert!((PACKET_W * PACKET_H) as usize == PACKET);
 
-/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's sums (exactly, in
-/// fixed point: [`film`]), or counts it as bad (NaN, infinite, or beyond the film's range,
-/// [`film::MAX_SAMPLE_VALUE`]) and keeps the first few.
+/// Adds sample value `l` of pixel sample (x, y, index) to the pixel's round totals and their
+/// tile's wide entries (exactly, in fixed point: [`film`]), or counts it as bad (NaN,
+/// infinite, or beyond the film's range, [`film::MAX_SAMPLE_VALUE`]) and keeps the first few.
 #[inline]
 fn accumulate(
-    pixel: &mut PixelTotals,
+    (pixel, wide): (&mut RoundTotals, &mut Vec<WideTotals>),
     l: Vec3A,
     (x, y, index): (u32, u32, u32),
-    bad: &mut u64,
-    first_bad: &mut Vec<BadSample>,
+    (bad, first_bad): (&mut u64, &mut Vec<BadSample>),
 ) {
     if film::in_range(l) {
-        film::add_sample(pixel, l);
+        film::add_sample(pixel, wide, l);
     } else {
         *bad += 1;
         if first_bad.len() < BAD_SAMPLES_KEPT {
@@ -1084,15 +1091,15 @@ fn merge_tile(film: &mut Film, tile: &Tile, sums: TileTotalsRef) {
     write_tile(&mut rows[0], tile, sums);
 }
 
-/// Writes a tile's totals (and feature totals and first hits, where kept) after the round
-/// into the film rows that hold it.
-fn write_tile(rows: &mut FilmRows, tile: &Tile, (sums, features, first_hits): TileTotalsRef) {
+/// Adds a tile's round totals to the film rows that hold it (and writes its feature totals
+/// and first hits, where kept).
+fn write_tile(rows: &mut FilmRows, tile: &Tile, (sums, wide, features, first_hits): TileTotalsRef) {
     let mut pixel = sums.iter();
     let mut pixel_features = features.iter();
     let mut pixel_first_hits = first_hits.iter();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
-            rows.set(x, y, *pixel.next().expect("one sum per tile pixel"));
+            rows.add_round(x, y, pixel.next().expect("one sum per tile pixel"), wide);
             if let Some(f) = pixel_features.next() {
                 rows.set_features(x, y, f);
             }
