@@ -515,6 +515,12 @@ pub struct MergeArgs {
     #[arg(long)]
     pub check: bool,
 
+    /// Merge parts of one contiguous range of samples into a partial file of that range, for
+    /// a later merge: the parts of a farm of many nodes then merge as a tree, groups in
+    /// parallel, rather than one after another. No PNG.
+    #[arg(long, conflicts_with = "check")]
+    pub partial: bool,
+
     #[command(flatten)]
     pub preview: PreviewArgs,
 }

@@ -145,14 +145,18 @@ fn merge_files(args: MergeArgs) -> Result<Outcome> {
         return Err(anyhow!("--exposure must be a finite number of stops"));
     }
     let t = Instant::now();
-    let merged = merge::merge(&coverage).map_err(|e| anyhow!(e))?;
+    let merged = merge::merge(&coverage, args.partial).map_err(|e| anyhow!(e))?;
     let film = &merged.film;
     let mut attrs = merged.attrs.clone();
     attrs.extend(output::film_attributes(film, merged.seconds, false, false));
-    attrs.push((
-        "strata:merged_parts".into(),
-        Attr::Int(coverage.parts.len() as i32),
-    ));
+    // The shards merged, through earlier partial merges too.
+    let shards: i32 = (coverage.parts.iter())
+        .map(|p| match p.attrs.get("strata:merged_parts") {
+            Some(Attr::Int(n)) => *n,
+            _ => 1,
+        })
+        .sum();
+    attrs.push(("strata:merged_parts".into(), Attr::Int(shards)));
     let preview = &args.preview;
     attrs.push((
         "strata:preview_view".into(),
@@ -162,18 +166,34 @@ fn merge_files(args: MergeArgs) -> Result<Outcome> {
         "strata:preview_exposure".into(),
         Attr::Float(preview.exposure),
     ));
+    if args.partial {
+        let (a, b) = merged.range;
+        attrs.push(("strata:samples".into(), Attr::Text(format!("{a}..{b}"))));
+    }
     let ids = Ids::Given(&merged.ids);
-    output::write_exr(&output, film, &merged.passes, ids, None, &attrs, false)?;
-    if !args.preview.no_png {
+    output::write_exr(
+        &output,
+        film,
+        &merged.passes,
+        ids,
+        None,
+        &attrs,
+        args.partial,
+    )?;
+    if !args.preview.no_png && !args.partial {
         let display = strata::render::view::Display::new(args.preview.view, args.preview.exposure);
         output::write_png(&output.with_extension("png"), film, &display)?;
     }
+    let (a, b) = merged.range;
     println!(
-        "{}: {}×{}, {} samples per pixel merged from {} parts in {:.3} s",
+        "{}: {}×{}, {} merged from {} parts in {:.3} s",
         output.display(),
         film.width,
         film.height,
-        coverage.spp,
+        match args.partial {
+            true => format!("samples {a}..{b} of {}", coverage.spp),
+            false => format!("{} samples per pixel", coverage.spp),
+        },
         coverage.parts.len(),
         t.elapsed().as_secs_f64()
     );

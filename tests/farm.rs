@@ -435,3 +435,80 @@ fn a_killed_shard_leaves_no_part_and_check_names_it() {
         check.stdout
     );
 }
+
+#[test]
+fn partial_merges_form_a_tree_that_merges_to_the_one_machine_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    std::fs::create_dir(dir.join("parts")).unwrap();
+    let passes = ["--passes", "albedo,depth,object_id,material_id"];
+    let shards: Vec<PathBuf> = (0..7)
+        .map(|i| shard(dir, "t.exr", &format!("{i}/7"), &passes))
+        .collect();
+    let whole = dir.join("whole.exr");
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let mut args = vec![s(&scene), "--spp", "12", "--resolution", "24x24"];
+    args.extend(["-o", s(&whole), "--no-png"]);
+    args.extend(passes);
+    render(dir, &args).assert_success();
+    // Two groups merged on their own, the second without sample 0, then the groups.
+    let group = |name: &str, parts: &[PathBuf]| {
+        let out = dir.join(name);
+        let mut args = vec!["merge", "--partial", "-o", s(&out)];
+        args.extend(parts.iter().map(|p| s(p)));
+        let run = render(dir, &args);
+        run.assert_success();
+        out
+    };
+    let a = group("a.exr", &shards[..3]);
+    let b = group("b.exr", &shards[3..]);
+    assert!(
+        !dir.join("a.png").exists(),
+        "a partial merge writes no preview"
+    );
+    let check = render(dir, &["merge", "--check", s(&b)]);
+    assert!(
+        check.stdout.contains("missing samples 0..5"),
+        "{}",
+        check.stdout
+    );
+    let tree = dir.join("tree.exr");
+    render(dir, &["merge", "-o", s(&tree), "--no-png", s(&b), s(&a)]).assert_success();
+    let (want, got) = (channels(&whole), channels(&tree));
+    assert_eq!(
+        got.keys().collect::<Vec<_>>(),
+        want.keys().collect::<Vec<_>>()
+    );
+    for (channel, bits) in &want {
+        assert!(
+            bits == &got[channel],
+            "{channel} differs after a tree of merges"
+        );
+    }
+    idiff_identical(&whole, &tree);
+    let ints = common::int_attrs(&tree);
+    assert_eq!(
+        common::attr(&ints, "strata:merged_parts"),
+        7,
+        "the shards behind the tree"
+    );
+    // A partial merge of parts with a gap between them is refused, naming the gap.
+    let out = dir.join("gap.exr");
+    let run = render(
+        dir,
+        &[
+            "merge",
+            "--partial",
+            "-o",
+            s(&out),
+            s(&shards[0]),
+            s(&shards[2]),
+        ],
+    );
+    assert!(!run.status.success());
+    assert!(
+        run.stderr.contains("missing samples 1..3"),
+        "{}",
+        run.stderr
+    );
+}

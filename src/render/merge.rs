@@ -183,6 +183,7 @@ const OWN_ATTRIBUTES: &[&str] = &[
     "strata:spp_mean",
     "strata:interrupted",
     "strata:checkpoint",
+    "strata:merged_parts",
     "strata:preview_view",
     "strata:preview_exposure",
     "strata:scene",
@@ -460,12 +461,14 @@ pub struct Merged {
     pub film: Film,
     /// The passes the parts hold.
     pub passes: Vec<Pass>,
-    /// The ID passes' values, from the part that holds sample 0.
+    /// The ID passes' values, from the part that holds sample 0 (the first part).
     pub ids: Vec<(Pass, Vec<f32>)>,
     /// The parts' common header attributes.
     pub attrs: Vec<(String, Attr)>,
     /// The parts' render seconds, summed.
     pub seconds: f64,
+    /// The samples the merged film holds, [a, b).
+    pub range: (u32, u32),
 }
 
 /// The samples missing from `coverage`, one per line, for an error.
@@ -474,10 +477,33 @@ pub fn missing_lines(coverage: &Coverage) -> String {
     lines.join("\n")
 }
 
-/// Merges the parts of `coverage` (complete: [`check`]) into one film. Reads one part at a
-/// time; each must hold its whole sample range in every pixel.
-pub fn merge(coverage: &Coverage) -> Result<Merged, String> {
-    if !coverage.complete() {
+/// The one range of samples the parts of `coverage` hold together, where they hold one
+/// without gaps (what a partial merge needs).
+pub fn contiguous(coverage: &Coverage) -> Option<(u32, u32)> {
+    let parts = &coverage.parts;
+    let gap = parts.windows(2).any(|p| p[0].range.1 != p[1].range.0);
+    match (parts.first(), parts.last()) {
+        (Some(first), Some(last)) if !gap => Some((first.range.0, last.range.1)),
+        _ => None,
+    }
+}
+
+/// Merges the parts of `coverage` into one film: all of the image's samples, or with
+/// `partial` one contiguous range of them (for a later merge: many parts merge as a tree,
+/// groups in parallel). Reads one part at a time; each must hold its whole sample range in
+/// every pixel.
+pub fn merge(coverage: &Coverage, partial: bool) -> Result<Merged, String> {
+    if partial && contiguous(coverage).is_none() {
+        let gaps: Vec<String> = (coverage.parts.windows(2))
+            .filter(|p| p[0].range.1 < p[1].range.0)
+            .map(|p| format!("missing samples {}..{}", p[0].range.1, p[1].range.0))
+            .collect();
+        return Err(format!(
+            "a partial merge takes parts of one contiguous range of samples; between them:\n{}",
+            gaps.join("\n")
+        ));
+    }
+    if !partial && !coverage.complete() {
         return Err(format!(
             "the parts do not hold every sample of --spp {}:\n{}",
             coverage.spp,
@@ -525,7 +551,9 @@ pub fn merge(coverage: &Coverage) -> Result<Merged, String> {
         }
         let part_film = Film::from_exact_sums(width as u32, height as u32, exact)
             .ok_or_else(|| fail("its exact sums do not fit its image size".into()))?;
-        if part.range.0 == 0 {
+        // The first part's IDs: the sample-0 part's in a whole merge; in a partial one
+        // without sample 0, every part's are −1 alike.
+        if std::ptr::eq(part, first) {
             for &pass in passes.iter().filter(|p| p.is_id()) {
                 let name = format!("{}.ID", pass.layer());
                 let values = match layer.channel_data.list.iter().find(|c| c.name.eq(&name)) {
@@ -551,7 +579,8 @@ pub fn merge(coverage: &Coverage) -> Result<Merged, String> {
     let keep = |name: &str| match name {
         // The first part's paths, for the record.
         "strata:scene" | "strata:environment" => true,
-        "strata:partial" | "strata:passes" => false,
+        "strata:passes" => false,
+        "strata:partial" => partial,
         _ => !OWN_ATTRIBUTES.contains(&name) && !name.starts_with("strata:pass:"),
     };
     let attrs = (first.attrs.iter())
@@ -564,6 +593,7 @@ pub fn merge(coverage: &Coverage) -> Result<Merged, String> {
         ids,
         attrs,
         seconds,
+        range: contiguous(coverage).expect("checked above"),
     })
 }
 

@@ -17,7 +17,7 @@ out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 now() { date +%s.%N; }
 # shellcheck disable=SC2086 # the arguments are split on purpose
-t0=$(now); "$bin" $args -o "$out/whole.exr" --no-png >/dev/null; t1=$(now)
+t0=$(now); "$bin" $args -o "$out/whole.exr" --no-png >/dev/null 2>&1; t1=$(now)
 whole=$(echo "$t1 - $t0" | bc)
 printf 'whole render: %.2f s\n' "$whole"
 printf '%3s %9s %9s %9s %9s %9s %9s %9s %9s\n' N shards_s overhead load_s build_s prep_s write_s merge_s part_MB
