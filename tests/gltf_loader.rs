@@ -497,3 +497,44 @@ fn what_is_not_rendered_gets_one_warning_each() {
         (0, 1, 1, 1)
     );
 }
+
+/// KHR_materials_ior: read, honoured when required, silent when used; an index below 1 is
+/// replaced by glTF's 1.5 with a warning naming the material.
+#[test]
+fn the_index_of_refraction_is_read() {
+    let (mut doc, _) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_ior"]);
+    doc["extensionsRequired"] = json!(["KHR_materials_ior"]);
+    doc["materials"][0] = json!({
+        "name": "water",
+        "extensions": {"KHR_materials_ior": {"ior": 1.33}}
+    });
+    doc["materials"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "odd", "extensions": {"KHR_materials_ior": {"ior": 0.5}}}));
+    let meshes = doc["meshes"].as_array_mut().unwrap();
+    meshes[0]["primitives"][0]["material"] = json!(1);
+    let path = dir.path().join("ior.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let s = load(&path);
+    let named = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name.as_deref() == Some(n))
+            .unwrap()
+    };
+    assert_eq!(named("water").ior, 1.33);
+    assert_eq!(named("odd").ior, 1.5);
+    let odd: Vec<&String> = (s.load_warnings.iter())
+        .filter(|w| w.contains("'odd'") && w.contains("0.5"))
+        .collect();
+    assert_eq!(odd.len(), 1, "{:?}", s.load_warnings);
+    assert!(
+        !s.load_warnings.iter().any(|w| w.contains("ignores")),
+        "{:?}",
+        s.load_warnings
+    );
+    assert!(s.material_warnings().iter().all(|w| !w.contains("ior")));
+}

@@ -30,18 +30,20 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
     "KHR_texture_transform",
 ];
 
 /// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
 /// warning).
-const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const RENDERED_MATERIAL_EXTENSIONS: &[&str] =
+    &["KHR_materials_emissive_strength", "KHR_materials_ior"];
 
 /// What strata renders instead of what an extension it ignores asks for, for the warning
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_transmission" | "KHR_materials_volume" | "KHR_materials_ior" => {
+        "KHR_materials_transmission" | "KHR_materials_volume" => {
             "transmissive materials render opaque"
         }
         "KHR_materials_clearcoat"
@@ -747,6 +749,17 @@ impl Loader<'_> {
         let occlusion_texture = m
             .occlusion_texture()
             .map(|o| plain_ref(o.texture(), o.tex_coord()));
+        // KHR_materials_ior: an index of refraction of at least 1 (the schema's minimum).
+        let ior = match m.ior() {
+            None => super::DEFAULT_IOR,
+            Some(ior) if ior.is_finite() && ior >= 1.0 => ior,
+            Some(ior) => {
+                self.warnings.push(format!(
+                    "{label}: KHR_materials_ior ior {ior} is not a number of at least 1; 1.5 is used"
+                ));
+                super::DEFAULT_IOR
+            }
+        };
         let alpha_mode = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
             gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
@@ -760,6 +773,7 @@ impl Loader<'_> {
             emissive_texture,
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
+            ior,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,

@@ -52,6 +52,10 @@ pub struct TextureRef {
     pub transform: [Vec2; 3],
 }
 
+/// glTF 2.0's index of refraction of dielectrics (reflectance 0.04 at normal incidence),
+/// which `KHR_materials_ior` changes.
+pub const DEFAULT_IOR: f32 = 1.5;
+
 /// A glTF material, reduced to what strata's integrators use.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -64,6 +68,9 @@ pub struct Material {
     pub emissive_texture: Option<TextureRef>,
     pub metallic: f32,
     pub roughness: f32,
+    /// Index of refraction of the dielectric part (`KHR_materials_ior`; glTF's 1.5 without):
+    /// its specular reflectance at normal incidence is ((ior − 1) / (ior + 1))².
+    pub ior: f32,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -110,6 +117,7 @@ impl Default for Material {
             emissive_texture: None,
             metallic: 1.0,
             roughness: 1.0,
+            ior: DEFAULT_IOR,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,

@@ -501,6 +501,58 @@ mod tests {
         Bsdf::MetallicRoughness(GltfBrdf::new(base, metallic, roughness).single_scattering())
     }
 
+    /// KHR_materials_ior: the dielectric's reflectance at normal incidence is
+    /// ((ior − 1) / (ior + 1))², so 1/9 for an IOR of 2 and none for an IOR of 1, where a
+    /// white dielectric is Lambertian.
+    #[test]
+    fn the_index_of_refraction_sets_the_dielectric_reflectance() {
+        use super::super::gltf_brdf::dielectric_f0;
+        assert!((dielectric_f0(1.5) - 0.04).abs() < 1e-7);
+        assert!((dielectric_f0(2.0) - 1.0 / 9.0).abs() < 1e-7);
+        assert_eq!(dielectric_f0(1.0), 0.0);
+        // A smooth black dielectric seen head-on: its mirror's weight is f0.
+        for (ior, f0) in [(1.5f32, 0.04f32), (2.0, 1.0 / 9.0), (1.2, 1.0 / 121.0)] {
+            let mirror = GltfBrdf::new(Vec3::ZERO, 0.0, 0.0).with_ior(ior);
+            let s = Bsdf::MetallicRoughness(mirror.single_scattering())
+                .sample(Vec3::Z, Vec2::new(0.3, 0.7))
+                .expect("the mirror's sample");
+            assert!(s.flags.is_specular(), "ior {ior}");
+            let weight = s.f_cos / s.pdf;
+            assert!(
+                (weight - Vec3::splat(f0)).abs().max_element() < 1e-6,
+                "ior {ior}: {weight}"
+            );
+        }
+        // IOR 1: f0 = 0, and only Schlick's grazing term (1 − cos)⁵ is left: away from
+        // grazing half vectors, a white dielectric is Lambertian to 1e-4.
+        let plain = GltfBrdf::new(Vec3::ONE, 0.0, 0.5)
+            .with_ior(1.0)
+            .single_scattering();
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        for wi in [Vec3::Z, Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.8, 0.0, 0.6)] {
+            let f = plain.eval(wo, wi);
+            let lambert = wi.z * std::f32::consts::FRAC_1_PI;
+            assert!(
+                (f - Vec3::splat(lambert)).abs().max_element() < 1e-4,
+                "{wi}: {f}"
+            );
+        }
+        // A black rough dielectric (its specular layer alone) reflects about f0's ratio more
+        // at IOR 2 than at 1.5: (1/9) / 0.04 = 2.8.
+        let black = |ior: f32| {
+            let brdf = GltfBrdf::new(Vec3::ZERO, 0.0, 0.3).single_scattering();
+            Bsdf::MetallicRoughness(brdf.with_ior(ior))
+        };
+        let (high, low) = (
+            sampled_albedo(&black(2.0), wo),
+            sampled_albedo(&black(1.5), wo),
+        );
+        assert!(
+            high.x > 2.0 * low.x && high.x < 3.0 * low.x,
+            "{high} against {low}"
+        );
+    }
+
     /// The directional albedo ∫ f cos dωi of `bsdf` seen from `wo`, estimated by sampling
     /// over a 300 × 300 stratified grid.
     fn sampled_albedo(bsdf: &Bsdf, wo: Vec3) -> glam::DVec3 {

@@ -45,6 +45,9 @@
 //!
 //! `single_scattering()` gives the specification's model exactly.
 //!
+//! `KHR_materials_ior` replaces the dielectric's 0.04 by ((ior − 1) / (ior + 1))² everywhere
+//! above ([`GltfBrdf::with_ior`]); the metal's f0 stays the base colour.
+//!
 //! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
 //! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
 //! normals, Heitz 2018) or the cosine, chosen with probability proportional to their
@@ -57,8 +60,16 @@ use super::environment::luminance;
 use super::microfacet::{AlbedoRow, AlbedoTable, Ggx};
 use crate::sampling::warps::square_to_cosine_hemisphere;
 
-/// The dielectric's reflectance at normal incidence: IOR 1.5, ((1.5 − 1) / (1.5 + 1))².
-const DIELECTRIC_F0: f32 = 0.04;
+/// The dielectric's reflectance at normal incidence without `KHR_materials_ior`: IOR 1.5,
+/// ((1.5 − 1) / (1.5 + 1))².
+pub const DIELECTRIC_F0: f32 = 0.04;
+
+/// The reflectance at normal incidence of a dielectric of index of refraction `ior` in air,
+/// ((ior − 1) / (ior + 1))² (KHR_materials_ior, "dielectric_f0").
+pub fn dielectric_f0(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
+}
 
 /// The glTF metallic-roughness BRDF of one surface point, in the shading frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,6 +79,9 @@ pub struct GltfBrdf {
     pub metallic: f32,
     /// The GGX roughness α = roughness².
     pub alpha: f32,
+    /// The dielectric part's reflectance at normal incidence ([`dielectric_f0`] of the
+    /// material's index of refraction; 0.04 by default).
+    pub dielectric_f0: f32,
     /// Compensate the energy single scattering loses (see the module documentation).
     pub energy_compensation: bool,
     /// Where α falls in the albedo table's rows.
@@ -102,9 +116,20 @@ impl GltfBrdf {
             base_color,
             metallic,
             alpha,
+            dielectric_f0: DIELECTRIC_F0,
             energy_compensation: true,
             row: AlbedoRow::new(alpha),
             outgoing: None,
+        }
+    }
+
+    /// The same BRDF with the dielectric part's index of refraction `ior`
+    /// (`KHR_materials_ior`).
+    pub fn with_ior(self, ior: f32) -> GltfBrdf {
+        GltfBrdf {
+            dielectric_f0: dielectric_f0(ior),
+            outgoing: None,
+            ..self
         }
     }
 
@@ -139,7 +164,7 @@ impl GltfBrdf {
         let (f0, c_diff) = self.colors();
         let p_specular = {
             let specular = luminance(schlick(f0, wo.z));
-            let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
+            let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
             let diffuse = luminance((Vec3::ONE - f_d) * c_diff);
             match diffuse <= 0.0 {
                 true => 1.0,
@@ -162,7 +187,7 @@ impl GltfBrdf {
         // diffuse lobe's in the choice of lobe.
         let p_specular = {
             let specular = luminance(schlick(f0, wo.z));
-            let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo.z);
+            let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
             let spread = luminance((Vec3::ONE - f_d) * c_diff)
                 + luminance(multiple)
                     * std::f32::consts::PI
@@ -210,7 +235,7 @@ impl GltfBrdf {
     /// f0 and c_diff.
     #[inline]
     fn colors(&self) -> (Vec3, Vec3) {
-        let f0 = Vec3::splat(DIELECTRIC_F0).lerp(self.base_color, self.metallic);
+        let f0 = Vec3::splat(self.dielectric_f0).lerp(self.base_color, self.metallic);
         (f0, self.base_color * (1.0 - self.metallic))
     }
 
@@ -260,7 +285,7 @@ impl GltfBrdf {
     #[inline]
     fn eval_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, h: Vec3, d: f32) -> Vec3 {
         let wo_h = wo.dot(h).abs();
-        let f_d = schlick(Vec3::splat(DIELECTRIC_F0), wo_h);
+        let f_d = schlick(Vec3::splat(self.dielectric_f0), wo_h);
         let f_metal = schlick(self.base_color, wo_h);
         let diffuse = match self.energy_compensation {
             false => {
@@ -279,21 +304,21 @@ impl GltfBrdf {
                 // The dielectric's Fresnel weight scaled by Turquin's 1 + f0 (1 − E(μo)) / E(μo)
                 // (k = 0 without compensation) and the metal's, mixed by metallic: F of the
                 // mixed f0 when uncompensated. (The metal's compensation is its own lobe.)
-                let dielectric = f_d * (1.0 + DIELECTRIC_F0 * o.k);
+                let dielectric = f_d * (1.0 + self.dielectric_f0 * o.k);
                 dielectric.lerp(f_metal, self.metallic) * (d * ggx.v(wo, wi))
             }
         };
         (diffuse + specular) * wi.z
     }
 
-    /// The dielectric specular layer's albedo A(μ) = (0.04 E + 0.96 E_s)(1 + 0.04 k) seen from
+    /// The dielectric specular layer's albedo A(μ) = (f0 E + (1 − f0) E_s)(1 + f0 k) seen from
     /// direction cosine `mu`, compensated, Turquin's k = (1 − E(μ)) / E(μ), and E(μ).
     #[inline]
     fn dielectric_albedo(&self, table: &AlbedoTable, mu: f32) -> (f32, f32, f32) {
         let (e, e_s) = table.e_and_e_s(mu, self.row);
         let e = e.max(1e-3);
         let k = (1.0 - e) / e;
-        let f0 = DIELECTRIC_F0;
+        let f0 = self.dielectric_f0;
         ((f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k), k, e)
     }
 
@@ -303,7 +328,7 @@ impl GltfBrdf {
     #[inline]
     fn dielectric_albedo_average(&self, table: &AlbedoTable) -> f32 {
         let [e, e_s, ratio] = table.averages_in(self.row);
-        let (f0, g) = (DIELECTRIC_F0, 1.0 - DIELECTRIC_F0);
+        let (f0, g) = (self.dielectric_f0, 1.0 - self.dielectric_f0);
         f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio
     }
 

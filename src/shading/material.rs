@@ -97,6 +97,8 @@ struct Prepared {
     base_texture: Option<Binding>,
     metallic: f32,
     roughness: f32,
+    /// The dielectric part's index of refraction (`KHR_materials_ior`).
+    ior: f32,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -229,6 +231,7 @@ impl Materials {
                 base_texture,
                 metallic: m.metallic.clamp(0.0, 1.0),
                 roughness: m.roughness.clamp(0.0, 1.0),
+                ior: m.ior,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -407,17 +410,22 @@ impl Materials {
             metallic *= t.z;
             roughness *= t.y;
         }
-        self.bsdf_with(base, metallic, roughness)
+        self.bsdf_with(base, metallic, roughness, m.ior)
     }
 
-    /// The BSDF of base colour `base`, `metallic` and `roughness`: the one place that chooses
-    /// a variant.
+    /// The BSDF of base colour `base`, `metallic`, `roughness` and index of refraction `ior`:
+    /// the one place that chooses a variant.
     #[inline]
-    fn bsdf_with(&self, base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
+    fn bsdf_with(&self, base: Vec3, metallic: f32, roughness: f32, ior: f32) -> Bsdf {
         match self.options.model {
             MaterialModel::Lambertian => Bsdf::Diffuse(self.lambertian_of(base)),
             MaterialModel::Gltf => {
-                let brdf = GltfBrdf::new(base, metallic, roughness);
+                // glTF's own IOR keeps the constant 0.04 (f32's (0.5/2.5)² differs in its
+                // last bit), so that files without the extension render as before.
+                let brdf = match ior == crate::scene::DEFAULT_IOR {
+                    true => GltfBrdf::new(base, metallic, roughness),
+                    false => GltfBrdf::new(base, metallic, roughness).with_ior(ior),
+                };
                 Bsdf::MetallicRoughness(match self.options.energy_compensation {
                     true => brdf,
                     false => brdf.single_scattering(),
@@ -441,7 +449,7 @@ impl Materials {
             ]
             .iter()
             .all(|&(metallic, roughness)| {
-                let flags = self.bsdf_with(m.base_color, metallic, roughness).flags();
+                let flags = (self.bsdf_with(m.base_color, metallic, roughness, m.ior)).flags();
                 !flags.intersects(glossy_or_specular)
             })
         })
