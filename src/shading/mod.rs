@@ -6,6 +6,8 @@
 //! |-----------------|----------------------------------------------------------------------|
 //! | [`interaction`] | the surface point a ray hits, and the one way secondary rays leave it |
 //! | [`bsdf`]        | [`Bsdf`]: the closed set of scattering models, in the shading frame   |
+//! | [`dielectric`]  | dielectric interfaces (glass): refractive and thin-walled, rough or  |
+//! |                 | smooth, with exact Fresnel                                           |
 //! | [`gltf_brdf`]   | the glTF 2.0 metallic-roughness BRDF (Appendix B)                     |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
 //! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
@@ -16,6 +18,7 @@
 //! | [`envmap`]      | equirectangular HDR maps: lookup and importance sampling             |
 
 pub mod bsdf;
+pub mod dielectric;
 pub mod environment;
 pub mod envmap;
 pub mod gltf_brdf;
@@ -26,6 +29,7 @@ pub mod microfacet;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};
+pub use dielectric::{fresnel_dielectric, refract, Dielectric, ThinDielectric};
 pub use environment::Environment;
 pub use envmap::EnvMap;
 pub use gltf_brdf::GltfBrdf;

@@ -1,0 +1,985 @@
+//! Dielectric interfaces: glass, water, clear plastic (glTF's `KHR_materials_transmission`,
+//! with `KHR_materials_volume` for [`Dielectric`], without it for [`ThinDielectric`]).
+//!
+//! [`Dielectric`] is the boundary between the outside, the side the shading normal +z points
+//! to, and a medium of relative index of refraction η = n_inside / n_outside below it, rough
+//! (GGX) or, for α < [`Ggx::SMOOTH_ALPHA`], smooth. `wo` may be on either side: wo.z < 0 means
+//! the path is inside the medium. With η_o and η_i the indices of the media `wo` and `wi` lie
+//! in (the Walter et al. 2007 notation, "Microfacet Models for Refraction through Rough
+//! Surfaces"):
+//!
+//! - Fresnel: the exact unpolarized reflectance of a dielectric, [`fresnel_dielectric`]
+//!   (Walter eq. 22 in its cosine form), 1 past the critical angle (total internal
+//!   reflection).
+//! - The generalized half vector h = ±normalize(η_o wo + η_i wi), turned to +z (Walter eq. 16;
+//!   for reflection, η_o = η_i and it is the ordinary half vector). Microfacets that either
+//!   direction sees from behind scatter nothing.
+//! - Reflection (Walter eq. 20): f_r = F(wo·h) D(h) G2(wo, wi) / (4 |n·wo| |n·wi|).
+//! - Transmission (Walter eq. 21):
+//!   f_t = (1 − F(wo·h)) tint |wo·h| |wi·h| η_o² D(h) G2(wo, wi) / (|n·wo| |n·wi| (η_o wo·h + η_i wi·h)²).
+//! - D is GGX's ([`Ggx::d`]), G2 the height-correlated Smith masking-shadowing
+//!   1 / (1 + Λ(wo) + Λ(wi)) (Heitz 2014, eq. 99, the form pbrt-v4 uses for both lobes, so that
+//!   G2 / (4 |n·wo| |n·wi|) is [`Ggx::v`]).
+//!
+//! **Radiance convention.** strata's path tracer starts at the camera and carries radiance
+//! toward it: `wo` points to the camera, `wi` to the light, and f must turn the radiance
+//! arriving along wi into the radiance leaving along wo. Radiance crossing an interface is
+//! scaled by (η_o / η_i)², the squeeze or spread of the solid angle of a beam that bends
+//! (Veach 1997, §5.2): f_t above carries η_o² / (η_o wo·h + η_i wi·h)², which is pbrt-v4's
+//! `TransportMode::Radiance` (its BTDF divided by η'² = (η_i / η_o)²). A camera ray entering
+//! glass (wo outside, wi inside) so takes 1/η² of the radiance inside; one leaving it, η².
+//! The BSDF is then not symmetric but obeys the generalized reciprocity
+//! f(wo, wi) / η_o² = f(wi, wo) / η_i² (Veach eq. 5.14): every factor of f_t but η_o² is
+//! symmetric in the two directions (the Fresnel reflectance of a pair of refracted directions
+//! is the same from both sides). A light tracer (importance) would need f without the η_o² /
+//! η_i² factor; none exists in strata today.
+//!
+//! **Sampling.** A microfacet normal h visible from wo (Heitz 2018, [`Ggx::sample_visible_normal`],
+//! with wo turned to +z when it is inside), then reflection about h with probability
+//! F(wo·h) and refraction through it otherwise (total internal reflection: always
+//! reflection). The pdf of wi is the visible normals' D_wo(h) = G1(wo) |wo·h| D(h) / |n·wo|
+//! (Heitz 2018, eq. 3) times the lobe's probability and the Jacobian of h → wi:
+//! 1 / (4 |wo·h|) for reflection (Walter eq. 14), η_i² |wi·h| / (η_o wo·h + η_i wi·h)² for
+//! refraction (Walter eq. 17). The estimator f·|cos θi| / pdf is then G2 / G1(wo) for
+//! reflection and tint (η_o/η_i)² G2 / G1(wo) for transmission.
+//!
+//! The choice between the two lobes needs a third random number after h is drawn, which the
+//! two-dimensional [`LocalBsdf::sample_direction`] does not give: it takes it from the low
+//! bits of `u.y` (`fract(4096 u.y)`, whose correlation with u.y, the normal's azimuth, is
+//! under 2π / 4096 of azimuth), and [`Dielectric::sample_with`] takes it as an argument for
+//! an integrator that has one.
+//!
+//! **Smooth.** A delta lobe: reflection (−wo.x, −wo.y, wo.z) with probability F(n·wo) and
+//! weight F, refraction (Snell's law, [`refract`]) with probability 1 − F and weight
+//! (1 − F) tint (η_o/η_i)², so that f_cos / pdf is 1 or tint (η_o/η_i)². η = 1 is treated as
+//! an invisible interface (smooth at any α: F = 0 and light passes straight through; the rough
+//! lobe would collapse to a delta that no half vector could find).
+//!
+//! [`ThinDielectric`] is the thin-walled surface of `KHR_materials_transmission` alone: see its
+//! documentation.
+
+use glam::{Vec2, Vec3};
+
+use super::bsdf::{BsdfFlags, BsdfSample, LocalBsdf};
+use super::microfacet::Ggx;
+
+/// The lobes of a rough interface.
+const GLOSSY: BsdfFlags = BsdfFlags::REFLECTION
+    .union(BsdfFlags::TRANSMISSION)
+    .union(BsdfFlags::GLOSSY);
+/// The lobes of a smooth interface.
+const SPECULAR: BsdfFlags = BsdfFlags::REFLECTION
+    .union(BsdfFlags::TRANSMISSION)
+    .union(BsdfFlags::SPECULAR);
+const GLOSSY_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::GLOSSY);
+const SPECULAR_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::SPECULAR);
+
+/// The largest f32 below 1: a probability-scaled random number stays in [0, 1).
+const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// The exact Fresnel reflectance of unpolarized light at a smooth dielectric interface, for
+/// light arriving with direction cosine `cos_i` against the normal (negative: from the side
+/// the normal points away from) and relative index `eta` = n(below) / n(above), the normal
+/// pointing above. Total internal reflection gives 1.
+///
+/// With η' the index ratio across the interface as the light sees it (η, or 1/η from
+/// below), sin²θt = (1 − cos²θi) / η'² (Snell), and
+/// F = (r∥² + r⊥²) / 2, r∥ = (η' cos θi − cos θt) / (η' cos θi + cos θt),
+/// r⊥ = (cos θi − η' cos θt) / (cos θi + η' cos θt) (Born & Wolf §1.5; Walter eq. 22).
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let mut cos_i = cos_i.clamp(-1.0, 1.0);
+    let mut eta = eta;
+    // From below: the same formula with the media swapped.
+    if cos_i < 0.0 {
+        eta = 1.0 / eta;
+        cos_i = -cos_i;
+    }
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
+}
+
+/// The direction `w` (pointing away from the interface) refracts into, through an interface
+/// of unit normal `n` and relative index `eta` = n(below) / n(above), `n` pointing above;
+/// `w` may be on either side. None on total internal reflection.
+///
+/// With η' and the normal n' taken on w's side (η and n, or 1/η and −n), Snell's law in
+/// vector form: wt = −w / η' + (cos θi / η' − cos θt) n', cos θt = √(1 − (1 − cos²θi) / η'²).
+#[inline]
+pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let (mut n, mut eta, mut cos_i) = (n, eta, w.dot(n).clamp(-1.0, 1.0));
+    if cos_i < 0.0 {
+        (n, eta, cos_i) = (-n, 1.0 / eta, -cos_i);
+    }
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    Some(-w / eta + (cos_i / eta - cos_t) * n)
+}
+
+/// Which way up a query is: directions are turned (negated) so that wo lies above the
+/// surface, where the interface then has relative index `eta` (η outside, 1/η inside).
+/// Negation keeps D, G and Fresnel (the isotropic microsurface seen from below is the same
+/// distribution of normals, pointing down), and swaps the media.
+#[derive(Clone, Copy)]
+struct Upright {
+    /// 1 when wo was outside, −1 when it was inside.
+    sign: f32,
+    /// The relative index below over above, once turned.
+    eta: f32,
+}
+
+impl Upright {
+    /// None for a wo in the surface's plane (or not finite): it sees no microfacet.
+    #[inline]
+    fn of(wo: Vec3, eta: f32) -> Option<Upright> {
+        if wo.z > 0.0 {
+            Some(Upright { sign: 1.0, eta })
+        } else if wo.z < 0.0 {
+            Some(Upright {
+                sign: -1.0,
+                eta: 1.0 / eta,
+            })
+        } else {
+            None
+        }
+    }
+}
+
+/// A rough or smooth dielectric interface between the outside (+z) and a medium of relative
+/// index `eta` below it (see the module documentation for its formulas, sampling and
+/// radiance convention).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dielectric {
+    /// n_inside / n_outside (glTF: `KHR_materials_ior`'s `ior`, the outside being air).
+    pub eta: f32,
+    /// The GGX roughness α (glTF: roughness²); below [`Ggx::SMOOTH_ALPHA`], smooth.
+    pub alpha: f32,
+    /// What transmitted light is multiplied by (glTF: the base colour).
+    pub tint: Vec3,
+}
+
+impl Dielectric {
+    /// The interface of relative index `eta` (n_inside / n_outside), GGX roughness `alpha`
+    /// (roughness², not the perceptual roughness) and transmission tint `tint`.
+    pub fn new(eta: f32, alpha: f32, tint: Vec3) -> Dielectric {
+        Dielectric { eta, alpha, tint }
+    }
+
+    /// True when the interface is a delta lobe: smooth, or index-matched (η = 1).
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.alpha < Ggx::SMOOTH_ALPHA || self.eta == 1.0
+    }
+
+    #[inline]
+    fn ggx(&self) -> Ggx {
+        Ggx { alpha: self.alpha }
+    }
+
+    /// f·|cos θi| and the pdf of upright `wo` (wo.z > 0) and `wi` through microfacet normal
+    /// `h` (h.z > 0, facing wo), `eta` the upright relative index.
+    #[inline]
+    fn lobe(&self, wo: Vec3, wi: Vec3, h: Vec3, eta: f32) -> (Vec3, f32) {
+        let ggx = self.ggx();
+        let (wo_h, wi_h) = (wo.dot(h), wi.dot(h));
+        let d = ggx.d(h);
+        let f = fresnel_dielectric(wo_h, eta);
+        // The density of h among the normals visible from wo (Heitz 2018, eq. 3).
+        let pdf_h = ggx.g1(wo) * wo_h * d / wo.z;
+        if wi.z > 0.0 {
+            // Walter eq. 20; the Jacobian 1 / (4 wo·h) (eq. 14).
+            let value = f * d * ggx.v(wo, wi) * wi.z;
+            (Vec3::splat(value), f * pdf_h / (4.0 * wo_h))
+        } else {
+            // Walter eq. 21 divided through by η_o² (wo's medium is "above", index 1 here):
+            // η_o wo·h + η_i wi·h → wo·h + η wi·h; G2 / (|n·wo| |n·wi|) = 4 V.
+            let t = 1.0 - f;
+            let denominator = (wo_h + eta * wi_h) * (wo_h + eta * wi_h);
+            let g2_over_cosines = 4.0 * ggx.v(wo, wi);
+            let value = t * d * g2_over_cosines * wo_h * wi_h.abs() * wi.z.abs() / denominator;
+            // The Jacobian η_i² |wi·h| / (η_o wo·h + η_i wi·h)² (eq. 17).
+            let pdf = t * pdf_h * eta * eta * wi_h.abs() / denominator;
+            (self.tint * value, pdf)
+        }
+    }
+
+    /// [`LocalBsdf::eval_pdf`] for upright `wo` and any `wi`.
+    #[inline]
+    fn eval_pdf_upright(&self, wo: Vec3, wi: Vec3, eta: f32) -> (Vec3, f32) {
+        const NOTHING: (Vec3, f32) = (Vec3::ZERO, 0.0);
+        if wi.z == 0.0 || !wi.is_finite() {
+            return NOTHING;
+        }
+        // The generalized half vector (Walter eq. 16), turned to +z.
+        let eta_i = if wi.z > 0.0 { 1.0 } else { eta };
+        let h = wo + eta_i * wi;
+        let length2 = h.length_squared();
+        if !(length2 > 0.0 && length2.is_finite()) {
+            return NOTHING;
+        }
+        let h = h * (h.z.signum() / length2.sqrt());
+        // Microfacets either direction sees from behind scatter nothing.
+        if wo.dot(h) <= 0.0 || wi.dot(h) * wi.z <= 0.0 {
+            return NOTHING;
+        }
+        let (value, pdf) = self.lobe(wo, wi, h, eta);
+        match value.is_finite() && pdf.is_finite() {
+            true => (value, pdf),
+            false => NOTHING,
+        }
+    }
+
+    /// An upright direction from upright `wo`: h from `u`, the lobe from `uc`. Also returns h.
+    #[inline]
+    fn sample_upright(&self, wo: Vec3, uc: f32, u: Vec2, eta: f32) -> Option<(Vec3, Vec3)> {
+        let h = self.ggx().sample_visible_normal(wo, u);
+        let wo_h = wo.dot(h);
+        if wo_h.is_nan() || wo_h <= 0.0 {
+            return None;
+        }
+        let wi = if uc < fresnel_dielectric(wo_h, eta) {
+            let wi = 2.0 * wo_h * h - wo;
+            (wi.z > 0.0).then_some(wi)?
+        } else {
+            let wi = refract(wo, h, eta)?;
+            (wi.z < 0.0).then_some(wi)?
+        };
+        Some((wi, h))
+    }
+
+    /// The smooth interface's direction from upright `wo`: the mirror when `uc` < F(n·wo),
+    /// else the refracted direction.
+    #[inline]
+    fn sample_smooth_upright(&self, wo: Vec3, uc: f32, eta: f32) -> Option<(Vec3, BsdfFlags)> {
+        if uc < fresnel_dielectric(wo.z, eta) {
+            return Some((
+                Vec3::new(-wo.x, -wo.y, wo.z),
+                BsdfFlags::SPECULAR_REFLECTION,
+            ));
+        }
+        let wi = refract(wo, Vec3::Z, eta)?;
+        (wi.z < 0.0).then_some((wi, SPECULAR_TRANSMISSION))
+    }
+
+    /// A direction drawn with normal sample `u` and lobe choice `uc` (both uniform on
+    /// [0, 1)), its f·|cos θi| and pdf computed from the drawn microfacet normal (the value
+    /// and pdf [`LocalBsdf::eval_pdf`] gives the returned direction up to rounding); for a
+    /// smooth interface, the delta sample as [`LocalBsdf::sample_delta`] weights it.
+    pub fn sample_with(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let up = Upright::of(wo, self.eta)?;
+        let wo_up = up.sign * wo;
+        if self.is_specular() {
+            let (wi, flags) = self.sample_smooth_upright(wo_up, uc, up.eta)?;
+            return self.sample_delta(wo, up.sign * wi, flags);
+        }
+        let (wi, h) = self.sample_upright(wo_up, uc, u, up.eta)?;
+        let (f_cos, pdf) = self.lobe(wo_up, wi, h, up.eta);
+        let flags = match wi.z > 0.0 {
+            true => BsdfFlags::GLOSSY_REFLECTION,
+            false => GLOSSY_TRANSMISSION,
+        };
+        (pdf > 0.0 && pdf.is_finite() && f_cos.is_finite()).then_some(BsdfSample {
+            wi: up.sign * wi,
+            f_cos,
+            pdf,
+            flags,
+        })
+    }
+}
+
+/// The lobe choice the two-dimensional sampling interface leaves no number for: the low bits
+/// of u.y (see the module documentation).
+#[inline]
+fn lobe_number(u: Vec2) -> f32 {
+    (u.y * 4096.0).fract().min(BELOW_ONE)
+}
+
+impl LocalBsdf for Dielectric {
+    #[inline(always)]
+    fn depends_on_cos_theta_only(&self) -> bool {
+        false
+    }
+
+    #[inline(always)]
+    fn at(self, _wo: Vec3) -> Dielectric {
+        self
+    }
+
+    #[inline]
+    fn flags(&self) -> BsdfFlags {
+        match self.is_specular() {
+            true => SPECULAR,
+            false => GLOSSY,
+        }
+    }
+
+    #[inline]
+    fn albedo(&self) -> Vec3 {
+        self.tint
+    }
+
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_pdf(wo, wi).0
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
+
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match (self.is_specular(), Upright::of(wo, self.eta)) {
+            (false, Some(up)) => self.eval_pdf_upright(up.sign * wo, up.sign * wi, up.eta),
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    #[inline]
+    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        let up = Upright::of(wo, self.eta)?;
+        let wo_up = up.sign * wo;
+        let (wi, flags) = match self.is_specular() {
+            true => self.sample_smooth_upright(wo_up, u.x, up.eta)?,
+            false => {
+                let (wi, _) = self.sample_upright(wo_up, lobe_number(u), u, up.eta)?;
+                let flags = match wi.z > 0.0 {
+                    true => BsdfFlags::GLOSSY_REFLECTION,
+                    false => GLOSSY_TRANSMISSION,
+                };
+                (wi, flags)
+            }
+        };
+        Some((up.sign * wi, flags))
+    }
+
+    /// The smooth interface's sample in direction `wi`: weight and probability F(n·wo) for
+    /// the mirror, (1 − F) tint (η_o/η_i)² and 1 − F for the refraction.
+    #[inline]
+    fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
+        let up = Upright::of(wo, self.eta)?;
+        let f = fresnel_dielectric(up.sign * wo.z, up.eta);
+        let (f_cos, pdf) = match flags.contains(BsdfFlags::TRANSMISSION) {
+            // Radiance: (η_o / η_i)² = 1 / η² with η upright (wi's medium below).
+            true => (self.tint * ((1.0 - f) / (up.eta * up.eta)), 1.0 - f),
+            false => (Vec3::splat(f), f),
+        };
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            f_cos,
+            pdf,
+            flags,
+        })
+    }
+}
+
+/// The thin-walled transmissive surface of `KHR_materials_transmission` without
+/// `KHR_materials_volume`: two back-to-back interfaces of an infinitely thin sheet, so light
+/// leaves on the far side with no average refraction.
+///
+/// The extension's "Transmission BTDF" section adds `specular_btdf(α) · baseColor` under the
+/// Fresnel mix whose layer is the specular BRDF, and its implementation notes make the BTDF
+/// the specular lobe evaluated with the transmission half vector
+/// H_T = normalize(V − 2 (N·L) N + L): the reflection lobe mirrored through the surface plane
+/// (wi.z → −wi.z). strata follows that:
+///
+/// - reflection f_r = F(wo·h) D(h) V(wo, wi), h = normalize(wo + wi);
+/// - transmission f_t = (1 − F(wo·h)) tint D(h) V(wo, wi'), wi' = (wi.x, wi.y, −wi.z),
+///   h = normalize(wo + wi'), so that f_r + f_t over both sides is the white GGX lobe;
+/// - F the exact dielectric Fresnel of relative index `eta` seen from the outside whichever
+///   side wo is on (the sheet is symmetric), where the core specification's `fresnel_mix`
+///   uses Schlick's approximation of the same reflectance;
+/// - V the height-correlated visibility of [`Ggx::v`] for both lobes (the extension's
+///   non-normative notes write the BTDF with the separable G1·G1; the height-correlated form
+///   keeps the mirrored lobe exactly the reflection lobe, as its normative text says);
+/// - no η² factor: light returns to the medium it came from;
+/// - smooth (α < [`Ggx::SMOOTH_ALPHA`]): the mirror with weight F(n·wo), and straight
+///   through (wi = −wo) with weight (1 − F) tint.
+///
+/// The extension's remark that the sheet's two uncorrelated microsurfaces blur more as the
+/// IOR grows is not modelled: the transmitted lobe has the roughness α of the reflected one,
+/// as the BTDF formula has it.
+///
+/// Sampling draws a visible normal, reflects about it, and keeps the reflection with
+/// probability F(wo·h) or mirrors it through the plane otherwise; the estimator is G2 / G1(wo)
+/// or tint G2 / G1(wo).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinDielectric {
+    /// The sheet's index of refraction relative to the surrounding medium (glTF: `ior`).
+    pub eta: f32,
+    /// The GGX roughness α (glTF: roughness²); below [`Ggx::SMOOTH_ALPHA`], smooth.
+    pub alpha: f32,
+    /// What transmitted light is multiplied by (glTF: the base colour).
+    pub tint: Vec3,
+}
+
+impl ThinDielectric {
+    /// The sheet of relative index `eta`, GGX roughness `alpha` (roughness²) and
+    /// transmission tint `tint`.
+    pub fn new(eta: f32, alpha: f32, tint: Vec3) -> ThinDielectric {
+        ThinDielectric { eta, alpha, tint }
+    }
+
+    /// True when the sheet is smooth: a delta lobe.
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.alpha < Ggx::SMOOTH_ALPHA
+    }
+
+    #[inline]
+    fn ggx(&self) -> Ggx {
+        Ggx { alpha: self.alpha }
+    }
+
+    /// f·|cos θi| and pdf for upright `wo` (wo.z > 0).
+    #[inline]
+    fn eval_pdf_upright(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        const NOTHING: (Vec3, f32) = (Vec3::ZERO, 0.0);
+        if wi.z == 0.0 || !wi.is_finite() {
+            return NOTHING;
+        }
+        // The reflection lobe's direction: wi itself, or wi mirrored through the plane.
+        let transmitted = wi.z < 0.0;
+        let wr = Vec3::new(wi.x, wi.y, wi.z.abs());
+        let h = (wo + wr).normalize_or_zero();
+        let wo_h = wo.dot(h);
+        if wo_h.is_nan() || wo_h <= 0.0 {
+            return NOTHING;
+        }
+        let ggx = self.ggx();
+        let d = ggx.d(h);
+        let f = fresnel_dielectric(wo_h, self.eta);
+        let lobe = d * ggx.v(wo, wr) * wr.z;
+        let pdf = ggx.reflection_pdf(wo, d);
+        let (value, pdf) = match transmitted {
+            true => (self.tint * ((1.0 - f) * lobe), (1.0 - f) * pdf),
+            false => (Vec3::splat(f * lobe), f * pdf),
+        };
+        match value.is_finite() && pdf.is_finite() {
+            true => (value, pdf),
+            false => NOTHING,
+        }
+    }
+
+    /// An upright direction from upright `wo`: the reflection about a visible normal drawn
+    /// with `u`, kept with probability F(wo·h) (`uc` below it) or mirrored through the plane.
+    #[inline]
+    fn sample_upright(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        if self.is_specular() {
+            return Some(match uc < fresnel_dielectric(wo.z, self.eta) {
+                true => (
+                    Vec3::new(-wo.x, -wo.y, wo.z),
+                    BsdfFlags::SPECULAR_REFLECTION,
+                ),
+                false => (-wo, SPECULAR_TRANSMISSION),
+            });
+        }
+        let h = self.ggx().sample_visible_normal(wo, u);
+        let wo_h = wo.dot(h);
+        if wo_h.is_nan() || wo_h <= 0.0 {
+            return None;
+        }
+        let wi = 2.0 * wo_h * h - wo;
+        if wi.z.is_nan() || wi.z <= 0.0 {
+            return None;
+        }
+        Some(match uc < fresnel_dielectric(wo_h, self.eta) {
+            true => (wi, BsdfFlags::GLOSSY_REFLECTION),
+            false => (Vec3::new(wi.x, wi.y, -wi.z), GLOSSY_TRANSMISSION),
+        })
+    }
+
+    /// A direction drawn with normal sample `u` and lobe choice `uc`, as
+    /// [`Dielectric::sample_with`].
+    pub fn sample_with(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let up = Upright::of(wo, self.eta)?;
+        let (wi, flags) = self.sample_upright(up.sign * wo, uc, u)?;
+        let wi = up.sign * wi;
+        if flags.is_specular() {
+            return self.sample_delta(wo, wi, flags);
+        }
+        let (f_cos, pdf) = self.eval_pdf(wo, wi);
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            f_cos,
+            pdf,
+            flags,
+        })
+    }
+}
+
+impl LocalBsdf for ThinDielectric {
+    #[inline(always)]
+    fn depends_on_cos_theta_only(&self) -> bool {
+        false
+    }
+
+    #[inline(always)]
+    fn at(self, _wo: Vec3) -> ThinDielectric {
+        self
+    }
+
+    #[inline]
+    fn flags(&self) -> BsdfFlags {
+        match self.is_specular() {
+            true => SPECULAR,
+            false => GLOSSY,
+        }
+    }
+
+    #[inline]
+    fn albedo(&self) -> Vec3 {
+        self.tint
+    }
+
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_pdf(wo, wi).0
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
+
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match (self.is_specular(), Upright::of(wo, self.eta)) {
+            (false, Some(up)) => self.eval_pdf_upright(up.sign * wo, up.sign * wi),
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    #[inline]
+    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        let up = Upright::of(wo, self.eta)?;
+        let uc = match self.is_specular() {
+            true => u.x,
+            false => lobe_number(u),
+        };
+        let (wi, flags) = self.sample_upright(up.sign * wo, uc, u)?;
+        Some((up.sign * wi, flags))
+    }
+
+    /// The smooth sheet's sample in direction `wi`: weight and probability F(n·wo) for the
+    /// mirror, (1 − F) tint and 1 − F straight through.
+    #[inline]
+    fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let f = fresnel_dielectric(wo.z.abs(), self.eta);
+        let (f_cos, pdf) = match flags.contains(BsdfFlags::TRANSMISSION) {
+            true => (self.tint * (1.0 - f), 1.0 - f),
+            false => (Vec3::splat(f), f),
+        };
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            f_cos,
+            pdf,
+            flags,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(theta: f32, phi: f32) -> Vec3 {
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
+    }
+
+    /// Fresnel's equations written out again in f64 from the angles (Born & Wolf §1.5.2:
+    /// r⊥ = −sin(θi − θt) / sin(θi + θt), r∥ = tan(θi − θt) / tan(θi + θt)), for light from
+    /// the medium of index `n1` into `n2`.
+    fn fresnel_reference(theta_i: f64, n1: f64, n2: f64) -> f64 {
+        let sin_t = n1 / n2 * theta_i.sin();
+        if sin_t >= 1.0 {
+            return 1.0;
+        }
+        if theta_i == 0.0 {
+            return ((n1 - n2) / (n1 + n2)).powi(2);
+        }
+        let theta_t = sin_t.asin();
+        let perpendicular = (theta_i - theta_t).sin() / (theta_i + theta_t).sin();
+        let parallel = (theta_i - theta_t).tan() / (theta_i + theta_t).tan();
+        0.5 * (perpendicular * perpendicular + parallel * parallel)
+    }
+
+    /// At normal incidence F = ((η − 1) / (η + 1))² from both sides; elsewhere F follows the
+    /// angle form of Fresnel's equations from outside and inside.
+    #[test]
+    fn fresnel_follows_the_angle_form_of_fresnels_equations() {
+        for eta in [1.33f32, 1.5, 2.4, 1.0 / 1.5] {
+            let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+            assert!((fresnel_dielectric(1.0, eta) - f0).abs() < 1e-7, "η {eta}");
+            assert!((fresnel_dielectric(-1.0, eta) - f0).abs() < 1e-7, "η {eta}");
+            for k in 0..=90 {
+                let theta = k as f64 / 90.0 * std::f64::consts::FRAC_PI_2 * 0.999;
+                let c = theta.cos() as f32;
+                let outside = fresnel_reference(theta, 1.0, eta as f64);
+                let inside = fresnel_reference(theta, eta as f64, 1.0);
+                let (got_out, got_in) = (fresnel_dielectric(c, eta), fresnel_dielectric(-c, eta));
+                assert!(
+                    (got_out as f64 - outside).abs() < 2e-6,
+                    "η {eta} θ {theta}: {got_out} against {outside}"
+                );
+                assert!(
+                    (got_in as f64 - inside).abs() < 2e-6,
+                    "η {eta} θ {theta} inside: {got_in} against {inside}"
+                );
+            }
+        }
+        // At grazing incidence everything is reflected.
+        assert_eq!(fresnel_dielectric(0.0, 1.5), 1.0);
+    }
+
+    /// From the dense side, past the critical angle asin(1/η), F = 1; F rises continuously
+    /// (no jump) to 1 as the angle approaches it, and is monotone in the angle.
+    #[test]
+    fn fresnel_is_total_past_the_critical_angle_and_continuous_up_to_it() {
+        let eta = 1.5f32;
+        let critical = (1.0 / eta).asin();
+        for k in 1..50 {
+            let theta = critical + (std::f32::consts::FRAC_PI_2 - critical) * k as f32 / 50.0;
+            assert_eq!(fresnel_dielectric(-theta.cos(), eta), 1.0, "θ {theta}");
+            // η < 1 seen from outside is the same interface seen from inside.
+            assert_eq!(fresnel_dielectric(theta.cos(), 1.0 / eta), 1.0, "θ {theta}");
+        }
+        let mut previous = fresnel_dielectric(-1.0, eta);
+        let n = 20_000;
+        for k in 0..=n {
+            let theta = critical * k as f32 / n as f32;
+            let f = fresnel_dielectric(-theta.cos(), eta);
+            assert!(f >= previous - 1e-6, "θ {theta}: {f} after {previous}");
+            previous = f;
+        }
+        // Continuity at θc: 1 − F(θc − δ) shrinks to 0 with δ (as √δ: the slope is infinite
+        // there, but there is no jump).
+        let gaps: Vec<f64> = [1e-2f64, 1e-3, 1e-4, 1e-5]
+            .iter()
+            .map(|delta| {
+                let c = ((1.0 / eta as f64).asin() - delta).cos();
+                1.0 - fresnel_dielectric(-c as f32, eta) as f64
+            })
+            .collect();
+        for pair in gaps.windows(2) {
+            let ratio = pair[1] / pair[0];
+            assert!(ratio > 0.2 && ratio < 0.45, "gaps {gaps:?}: not like √δ");
+        }
+        assert!(gaps[3] < 0.03, "gaps {gaps:?}");
+        // Either side of a refraction sees the same reflectance.
+        for theta in [0.2f32, 0.6, 1.0, 1.4] {
+            let wo = at(theta, 0.3);
+            let wt = refract(wo, Vec3::Z, eta).unwrap();
+            let (a, b) = (fresnel_dielectric(wo.z, eta), fresnel_dielectric(wt.z, eta));
+            assert!((a - b).abs() < 1e-6, "θ {theta}: {a} outside, {b} inside");
+        }
+    }
+
+    /// Snell's law: η_o sin θo = η_i sin θi, in the plane of incidence, on the far side; from
+    /// either side; None past the critical angle; refracting back returns the direction.
+    #[test]
+    fn refraction_obeys_snells_law_both_ways() {
+        let eta = 1.5f32;
+        for theta in [0.0f32, 0.3, 0.9, 1.5] {
+            let w = at(theta, 1.1);
+            let t = refract(w, Vec3::Z, eta).unwrap();
+            assert!((t.length() - 1.0).abs() < 1e-6);
+            assert!(t.z < 0.0);
+            let sin_t = t.truncate().length();
+            assert!((theta.sin() - eta * sin_t).abs() < 1e-6, "θ {theta}");
+            // The plane of incidence: t's tangent part opposes w's.
+            assert!(w.truncate().dot(t.truncate()) <= 0.0);
+            let back = refract(t, Vec3::Z, eta).unwrap();
+            assert!((back - w).length() < 1e-5, "θ {theta}: {back} against {w}");
+        }
+        let inside = -at(1.0, 0.0);
+        assert!(refract(inside, Vec3::Z, eta).is_none());
+        // The same with the normal facing the other way.
+        assert!(refract(inside, -Vec3::Z, 1.0 / eta).is_none());
+    }
+
+    /// A smooth interface: reflection with probability and weight F, refraction with
+    /// probability 1 − F and weight (1 − F)/η'², η' = η_i/η_o, so that with a white tint the
+    /// weights times the power factor η'² sum to 1 from both sides, and f_cos/pdf is 1 or
+    /// (η_o/η_i)²; past the critical angle everything is reflected.
+    #[test]
+    fn a_smooth_interface_splits_by_fresnel_and_keeps_energy() {
+        for (eta, sign) in [
+            (1.5f32, 1.0f32),
+            (1.5, -1.0),
+            (1.0 / 1.33, 1.0),
+            (1.33, -1.0),
+        ] {
+            let glass = Dielectric::new(eta, 0.0, Vec3::ONE);
+            assert_eq!(glass.flags(), SPECULAR);
+            for theta in [0.0f32, 0.4, 0.8, 1.2, 1.55] {
+                let wo = sign * at(theta, 0.7);
+                let f = fresnel_dielectric(wo.z, eta);
+                let r = glass.sample(wo, Vec2::new(f * 0.5, 0.3)).unwrap();
+                assert!(r.flags.contains(BsdfFlags::SPECULAR_REFLECTION));
+                assert!((r.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+                assert_eq!((r.f_cos.x, r.pdf), (f, f));
+                let what = format!("η {eta} side {sign} θ {theta}");
+                // η' = η_i / η_o: η entering, 1/η leaving.
+                let eta_p = if sign > 0.0 { eta } else { 1.0 / eta };
+                if f < 1.0 {
+                    let t = glass
+                        .sample(wo, Vec2::new(f + (1.0 - f) * 0.5, 0.3))
+                        .unwrap();
+                    assert!(t.flags.contains(SPECULAR_TRANSMISSION), "{what}");
+                    assert!(t.wi.z * wo.z < 0.0, "{what}");
+                    assert!((t.pdf - (1.0 - f)).abs() < 1e-7, "{what}");
+                    let weight = t.f_cos.x / t.pdf;
+                    assert!(
+                        (weight * eta_p * eta_p - 1.0).abs() < 1e-5,
+                        "{what}: {weight}"
+                    );
+                    let total = r.f_cos.x + t.f_cos.x * eta_p * eta_p;
+                    assert!((total - 1.0).abs() < 1e-6, "{what}: {total}");
+                } else {
+                    assert!(
+                        glass.sample(wo, Vec2::new(BELOW_ONE, 0.3)).unwrap().flags
+                            == BsdfFlags::SPECULAR_REFLECTION
+                    );
+                }
+                // Delta lobes are invisible to eval and pdf.
+                assert_eq!(glass.eval_pdf(wo, r.wi), (Vec3::ZERO, 0.0));
+            }
+        }
+        // Past the critical angle from inside, the refraction is never chosen.
+        let glass = Dielectric::new(1.5, 0.0, Vec3::ONE);
+        let wo = -at(0.9, 0.0);
+        for k in 0..100 {
+            let s = glass.sample(wo, Vec2::new(k as f32 / 100.0, 0.5)).unwrap();
+            assert_eq!(s.flags, BsdfFlags::SPECULAR_REFLECTION);
+            assert_eq!((s.f_cos, s.pdf), (Vec3::ONE, 1.0));
+        }
+    }
+
+    /// The tint colours transmitted light only.
+    #[test]
+    fn the_tint_colours_transmission_only() {
+        let tint = Vec3::new(0.9, 0.5, 0.1);
+        let wo = at(0.5, 0.0);
+        for alpha in [0.0f32, 0.3] {
+            let (glass, thin) = (
+                Dielectric::new(1.5, alpha, tint),
+                ThinDielectric::new(1.5, alpha, tint),
+            );
+            for k in 0..64 {
+                let u = Vec2::new((k as f32 + 0.5) / 64.0, 0.37);
+                for s in [glass.sample(wo, u), thin.sample(wo, u)]
+                    .into_iter()
+                    .flatten()
+                {
+                    let c = s.f_cos / s.f_cos.max_element();
+                    match s.flags.contains(BsdfFlags::TRANSMISSION) {
+                        true => assert!((c - tint / 0.9).abs().max_element() < 1e-5, "{c}"),
+                        false => assert_eq!(c, Vec3::ONE),
+                    }
+                }
+            }
+            assert_eq!(glass.albedo(), tint);
+            assert_eq!(thin.albedo(), tint);
+        }
+    }
+
+    /// The generalized reciprocity of the radiance convention: f(wo, wi)/η_o² =
+    /// f(wi, wo)/η_i², η_o and η_i the indices of the media wo and wi lie in (plain symmetry
+    /// for reflection), for rough interfaces from both sides at pairs of directions the
+    /// interface samples (so that f > 0), reflected and transmitted; plain symmetry for the
+    /// thin sheet.
+    #[test]
+    fn the_interface_obeys_the_reciprocity_of_radiance() {
+        let mut seen = [0usize; 2];
+        for (eta, alpha) in [(1.5f32, 0.3f32), (1.33, 0.05), (1.0 / 1.5, 0.6)] {
+            let glass = Dielectric::new(eta, alpha, Vec3::ONE);
+            let thin = ThinDielectric::new(eta, alpha, Vec3::ONE);
+            let index = |w: Vec3| if w.z > 0.0 { 1.0 } else { eta };
+            for wo in [at(0.3, 0.0), at(1.2, 0.5), -at(0.2, 0.0), -at(1.0, 2.0)] {
+                for k in 0..32 {
+                    let u = Vec2::new((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 4.0 + 0.1);
+                    for (uc, kind) in [(0.0f32, 0), (BELOW_ONE, 1)] {
+                        let Some(s) = glass.sample_with(wo, uc, u) else {
+                            continue;
+                        };
+                        let wi = s.wi;
+                        let what = format!("η {eta} α {alpha} wo {wo} wi {wi}");
+                        let f = glass.eval(wo, wi).x / wi.z.abs();
+                        let b = glass.eval(wi, wo).x / wo.z.abs();
+                        assert!(f > 0.0, "{what}");
+                        let (a, b) = (f / index(wo).powi(2), b / index(wi).powi(2));
+                        assert!((a - b).abs() <= 2e-4 * a, "{what}: {a} against {b}");
+                        seen[kind] += 1;
+                        let Some(s) = thin.sample_with(wo, uc, u) else {
+                            continue;
+                        };
+                        let wi = s.wi;
+                        let f = thin.eval(wo, wi).x / wi.z.abs();
+                        let b = thin.eval(wi, wo).x / wo.z.abs();
+                        assert!((f - b).abs() <= 2e-4 * f, "thin {what}: {f} against {b}");
+                    }
+                }
+            }
+        }
+        // Reflections (uc = 0) and transmissions (uc → 1, TIR aside) were both checked.
+        assert!(seen[0] > 300 && seen[1] > 200, "{seen:?}");
+    }
+
+    /// The thin sheet's transmission is its reflection mirrored through the plane: at the
+    /// mirrored direction, f_t / f_r = (1 − F)/F, pdf likewise, from either side.
+    #[test]
+    fn the_thin_sheets_transmission_is_its_reflection_mirrored() {
+        let thin = ThinDielectric::new(1.5, 0.2, Vec3::ONE);
+        for sign in [1.0f32, -1.0] {
+            for (wo, wi) in [(at(0.4, 0.0), at(0.6, 2.5)), (at(1.3, 0.0), at(0.2, 0.3))] {
+                let (wo, wi) = (sign * wo, sign * wi);
+                let mirrored = Vec3::new(wi.x, wi.y, -wi.z);
+                let (fr, pr) = thin.eval_pdf(wo, wi);
+                let (ft, pt) = thin.eval_pdf(wo, mirrored);
+                let h = (wo + wi).normalize();
+                let f = fresnel_dielectric(wo.dot(h).abs(), 1.5);
+                let what = format!("side {sign} wo {wo}");
+                assert!(
+                    (ft.x / fr.x - (1.0 - f) / f).abs() < 1e-4 * (1.0 - f) / f,
+                    "{what}"
+                );
+                assert!(
+                    (pt / pr - (1.0 - f) / f).abs() < 1e-4 * (1.0 - f) / f,
+                    "{what}"
+                );
+                assert!(
+                    ft.x > fr.x,
+                    "{what}: glass transmits more than it reflects here"
+                );
+            }
+        }
+    }
+
+    /// A smooth thin sheet does not bend light: wi = −wo exactly, weight (1 − F) tint with
+    /// probability 1 − F; the mirror takes F; the weights sum to 1 (no η² factor).
+    #[test]
+    fn a_smooth_thin_sheet_passes_light_straight_through() {
+        let thin = ThinDielectric::new(1.5, 0.0, Vec3::ONE);
+        assert_eq!(thin.flags(), SPECULAR);
+        for sign in [1.0f32, -1.0] {
+            for theta in [0.0f32, 0.5, 1.0, 1.5] {
+                let wo = sign * at(theta, 0.4);
+                let f = fresnel_dielectric(theta.cos(), 1.5);
+                let t = thin.sample(wo, Vec2::new(BELOW_ONE, 0.5)).unwrap();
+                assert_eq!(t.wi, -wo);
+                assert!(t.flags.contains(SPECULAR_TRANSMISSION));
+                assert_eq!((t.f_cos.x, t.pdf), (1.0 - f, 1.0 - f));
+                let r = thin.sample(wo, Vec2::new(0.0, 0.5)).unwrap();
+                assert_eq!(r.wi, Vec3::new(-wo.x, -wo.y, wo.z));
+                assert_eq!((r.f_cos.x, r.pdf), (f, f));
+                assert!((r.f_cos.x + t.f_cos.x - 1.0).abs() < 1e-7);
+            }
+        }
+    }
+
+    /// An index-matched interface (η = 1) is invisible at any roughness: nothing reflected,
+    /// everything straight through with the tint.
+    #[test]
+    fn an_index_matched_interface_is_invisible() {
+        let tint = Vec3::new(0.5, 0.6, 0.7);
+        let glass = Dielectric::new(1.0, 0.4, tint);
+        assert!(glass.flags().is_specular());
+        for sign in [1.0f32, -1.0] {
+            let wo = sign * at(0.7, 0.2);
+            for k in 0..16 {
+                let s = glass.sample(wo, Vec2::new(k as f32 / 16.0, 0.5)).unwrap();
+                assert!((s.wi + wo).length() < 1e-6);
+                assert_eq!((s.f_cos, s.pdf), (tint, 1.0));
+            }
+        }
+    }
+
+    /// Grazing and tangent wo (wo.z = 0, ±1e-7, −0), roughness at and around the smooth
+    /// bound, wi in the plane: no NaN or infinity, no negative value or pdf, and the same
+    /// answers twice (bit for bit).
+    #[test]
+    fn grazing_and_tangent_directions_give_finite_deterministic_answers() {
+        let s = Ggx::SMOOTH_ALPHA;
+        let alphas = [0.0, s * 0.999, s, s * 1.001, 0.05, 1.0];
+        let zs = [0.0f32, -0.0, 1e-7, -1e-7, 1e-4, -1e-4, 1.0, -1.0];
+        let mut checked = 0;
+        for alpha in alphas {
+            for eta in [1.5f32, 1.0 / 1.5] {
+                let glass = Dielectric::new(eta, alpha, Vec3::ONE);
+                let thin = ThinDielectric::new(eta, alpha, Vec3::ONE);
+                for z in zs {
+                    let wo = Vec3::new((1.0 - z * z).sqrt(), 0.0, z);
+                    for k in 0..400 {
+                        let u = Vec2::new((k % 20) as f32 / 20.0, (k / 20) as f32 / 20.0);
+                        let u = u.min(Vec2::splat(BELOW_ONE));
+                        let samples = [
+                            glass.sample(wo, u),
+                            thin.sample(wo, u),
+                            glass.sample_with(wo, u.x, u),
+                            thin.sample_with(wo, u.y, u),
+                        ];
+                        let again = [
+                            glass.sample(wo, u),
+                            thin.sample(wo, u),
+                            glass.sample_with(wo, u.x, u),
+                            thin.sample_with(wo, u.y, u),
+                        ];
+                        for (a, b) in samples.iter().zip(&again) {
+                            let what = format!("α {alpha} η {eta} wo {wo:?} u {u}: {a:?}");
+                            assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}");
+                            if let Some(a) = a {
+                                assert!(
+                                    a.wi.is_finite() && (a.wi.length() - 1.0).abs() < 1e-3,
+                                    "{what}"
+                                );
+                                assert!(
+                                    a.f_cos.is_finite() && a.f_cos.min_element() >= 0.0,
+                                    "{what}"
+                                );
+                                assert!(a.pdf.is_finite() && a.pdf > 0.0, "{what}");
+                                checked += 1;
+                            }
+                        }
+                    }
+                    for wi in [
+                        Vec3::X,
+                        Vec3::new(0.0, 1.0, 1e-7),
+                        Vec3::Z,
+                        -Vec3::Z,
+                        -wo,
+                        wo,
+                    ] {
+                        for (f, p) in [glass.eval_pdf(wo, wi), thin.eval_pdf(wo, wi)] {
+                            let what = format!("α {alpha} η {eta} wo {wo:?} wi {wi}: {f} {p}");
+                            assert!(f.is_finite() && f.min_element() >= 0.0, "{what}");
+                            assert!(p.is_finite() && p >= 0.0, "{what}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
+        // At the bound itself the interface is rough; just below, smooth.
+        assert_eq!(Dielectric::new(1.5, s, Vec3::ONE).flags(), GLOSSY);
+        assert_eq!(Dielectric::new(1.5, s * 0.999, Vec3::ONE).flags(), SPECULAR);
+        assert_eq!(ThinDielectric::new(1.5, s, Vec3::ONE).flags(), GLOSSY);
+    }
+}
