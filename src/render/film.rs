@@ -658,27 +658,11 @@ impl Film {
                 return Err(MergeError::BothHaveSampleZero(at(i), row(i)));
             }
         }
-        // Sums stay below 2^127 in magnitude for counts below 2^32 ([`add_sum`]). Squares
-        // saturate by design.
-        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
-            for c in 0..3 {
-                a[c] = add_sum(a[c], b[c]);
-            }
-        }
-        for (a, b) in self.sq_sums.iter_mut().zip(&other.sq_sums) {
-            for c in 0..3 {
-                a[c] = a[c].saturating_add(b[c]);
-            }
-        }
-        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
-            *a += b;
-        }
-        if let (Some(a), Some(b)) = (&mut self.features, &other.features) {
-            for (a, b) in a.iter_mut().zip(b) {
-                for (a, b) in a.iter_mut().zip(b) {
-                    *a = add_sum(*a, *b);
-                }
-            }
+        // Checked above: no pixel can fail.
+        for i in 0..self.counts.len() {
+            let features = other.features.as_ref().map(|f| &f[i]);
+            let totals = (other.sums[i], other.sq_sums[i], other.counts[i]);
+            self.add_pixel_totals(i, totals, features)?;
         }
         if let (Some(a), Some(b)) = (&mut self.first_hits, &other.first_hits) {
             for (a, &b) in a.iter_mut().zip(b) {
@@ -687,6 +671,43 @@ impl Film {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Adds pixel `i`'s totals from a film of disjoint samples (a shard's partial file, read
+    /// back: [`super::partial::ExactLayer`]; [`Film::merge`] adds whole films through it):
+    /// its sums, squares and count, and its feature sums where both keep features (`features`
+    /// must be given exactly when this film keeps them). Sums stay below 2^127 in magnitude
+    /// for counts below 2^32 ([`add_sum`]); squares saturate by design. Refuses a count past
+    /// `u32::MAX`; the pixel is then unchanged.
+    pub fn add_pixel_totals(
+        &mut self,
+        i: usize,
+        (sum, sq_sum, count): PixelTotals,
+        features: Option<&FeatureTotals>,
+    ) -> Result<(), MergeError> {
+        let (x, y) = (
+            (i % self.width as usize) as u32,
+            (i / self.width as usize) as u32,
+        );
+        if self.halves.is_some() {
+            return Err(MergeError::Halves);
+        }
+        let total = (self.counts[i].checked_add(count)).ok_or(MergeError::TooManySamples(x, y))?;
+        match (&mut self.features, features) {
+            (Some(all), Some(f)) => {
+                for (a, b) in all[i].iter_mut().zip(f) {
+                    *a = add_sum(*a, *b);
+                }
+            }
+            (None, None) => {}
+            _ => return Err(MergeError::Layers),
+        }
+        for c in 0..3 {
+            self.sums[i][c] = add_sum(self.sums[i][c], sum[c]);
+            self.sq_sums[i][c] = self.sq_sums[i][c].saturating_add(sq_sum[c]);
+        }
+        self.counts[i] = total;
         Ok(())
     }
 

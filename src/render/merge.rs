@@ -25,7 +25,7 @@ use exr::prelude::{read_all_flat_layers_from_file, AttributeValue, FlatSamples};
 use sha2::{Digest, Sha256};
 
 use super::output::Attr;
-use super::partial::{self, EXACT_LAYER};
+use super::partial::{ExactLayer, EXACT_LAYER};
 use super::passes::Pass;
 use super::Film;
 use crate::job::Job;
@@ -537,20 +537,31 @@ pub fn merge(coverage: &Coverage, partial: bool) -> Result<Merged, String> {
         let layer = (image.layer_data.iter())
             .find(|l| (l.channel_data.list.iter()).any(|c| c.name.eq(&count_name)))
             .ok_or_else(|| fail("has no exact sums (layer exact) to merge".into()))?;
-        let exact = partial::read_exact(&layer.channel_data, n).map_err(fail)?;
+        let exact = ExactLayer::find(&layer.channel_data, n).map_err(fail)?;
         let want = part.range.1 - part.range.0;
-        if let Some(i) = exact.counts.iter().position(|&c| c != want) {
+        if let Some(i) = (0..n).find(|&i| exact.count(i) != want) {
             return Err(fail(format!(
                 "pixel ({}, {}) holds {} samples, not the {want} of its samples {}..{}: the file is incomplete; render that part again",
                 i % width,
                 i / width,
-                exact.counts[i],
+                exact.count(i),
                 part.range.0,
                 part.range.1
             )));
         }
-        let part_film = Film::from_exact_sums(width as u32, height as u32, exact)
-            .ok_or_else(|| fail("its exact sums do not fit its image size".into()))?;
+        // Added to the film pixel by pixel from the file's words, without a copy of the part.
+        let film = film.get_or_insert_with(|| {
+            let mut f = Film::new(width as u32, height as u32);
+            if exact.has_features() {
+                f.keep_features();
+            }
+            f
+        });
+        for i in 0..n {
+            let (totals, features) = exact.pixel(i);
+            (film.add_pixel_totals(i, totals, features.as_ref()))
+                .map_err(|e| fail(e.to_string()))?;
+        }
         // The first part's IDs: the sample-0 part's in a whole merge; in a partial one
         // without sample 0, every part's are −1 alike.
         if std::ptr::eq(part, first) {
@@ -568,10 +579,6 @@ pub fn merge(coverage: &Coverage, partial: bool) -> Result<Merged, String> {
         }
         if let Some(Attr::Float(s)) = part.attrs.get("strata:render_seconds") {
             seconds += *s as f64;
-        }
-        match &mut film {
-            None => film = Some(part_film),
-            Some(f) => f.merge(&part_film).map_err(|e| fail(e.to_string()))?,
         }
     }
     // The settings and hashes stay; what the merge writes anew (the film's state, the

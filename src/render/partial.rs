@@ -13,7 +13,7 @@
 
 use exr::prelude::{AnyChannel, AnyChannels, FlatSamples};
 
-use super::film::{ExactSums, FeatureTotals, Film, FEATURE_SLOTS};
+use super::film::{ExactSums, FeatureTotals, Film, PixelTotals, FEATURE_SLOTS};
 
 /// The layer that holds the exact sums.
 pub const EXACT_LAYER: &str = "exact";
@@ -69,56 +69,100 @@ pub fn exact_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
     out
 }
 
+/// The exact layer of a partial file, read in place: each pixel's sums decoded from its
+/// words when asked ([`ExactLayer::pixel`]), so that a merge adds a part to its film without
+/// a second copy of the part's data.
+pub struct ExactLayer<'a> {
+    n: usize,
+    /// Per colour, the four words of the sums, then of the squares.
+    sums: [[&'a [u32]; 4]; 3],
+    sq_sums: [[&'a [u32]; 4]; 3],
+    counts: &'a [u32],
+    /// The four words of each feature slot, where the part keeps features.
+    features: Option<Vec<[&'a [u32]; 4]>>,
+}
+
+impl<'a> ExactLayer<'a> {
+    /// The exact layer among `channels` (of `n` pixels), or why there is none.
+    pub fn find(channels: &'a AnyChannels<FlatSamples>, n: usize) -> Result<Self, String> {
+        let find = |name: String| -> Result<Option<&'a [u32]>, String> {
+            let Some(c) = channels.list.iter().find(|c| c.name.eq(name.as_str())) else {
+                return Ok(None);
+            };
+            match &c.sample_data {
+                FlatSamples::U32(v) if v.len() == n => Ok(Some(v.as_slice())),
+                FlatSamples::U32(v) => {
+                    Err(format!("channel {name} holds {} values, not {n}", v.len()))
+                }
+                _ => Err(format!("channel {name} is not of 32-bit unsigned integers")),
+            }
+        };
+        let required = |name: String| -> Result<&'a [u32], String> {
+            find(name.clone())?.ok_or_else(|| format!("it has no channel {name}"))
+        };
+        let wide = |name: &str| -> Result<[&'a [u32]; 4], String> {
+            let w = |i: usize| required(format!("{EXACT_LAYER}.{name}{i}"));
+            Ok([w(0)?, w(1)?, w(2)?, w(3)?])
+        };
+        let sums = [wide("R")?, wide("G")?, wide("B")?];
+        let sq_sums = [wide("RR")?, wide("GG")?, wide("BB")?];
+        let counts = required(format!("{EXACT_LAYER}.N"))?;
+        let features = match find(format!("{EXACT_LAYER}.F00_0"))? {
+            None => None,
+            Some(_) => Some(
+                (0..FEATURE_SLOTS)
+                    .map(|slot| wide(&format!("F{slot:02}_")))
+                    .collect::<Result<_, _>>()?,
+            ),
+        };
+        Ok(ExactLayer {
+            n,
+            sums,
+            sq_sums,
+            counts,
+            features,
+        })
+    }
+
+    /// Whether the part keeps feature sums.
+    pub fn has_features(&self) -> bool {
+        self.features.is_some()
+    }
+
+    /// Pixel `i`'s sample count.
+    pub fn count(&self, i: usize) -> u32 {
+        self.counts[i]
+    }
+
+    /// Pixel `i`'s sums, squares and count, and its feature sums where the part keeps them.
+    pub fn pixel(&self, i: usize) -> (PixelTotals, Option<FeatureTotals>) {
+        let word = |w: &[&[u32]; 4]| from_words([w[0][i], w[1][i], w[2][i], w[3][i]]);
+        let sums = self.sums.each_ref().map(|w| word(w) as i128);
+        let sq_sums = self.sq_sums.each_ref().map(word);
+        let features = (self.features.as_ref())
+            .map(|f| -> FeatureTotals { std::array::from_fn(|s| word(&f[s]) as i128) });
+        ((sums, sq_sums, self.counts[i]), features)
+    }
+}
+
 /// The exact sums of the layer `channels` (of `n` pixels), or why there are none.
 pub fn read_exact(channels: &AnyChannels<FlatSamples>, n: usize) -> Result<ExactSums, String> {
-    let find = |name: String| -> Result<Option<&Vec<u32>>, String> {
-        let Some(c) = channels.list.iter().find(|c| c.name.eq(name.as_str())) else {
-            return Ok(None);
-        };
-        match &c.sample_data {
-            FlatSamples::U32(v) if v.len() == n => Ok(Some(v)),
-            FlatSamples::U32(v) => Err(format!("channel {name} holds {} values, not {n}", v.len())),
-            _ => Err(format!("channel {name} is not of 32-bit unsigned integers")),
-        }
+    let layer = ExactLayer::find(channels, n)?;
+    let mut exact = ExactSums {
+        sums: Vec::with_capacity(n),
+        sq_sums: Vec::with_capacity(n),
+        counts: layer.counts.to_vec(),
+        features: layer.has_features().then(|| Vec::with_capacity(n)),
     };
-    let required = |name: String| -> Result<&Vec<u32>, String> {
-        find(name.clone())?.ok_or_else(|| format!("it has no channel {name}"))
-    };
-    let wide = |name: &str| -> Result<Vec<u128>, String> {
-        let w: Vec<&Vec<u32>> = (0..4)
-            .map(|w| required(format!("{EXACT_LAYER}.{name}{w}")))
-            .collect::<Result<_, _>>()?;
-        Ok((0..n)
-            .map(|i| from_words([w[0][i], w[1][i], w[2][i], w[3][i]]))
-            .collect())
-    };
-    let (mut sums, mut sq_sums) = (vec![[0i128; 3]; n], vec![[0u128; 3]; n]);
-    for (c, name) in RGB.iter().enumerate() {
-        for (i, v) in wide(name)?.into_iter().enumerate() {
-            sums[i][c] = v as i128;
-        }
-        for (i, v) in wide(&name.repeat(2))?.into_iter().enumerate() {
-            sq_sums[i][c] = v;
+    for i in 0..layer.n {
+        let ((sum, sq_sum, _), features) = layer.pixel(i);
+        exact.sums.push(sum);
+        exact.sq_sums.push(sq_sum);
+        if let (Some(all), Some(f)) = (&mut exact.features, features) {
+            all.push(f);
         }
     }
-    let counts = required(format!("{EXACT_LAYER}.N"))?.clone();
-    let features = match find(format!("{EXACT_LAYER}.F00_0"))? {
-        None => None,
-        Some(_) => {
-            let slots: Vec<Vec<u128>> = (0..FEATURE_SLOTS)
-                .map(|slot| wide(&format!("F{slot:02}_")))
-                .collect::<Result<_, _>>()?;
-            let pixel =
-                |i: usize| -> FeatureTotals { std::array::from_fn(|s| slots[s][i] as i128) };
-            Some((0..n).map(pixel).collect())
-        }
-    };
-    Ok(ExactSums {
-        sums,
-        sq_sums,
-        counts,
-        features,
-    })
+    Ok(exact)
 }
 
 #[cfg(test)]
