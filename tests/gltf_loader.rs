@@ -403,7 +403,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     doc["extensionsUsed"] = json!([
         "KHR_materials_emissive_strength",
         "KHR_materials_clearcoat",
-        "KHR_materials_transmission"
+        "KHR_materials_sheen"
     ]);
     doc["materials"][0] = json!({
         "name": "coated",
@@ -446,7 +446,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
         "{file_level:?}"
     );
     assert_eq!(
-        says(&file_level, &["KHR_materials_transmission", "opaque"]),
+        says(&file_level, &["KHR_materials_sheen", "without that layer"]),
         1,
         "{file_level:?}"
     );
@@ -537,4 +537,77 @@ fn the_index_of_refraction_is_read() {
         s.load_warnings
     );
     assert!(s.material_warnings().iter().all(|w| !w.contains("ior")));
+}
+
+/// KHR_materials_transmission and KHR_materials_volume: read, rendered (no warning); a volume
+/// of thickness 0 is a thin wall; a volume without transmission is nothing; bad values are
+/// refused naming the material.
+#[test]
+fn transmission_and_volume_are_read() {
+    let (mut doc, _) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_transmission", "KHR_materials_volume"]);
+    doc["extensionsRequired"] = json!(["KHR_materials_transmission"]);
+    let glass = |name: &str, transmission: Option<f32>, volume: Value| {
+        let mut ext = json!({"KHR_materials_volume": volume});
+        if let Some(t) = transmission {
+            ext["KHR_materials_transmission"] = json!({"transmissionFactor": t});
+        }
+        json!({"name": name, "extensions": ext})
+    };
+    doc["materials"] = json!([
+        glass(
+            "tinted",
+            Some(0.75),
+            json!({"thicknessFactor": 0.5, "attenuationColor": [0.5, 0.25, 1.0], "attenuationDistance": 2.0})
+        ),
+        glass("wall", Some(1.0), json!({"thicknessFactor": 0.0})),
+        glass("opaque", None, json!({"thicknessFactor": 1.0})),
+    ]);
+    let path = dir.path().join("glass.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let s = load(&path);
+    let named = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name.as_deref() == Some(n))
+            .unwrap()
+    };
+    let tinted = named("tinted");
+    assert_eq!(tinted.transmission, 0.75);
+    let volume = tinted.volume.expect("a volume");
+    assert_eq!(volume.attenuation_distance, 2.0);
+    // σ_a = −ln(colour) / distance: ln 2 / 2, ln 4 / 2, 0.
+    let sigma = volume.absorption();
+    let want = [2f32.ln() / 2.0, 4f32.ln() / 2.0, 0.0];
+    for c in 0..3 {
+        assert!(
+            (sigma[c] - want[c]).abs() < 1e-6,
+            "{sigma} against {want:?}"
+        );
+    }
+    assert_eq!(
+        (named("wall").transmission, named("wall").volume),
+        (1.0, None)
+    );
+    assert_eq!(
+        (named("opaque").transmission, named("opaque").volume),
+        (0.0, None)
+    );
+    assert!(
+        !s.load_warnings.iter().any(|w| w.contains("ignores")),
+        "{:?}",
+        s.load_warnings
+    );
+    // A factor past 1 is refused, naming the material.
+    doc["materials"][0]["extensions"]["KHR_materials_transmission"]["transmissionFactor"] =
+        json!(1.5);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("'tinted'") && err.contains("transmissionFactor 1.5"),
+        "{err}"
+    );
 }

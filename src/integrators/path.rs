@@ -166,6 +166,20 @@ fn li_as<B: ShadeAs>(
             break;
         };
         let si = SurfaceInteraction::from_hit(scene, &ray, &hit);
+        // Beer–Lambert (KHR_materials_volume): a segment that ends on the inside of an
+        // absorbing volume's boundary travelled through the medium, and keeps
+        // exp(−σ_a t) of its light (the ray's direction has unit length, so t is the
+        // distance).
+        if materials.absorbing && !si.front_face {
+            if let Some(sigma) = materials.absorption(scene, si.prim) {
+                let t = hit.t;
+                beta *= Vec3::new(
+                    (-sigma.x * t).exp(),
+                    (-sigma.y * t).exp(),
+                    (-sigma.z * t).exp(),
+                );
+            }
+        }
         let uv = materials.uv(scene, &si);
 
         // Emission of the surface the path reached, MIS-weighted unless the camera sees it

@@ -31,21 +31,24 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_texture_transform",
 ];
 
 /// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
 /// warning).
-const RENDERED_MATERIAL_EXTENSIONS: &[&str] =
-    &["KHR_materials_emissive_strength", "KHR_materials_ior"];
+const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+];
 
 /// What strata renders instead of what an extension it ignores asks for, for the warning
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_transmission" | "KHR_materials_volume" => {
-            "transmissive materials render opaque"
-        }
         "KHR_materials_clearcoat"
         | "KHR_materials_sheen"
         | "KHR_materials_specular"
@@ -760,6 +763,35 @@ impl Loader<'_> {
                 super::DEFAULT_IOR
             }
         };
+        // KHR_materials_transmission and KHR_materials_volume.
+        let transmission = m.transmission();
+        let transmission_factor = transmission
+            .as_ref()
+            .map_or(0.0, |t| t.transmission_factor());
+        if !(0.0..=1.0).contains(&transmission_factor) {
+            return Err(format!(
+                "{label}: KHR_materials_transmission transmissionFactor {transmission_factor} is not between 0 and 1"
+            ));
+        }
+        let transmission_texture = (transmission.as_ref())
+            .and_then(|t| t.transmission_texture())
+            .map(|info| self.texture_ref(&info, &format!("{label} transmission texture")));
+        let volume = match m.volume() {
+            Some(v) if transmission.is_some() && v.thickness_factor() > 0.0 => {
+                let color = Vec3::from_array(v.attenuation_color());
+                let distance = v.attenuation_distance();
+                if !(color.is_finite() && color.min_element() >= 0.0 && distance > 0.0) {
+                    return Err(format!(
+                        "{label}: KHR_materials_volume needs an attenuationColor of finite values of at least 0 and a positive attenuationDistance (got {color}, {distance})"
+                    ));
+                }
+                Some(super::Volume {
+                    attenuation_color: color,
+                    attenuation_distance: distance,
+                })
+            }
+            _ => None,
+        };
         let alpha_mode = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
             gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
@@ -774,6 +806,9 @@ impl Loader<'_> {
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
             ior,
+            transmission: transmission_factor,
+            transmission_texture,
+            volume,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,

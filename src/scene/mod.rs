@@ -71,6 +71,14 @@ pub struct Material {
     /// Index of refraction of the dielectric part (`KHR_materials_ior`; glTF's 1.5 without):
     /// its specular reflectance at normal incidence is ((ior − 1) / (ior + 1))².
     pub ior: f32,
+    /// The fraction of the dielectric part's light that passes through the surface rather
+    /// than scattering diffusely (`KHR_materials_transmission`'s factor; 0 without), and its
+    /// texture (R channel).
+    pub transmission: f32,
+    pub transmission_texture: Option<TextureRef>,
+    /// `KHR_materials_volume`: the transmissive surface bounds a volume (thickness factor
+    /// above 0), else it is a thin wall.
+    pub volume: Option<Volume>,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -82,6 +90,27 @@ pub struct Material {
     /// The material's `KHR_materials_*` extensions that strata does not render.
     pub ignored_extensions: Vec<String>,
     pub double_sided: bool,
+}
+
+/// The medium inside a transmissive material's closed surface (`KHR_materials_volume`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Volume {
+    /// Light travelling `attenuation_distance` inside keeps `attenuation_color` of itself
+    /// (Beer–Lambert); infinite: the medium absorbs nothing.
+    pub attenuation_color: Vec3,
+    pub attenuation_distance: f32,
+}
+
+impl Volume {
+    /// The absorption coefficient σ_a = −ln(attenuation colour) / attenuation distance, per
+    /// channel (KHR_materials_volume): transmittance over a distance d is exp(−σ_a d).
+    pub fn absorption(&self) -> Vec3 {
+        if !self.attenuation_distance.is_finite() {
+            return Vec3::ZERO;
+        }
+        let c = self.attenuation_color.max(Vec3::splat(f32::MIN_POSITIVE));
+        -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / self.attenuation_distance
+    }
 }
 
 /// A normal-mapped primitive whose tangent frames MikkTSpace is to make.
@@ -118,6 +147,9 @@ impl Default for Material {
             metallic: 1.0,
             roughness: 1.0,
             ior: DEFAULT_IOR,
+            transmission: 0.0,
+            transmission_texture: None,
+            volume: None,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,

@@ -22,6 +22,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::dielectric::{Dielectric, ThinDielectric};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
@@ -115,6 +116,12 @@ pub trait LocalBsdf: Copy {
 
     /// The lobes this BSDF has.
     fn flags(&self) -> BsdfFlags;
+
+    /// True when some lobe transmits light to the other side of the surface.
+    #[inline(always)]
+    fn transmits(&self) -> bool {
+        self.flags().intersects(BsdfFlags::TRANSMISSION)
+    }
 
     /// The directional-hemispherical reflectance a denoiser's albedo pass takes.
     fn albedo(&self) -> Vec3;
@@ -240,6 +247,23 @@ pub enum Bsdf {
     Diffuse(Lambertian),
     /// The glTF 2.0 metallic-roughness BRDF ([`GltfBrdf`]).
     MetallicRoughness(GltfBrdf),
+    /// A dielectric interface bounding a volume (`KHR_materials_transmission` with
+    /// `KHR_materials_volume`): refracts.
+    Glass(Dielectric),
+    /// A thin transmissive wall (`KHR_materials_transmission` alone): no refraction.
+    ThinGlass(ThinDielectric),
+}
+
+/// Dispatches `$call` on the BSDF variant `$b` names.
+macro_rules! each_variant {
+    ($self:expr, $b:ident => $call:expr) => {
+        match $self {
+            Bsdf::Diffuse($b) => $call,
+            Bsdf::MetallicRoughness($b) => $call,
+            Bsdf::Glass($b) => $call,
+            Bsdf::ThinGlass($b) => $call,
+        }
+    };
 }
 
 impl LocalBsdf for Bsdf {
@@ -258,10 +282,12 @@ impl LocalBsdf for Bsdf {
 
     #[inline]
     fn flags(&self) -> BsdfFlags {
-        match self {
-            Bsdf::Diffuse(b) => b.flags(),
-            Bsdf::MetallicRoughness(brdf) => brdf.flags(),
-        }
+        each_variant!(self, b => b.flags())
+    }
+
+    #[inline(always)]
+    fn transmits(&self) -> bool {
+        matches!(self, Bsdf::Glass(_) | Bsdf::ThinGlass(_))
     }
 
     #[inline]
@@ -270,45 +296,37 @@ impl LocalBsdf for Bsdf {
             Bsdf::Diffuse(b) => b.albedo,
             // A metal's specular colour is its base colour, a dielectric's diffuse one.
             Bsdf::MetallicRoughness(brdf) => brdf.base_color,
+            Bsdf::Glass(b) => b.albedo(),
+            Bsdf::ThinGlass(b) => b.albedo(),
         }
     }
 
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        match self {
-            Bsdf::Diffuse(b) => b.eval(wo, wi),
-            Bsdf::MetallicRoughness(brdf) => brdf.eval(wo, wi),
-        }
+        each_variant!(self, b => b.eval(wo, wi))
     }
 
     #[inline]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        match self {
-            Bsdf::Diffuse(b) => b.pdf(wo, wi),
-            Bsdf::MetallicRoughness(brdf) => brdf.pdf(wo, wi),
-        }
+        each_variant!(self, b => b.pdf(wo, wi))
     }
 
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        match self {
-            Bsdf::Diffuse(b) => b.eval_pdf(wo, wi),
-            Bsdf::MetallicRoughness(brdf) => brdf.eval_pdf(wo, wi),
-        }
+        each_variant!(self, b => b.eval_pdf(wo, wi))
     }
 
     #[inline(always)]
     fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        match self {
-            Bsdf::Diffuse(b) => b.sample_direction(wo, u),
-            Bsdf::MetallicRoughness(brdf) => brdf.sample_direction(wo, u),
-        }
+        each_variant!(self, b => b.sample_direction(wo, u))
     }
 
     #[inline]
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
         match self {
             Bsdf::MetallicRoughness(brdf) => brdf.sample_delta(wo, wi, flags),
+            Bsdf::Glass(b) => b.sample_delta(wo, wi, flags),
+            Bsdf::ThinGlass(b) => b.sample_delta(wo, wi, flags),
             Bsdf::Diffuse(_) => None,
         }
     }
@@ -320,7 +338,10 @@ impl LocalBsdf for Bsdf {
 ///
 /// Reflection is taken only toward the side of the geometric surface the ray came from: a
 /// direction below it, which an interpolated shading normal can allow, would leave through
-/// the surface and is given zero.
+/// the surface and is given zero. A BSDF that transmits scatters to both sides, but only
+/// where the shading frame and the geometric surface agree on the side a direction lies on
+/// ([`SurfaceBsdf::admits`]): light neither leaks through a reflecting lobe nor reflects
+/// through a transmitting one.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceBsdf<B = Bsdf> {
     pub bsdf: B,
@@ -364,11 +385,23 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
         }
     }
 
+    /// Whether the BSDF may scatter into world direction `wi` (`local` in its frame): above
+    /// the geometric surface (the side the ray came from); or, for a BSDF that transmits, on
+    /// either side where the shading frame puts it on the same one.
+    #[inline(always)]
+    fn admits(&self, wi: Vec3, local: Vec3) -> bool {
+        let above = wi.dot(self.ng) > 0.0;
+        match self.bsdf.transmits() {
+            false => above,
+            true => above == (local.z > 0.0),
+        }
+    }
+
     /// f(wo, wi)·|cos θi| for world direction `wi`.
     #[inline(always)]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
         let local = self.local(wi);
-        if wi.dot(self.ng) <= 0.0 {
+        if !self.admits(wi, local) {
             return Vec3::ZERO;
         }
         self.bsdf.eval(self.wo, local)
@@ -378,7 +411,7 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
     #[inline(always)]
     pub fn pdf(&self, wi: Vec3) -> f32 {
         let local = self.local(wi);
-        if wi.dot(self.ng) <= 0.0 {
+        if !self.admits(wi, local) {
             return 0.0;
         }
         self.bsdf.pdf(self.wo, local)
@@ -388,7 +421,7 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
     #[inline(always)]
     pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
         let local = self.local(wi);
-        if wi.dot(self.ng) <= 0.0 {
+        if !self.admits(wi, local) {
             return (Vec3::ZERO, 0.0);
         }
         self.bsdf.eval_pdf(self.wo, local)
@@ -407,7 +440,7 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
         let wi = self.frame.to_world(local);
         if flags.is_specular() {
             let s = self.bsdf.sample_delta(self.wo, local, flags)?;
-            return (wi.dot(self.ng) > 0.0).then_some(BsdfSample { wi, ..s });
+            return self.admits(wi, local).then_some(BsdfSample { wi, ..s });
         }
         let (f_cos, pdf) = self.eval_pdf(wi);
         (pdf > 0.0).then_some(BsdfSample {
@@ -494,6 +527,49 @@ mod tests {
         assert_eq!(surface.pdf(wi), 0.0);
         // And a direction above both is reflected.
         assert!(surface.eval(Vec3::Z).max_element() > 0.0);
+    }
+
+    /// A BSDF that transmits scatters below the geometric surface where the shading frame
+    /// agrees; a reflecting one never does, and neither scatters where the two disagree.
+    #[test]
+    fn only_transmitting_bsdfs_reach_below_the_surface() {
+        use super::super::dielectric::Dielectric;
+        let si = SurfaceInteraction {
+            p: Vec3::ZERO,
+            p_error: Vec3::ZERO,
+            ng: Vec3::Z,
+            // A shading normal tilted 20° off the geometric one.
+            ns: Vec3::new(0.342, 0.0, 0.940),
+            wo: Vec3::new(0.0, 0.6, 0.8),
+            front_face: true,
+            prim: 0,
+            u: 0.0,
+            v: 0.0,
+        };
+        let glass = SurfaceBsdf::new(Bsdf::Glass(Dielectric::new(1.5, 0.3, Vec3::ONE)), &si);
+        let matte = SurfaceBsdf::new(Bsdf::Diffuse(Lambertian::new(Vec3::ONE)), &si);
+        // Below both: transmitted by glass only.
+        let through = Vec3::new(0.1, -0.5, -0.86).normalize();
+        assert!(glass.eval(through).max_element() > 0.0 && glass.pdf(through) > 0.0);
+        assert_eq!(matte.eval(through), Vec3::ZERO);
+        // Below the geometric surface, above the shading one: neither.
+        let between = Vec3::new(0.95, 0.0, -0.05).normalize();
+        assert!(between.dot(si.ns) > 0.0 && between.dot(si.ng) < 0.0);
+        assert_eq!(glass.eval(between), Vec3::ZERO);
+        assert_eq!(glass.pdf(between), 0.0);
+        assert_eq!(matte.eval(between), Vec3::ZERO);
+        // Above the geometric surface, below the shading one: glass does not transmit there.
+        let other = Vec3::new(-0.99, 0.0, 0.05).normalize();
+        assert!(other.dot(si.ns) < 0.0 && other.dot(si.ng) > 0.0);
+        assert_eq!(glass.eval(other), Vec3::ZERO);
+        // Sampled directions keep to the rule.
+        for i in 0..256 {
+            let u = Vec2::new((i % 16) as f32 / 16.0 + 0.03, (i / 16) as f32 / 16.0 + 0.01);
+            if let Some(s) = glass.sample(u) {
+                let (above_ng, above_ns) = (s.wi.dot(si.ng) > 0.0, s.wi.dot(si.ns) > 0.0);
+                assert_eq!(above_ng, above_ns, "{}", s.wi);
+            }
+        }
     }
 
     /// The specification's model, single scattering.

@@ -25,6 +25,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 pub use super::bsdf::DiffuseSampling;
 use super::bsdf::{Bsdf, BsdfFlags, Lambertian, LocalBsdf, SurfaceBsdf};
+use super::dielectric::{Dielectric, ThinDielectric};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use super::microfacet::AlbedoTable;
@@ -99,6 +100,12 @@ struct Prepared {
     roughness: f32,
     /// The dielectric part's index of refraction (`KHR_materials_ior`).
     ior: f32,
+    /// `KHR_materials_transmission`'s factor and texture (R); 0 and None without.
+    transmission: f32,
+    transmission_texture: Option<Binding>,
+    /// The absorption coefficient inside a transmissive volume (`KHR_materials_volume`);
+    /// None for a thin wall, or an opaque material.
+    volume: Option<Vec3>,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -159,6 +166,8 @@ pub struct Materials {
     pub textured: bool,
     /// True when the scene has vertex colours (`COLOR_0`), which scale the base colour.
     vertex_colors: bool,
+    /// True when some material bounds an absorbing volume ([`Materials::absorption`]).
+    pub absorbing: bool,
     /// Each triangle's tangent frames for its normal map ([`Scene::tangent_frames`]); empty
     /// when no material some triangle uses has one.
     tangents: Vec<[Vec4; 3]>,
@@ -210,6 +219,10 @@ impl Materials {
                 true => bind(&m.normal_texture, Encoding::Linear, &mut images)?,
                 false => None,
             };
+            let transmission_texture = match is_used && gltf && m.transmission > 0.0 {
+                true => bind(&m.transmission_texture, Encoding::Linear, &mut images)?,
+                false => None,
+            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
                 let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
                 let metallic_roughness = match gltf {
@@ -232,6 +245,12 @@ impl Materials {
                 metallic: m.metallic.clamp(0.0, 1.0),
                 roughness: m.roughness.clamp(0.0, 1.0),
                 ior: m.ior,
+                transmission: m.transmission,
+                transmission_texture,
+                volume: m
+                    .volume
+                    .filter(|_| m.transmission > 0.0)
+                    .map(|v| v.absorption()),
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -256,11 +275,14 @@ impl Materials {
             false => Vec::new(),
         };
         Ok(Materials {
-            materials,
             images,
             options: *options,
             textured,
             vertex_colors: !scene.colors.is_empty(),
+            absorbing: gltf
+                && (materials.iter())
+                    .any(|m: &Prepared| m.volume.is_some_and(|a| a.max_element() > 0.0)),
+            materials,
             tangents,
         })
     }
@@ -296,7 +318,7 @@ impl Materials {
     pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
         self.surface(scene, si, uv, |m, base| match self.options.model {
             MaterialModel::Lambertian => Bsdf::Diffuse(self.lambertian_of(base)),
-            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv),
+            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv, si),
         })
     }
 
@@ -400,17 +422,56 @@ impl Materials {
         }
     }
 
-    /// The glTF model's BSDF of material `m` at `uv`, of base colour `base`: kept out of line,
-    /// so that the Lambertian model's path stays as short as it was before the glTF BRDF.
+    /// The glTF model's BSDF of material `m` at `uv` of surface point `si`, of base colour
+    /// `base`: kept out of line, so that the Lambertian model's path stays as short as it was
+    /// before the glTF BRDF.
+    ///
+    /// A transmissive material (`KHR_materials_transmission`) is, by the extension's model,
+    /// mix(metallic-roughness BRDF, dielectric interface, w) with w = transmission ×
+    /// (1 − metallic): the interface takes the share of the dielectric's diffuse lobe that
+    /// transmission gives it. Where 0 < w < 1, the surface point takes one of the two with
+    /// probability w (pbrt-v4's MixMaterial; the choice a hash of the point, so the same for
+    /// every query of it), the BRDF's metallic raised to metallic / (1 − w) so that the mix
+    /// keeps the metal's share. The interface refracts where the material bounds a volume
+    /// (`KHR_materials_volume`): relative IOR `ior` entering at the front face, 1 / `ior`
+    /// leaving; otherwise it is a thin wall. Its tint is the base colour.
     #[inline(never)]
-    fn gltf_bsdf(&self, m: &Prepared, base: Vec3, uv: Vec2) -> Bsdf {
+    fn gltf_bsdf(&self, m: &Prepared, base: Vec3, uv: Vec2, si: &SurfaceInteraction) -> Bsdf {
         let (mut metallic, mut roughness) = (m.metallic, m.roughness);
         if let Some(b) = &m.metallic_roughness_texture {
             let t = self.lookup(b, uv);
             metallic *= t.z;
             roughness *= t.y;
         }
+        if m.transmission > 0.0 {
+            let mut transmission = m.transmission;
+            if let Some(b) = &m.transmission_texture {
+                transmission *= self.lookup(b, uv).x;
+            }
+            let w = transmission * (1.0 - metallic);
+            if w > 0.0 && (w >= 1.0 || point_choice(si) < w) {
+                let alpha = roughness * roughness;
+                return match m.volume {
+                    Some(_) => {
+                        let eta = if si.front_face { m.ior } else { 1.0 / m.ior };
+                        Bsdf::Glass(Dielectric::new(eta, alpha, base))
+                    }
+                    None => Bsdf::ThinGlass(ThinDielectric::new(m.ior, alpha, base)),
+                };
+            }
+            if w > 0.0 {
+                metallic = (metallic / (1.0 - w)).min(1.0);
+            }
+        }
         self.bsdf_with(base, metallic, roughness, m.ior)
+    }
+
+    /// The absorption coefficient of the medium inside triangle `prim`'s material, where it
+    /// bounds a transmissive volume (`KHR_materials_volume`) that absorbs.
+    #[inline]
+    pub fn absorption(&self, scene: &Scene, prim: u32) -> Option<Vec3> {
+        let m = &self.materials[scene.triangle_materials[prim as usize] as usize];
+        m.volume.filter(|a| a.max_element() > 0.0)
     }
 
     /// The BSDF of base colour `base`, `metallic`, `roughness` and index of refraction `ior`:
@@ -556,6 +617,21 @@ fn vertex_color(scene: &Scene, prim: u32, u: f32, v: f32) -> Vec4 {
     (1.0 - u - v) * scene.colors[a as usize]
         + u * scene.colors[b as usize]
         + v * scene.colors[c as usize]
+}
+
+/// A number in [0, 1) of a surface point alone (its position's bits and its triangle):
+/// which of two mixed materials the point takes ([`Materials::gltf_bsdf`]), the same for every
+/// query of the point and every thread.
+#[inline]
+fn point_choice(si: &SurfaceInteraction) -> f32 {
+    let mut h = si.prim as u64 ^ 0x9e37_79b9_7f4a_7c15;
+    for v in si.p.to_array() {
+        // SplitMix64's finaliser over each coordinate's bits.
+        h = (h ^ v.to_bits() as u64).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 31)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 29;
+    }
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
 #[cfg(test)]

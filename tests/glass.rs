@@ -1,0 +1,277 @@
+//! Glass through the renderer (`KHR_materials_transmission`, `KHR_materials_volume`,
+//! `KHR_materials_ior`), against what a closed form says:
+//!
+//! - the glass furnace: a closed, non-absorbing smooth dielectric (or thin-walled) sphere under
+//!   a white sky of radiance 1 shows 1 everywhere: every path through it, reflected or
+//!   refracted, returns the sky's radiance (the refracted ones scaled by 1/η² entering and η²
+//!   leaving); controls: an absorbing one is darker, a rough one (single scattering among its
+//!   microfacets) loses a little;
+//! - Beer–Lambert through a slab seen head-on by an orthographic camera: with IOR 1 (an
+//!   invisible interface) the sky times attenuation colour^(thickness / distance); with IOR 1.5
+//!   the sum over the slab's internal reflections, F + (1 − F)² τ (1 + F τ) / (1 − F² τ²)
+//!   with F = 0.04 at normal incidence and τ the transmittance across it (the sky lights both
+//!   sides).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{data_uri, render, s};
+use serde_json::{json, Value};
+
+/// Writes a glTF of one mesh (`positions`, `triangles`) with `material`, seen by `camera`
+/// (a glTF camera object) from `eye` looking down −Z, to `dir/name`.
+fn write_scene(
+    dir: &Path,
+    name: &str,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    material: Value,
+    camera: Value,
+    eye: [f32; 3],
+) -> PathBuf {
+    let mut bin = Vec::new();
+    for p in positions {
+        for v in p {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let index_offset = bin.len();
+    for t in triangles {
+        for i in t {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    let (lo, hi) = positions
+        .iter()
+        .fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
+                [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
+            )
+        });
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_ior"],
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": eye}],
+        "cameras": [camera],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "materials": [material],
+        "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": index_offset},
+            {"buffer": 0, "byteOffset": index_offset, "byteLength": bin.len() - index_offset}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi},
+            {"bufferView": 1, "componentType": 5125, "count": triangles.len() * 3, "type": "SCALAR"}
+        ]
+    });
+    let path = dir.join(name);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+/// A glass material: base colour white, roughness `roughness`, metallic 0, transmission 1,
+/// `ior`; a volume (thickness 1) with `attenuation` (colour, distance) unless `thin`.
+fn glass(ior: f32, roughness: f32, thin: bool, attenuation: Option<([f32; 3], f32)>) -> Value {
+    let mut ext = json!({
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_ior": {"ior": ior}
+    });
+    if !thin {
+        let mut volume = json!({"thicknessFactor": 1.0});
+        if let Some((color, distance)) = attenuation {
+            volume["attenuationColor"] = json!(color);
+            volume["attenuationDistance"] = json!(distance);
+        }
+        ext["KHR_materials_volume"] = volume;
+    }
+    json!({
+        "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": roughness},
+        "extensions": ext
+    })
+}
+
+/// Renders `scene` under a white sky by path tracing up to 5000 bounces, without Russian
+/// roulette; the pixels.
+fn render_under_white_sky(dir: &Path, scene: &Path, spp: u32, size: &str) -> Vec<[f32; 3]> {
+    let out = dir.join(format!(
+        "{}.exr",
+        scene.file_stem().unwrap().to_string_lossy()
+    ));
+    let spp = spp.to_string();
+    let run = render(
+        dir,
+        &[
+            s(scene),
+            "--background",
+            "1,1,1",
+            "--integrator",
+            "path",
+            "--max-depth",
+            "5000",
+            "--rr-depth",
+            "1000",
+            "--spp",
+            &spp,
+            "--resolution",
+            size,
+            "-o",
+            s(&out),
+            "--no-png",
+        ],
+    );
+    run.assert_success();
+    strata::render::output::read_exr_rgb(&out).unwrap().2
+}
+
+/// An outward-wound geodesic sphere of radius 1 at the origin.
+fn sphere() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let (points, triangles) = common::inward_geodesic_sphere(4);
+    let positions = points.iter().map(|p| p.as_vec3().to_array()).collect();
+    (
+        positions,
+        triangles.iter().map(|&[a, b, c]| [a, c, b]).collect(),
+    )
+}
+
+fn perspective() -> Value {
+    json!({"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.01}})
+}
+
+#[test]
+fn a_glass_sphere_in_a_white_furnace_disappears() {
+    let dir = tempfile::tempdir().unwrap();
+    let (positions, triangles) = sphere();
+    let cases = [
+        ("smooth.gltf", glass(1.5, 0.0, false, None)),
+        ("diamond.gltf", glass(2.4, 0.0, false, None)),
+        ("thin.gltf", glass(1.5, 0.0, true, None)),
+    ];
+    for (name, material) in cases {
+        let scene = write_scene(
+            dir.path(),
+            name,
+            &positions,
+            &triangles,
+            material,
+            perspective(),
+            [0.0, 0.0, 4.0],
+        );
+        let px = render_under_white_sky(dir.path(), &scene, 16, "32x32");
+        let (lo, hi) = px
+            .iter()
+            .flatten()
+            .fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let mean = px.iter().flatten().map(|&v| v as f64).sum::<f64>() / (px.len() * 3) as f64;
+        println!("{name}: mean {mean}, range {lo}..{hi}");
+
+        // Every path that leaves returns exactly the sky (to rounding). A path that enters
+        // near the rim can be caught by total internal reflection between the facets (a
+        // whispering-gallery path) and circle past 5000 bounces, returning nothing: at IOR
+        // 1.5 none did here, at 2.4 (a critical angle of 25°) one path in 8192.
+        assert!(hi <= 1.0 + 1e-4, "{name}: brighter than the furnace: {hi}");
+        assert!((mean - 1.0).abs() < 2e-4, "{name}: mean {mean}");
+        if name != "diamond.gltf" {
+            assert!(lo >= 1.0 - 1e-4, "{name}: darker than the furnace: {lo}");
+        }
+    }
+    // Control: an absorbing sphere is darker where the camera looks through it.
+    let absorbing = glass(1.5, 0.0, false, Some(([0.5, 0.5, 0.5], 1.0)));
+    let scene = write_scene(
+        dir.path(),
+        "absorbing.gltf",
+        &positions,
+        &triangles,
+        absorbing,
+        perspective(),
+        [0.0, 0.0, 4.0],
+    );
+    let px = render_under_white_sky(dir.path(), &scene, 16, "32x32");
+    let centre = px[16 * 32 + 16][0];
+    assert!(
+        centre < 0.5,
+        "light through 2 units of a medium keeping half per unit: {centre}"
+    );
+    // Control: rough glass loses what single scattering among its microfacets does (no
+    // energy compensation for dielectrics yet: 12% over this sphere at roughness 0.5, most
+    // of it on the way out, where the dielectric BSDF's own tests measure 0.675 of the power
+    // kept at α 0.6 and normal incidence), and never adds light.
+    let scene = write_scene(
+        dir.path(),
+        "rough.gltf",
+        &positions,
+        &triangles,
+        glass(1.5, 0.5, false, None),
+        perspective(),
+        [0.0, 0.0, 4.0],
+    );
+    let px = render_under_white_sky(dir.path(), &scene, 64, "16x16");
+    let mean = px.iter().flatten().map(|&v| v as f64).sum::<f64>() / (px.len() * 3) as f64;
+    println!("rough.gltf: mean {mean}");
+    assert!(mean < 0.99 && mean > 0.8, "rough glass: mean {mean}");
+}
+
+/// A slab 2 units thick, 8 × 8 across, between z = −2 and 0, outward-wound.
+fn slab() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let mut positions = Vec::new();
+    for z in [0.0f32, -2.0] {
+        for (x, y) in [(-4.0f32, -4.0f32), (4.0, -4.0), (4.0, 4.0), (-4.0, 4.0)] {
+            positions.push([x, y, z]);
+        }
+    }
+    // Front (z = 0, facing +z), back (z = −2, facing −z), and the four sides.
+    let quads: [[u32; 4]; 6] = [
+        [0, 1, 2, 3],
+        [5, 4, 7, 6],
+        [4, 5, 1, 0],
+        [5, 6, 2, 1],
+        [6, 7, 3, 2],
+        [7, 4, 0, 3],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    (positions, triangles)
+}
+
+#[test]
+fn light_through_a_slab_follows_beer_lambert() {
+    let dir = tempfile::tempdir().unwrap();
+    let (positions, triangles) = slab();
+    let ortho = json!({"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.01, "zfar": 100.0}});
+    let color = [0.5f32, 0.25, 0.8];
+    let (thickness, distance) = (2.0f32, 1.0f32);
+    let tau = color.map(|c| c.powf(thickness / distance));
+    for (name, ior, spp) in [("invisible.gltf", 1.0f32, 4), ("glass.gltf", 1.5, 4096)] {
+        let material = glass(ior, 0.0, false, Some((color, distance)));
+        let scene = write_scene(
+            dir.path(),
+            name,
+            &positions,
+            &triangles,
+            material,
+            ortho.clone(),
+            [0.0, 0.0, 3.0],
+        );
+        let px = render_under_white_sky(dir.path(), &scene, spp, "4x4");
+        let f = ((ior - 1.0) / (ior + 1.0)).powi(2) as f64;
+        for c in 0..3 {
+            let t = tau[c] as f64;
+            // Reflected off the front, and through after any even number of inner
+            // reflections; reflected back out after any odd number.
+            let want = f + (1.0 - f) * (1.0 - f) * t * (1.0 + f * t) / (1.0 - f * f * t * t);
+            let got = px.iter().map(|p| p[c] as f64).sum::<f64>() / px.len() as f64;
+            println!("{name}, channel {c}: {got} against {want}");
+            let tolerance = if ior == 1.0 { 1e-5 } else { 2e-3 };
+            assert!(
+                (got - want).abs() < tolerance,
+                "{name}, channel {c}: {got} against {want}"
+            );
+        }
+    }
+}
