@@ -20,6 +20,9 @@ the bounds of every vertex of the default scene in world space. Its distance:
 The aspect ratio of the image is the box's width / height, clamped to [0.75, 3]; the width is
 --width, or --wide-width for an image at least twice as wide as tall; the height is rounded to
 an even number of pixels.
+
+A model with one camera of its own (TransmissionTest) is copied with that camera and nothing
+added, at the camera's aspect ratio (4:3 where it gives none) and --width.
 """
 import argparse
 import base64
@@ -154,8 +157,17 @@ def main():
     args = ap.parse_args()
 
     doc, binary = read_model(args.model)
-    if doc.get("cameras"):
-        sys.exit(f"khronos_scene: {args.model} has cameras of its own; this script frames camera-less models")
+    cameras = doc.get("cameras", [])
+    if len(cameras) > 1:
+        sys.exit(f"khronos_scene: {args.model} has {len(cameras)} cameras; this script takes one")
+    if cameras:
+        # The model's own camera (TransmissionTest): both renderers use it as it is, at its
+        # aspect ratio (4:3 where it gives none).
+        aspect = cameras[0].get("perspective", {}).get("aspectRatio") or 4 / 3
+        write_glb(args.out, doc, binary)
+        print(f"khronos_scene: {args.model}'s own camera, aspect ratio {aspect:.4f}", file=sys.stderr)
+        print(f"{args.width}x{2 * round(args.width / aspect / 2)}")
+        return
     lo, hi = world_bounds(doc, binary)
     size = hi - lo
     aspect = min(3.0, max(0.75, size[0] / max(size[1], 1e-9)))
