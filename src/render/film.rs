@@ -686,14 +686,13 @@ impl Film {
         (sum, sq_sum, count): PixelTotals,
         features: Option<&FeatureTotals>,
     ) -> Result<(), MergeError> {
-        let (x, y) = (
-            (i % self.width as usize) as u32,
-            (i / self.width as usize) as u32,
-        );
         if self.halves.is_some() {
             return Err(MergeError::Halves);
         }
-        let total = (self.counts[i].checked_add(count)).ok_or(MergeError::TooManySamples(x, y))?;
+        let total = (self.counts[i].checked_add(count)).ok_or_else(|| {
+            let w = self.width as usize;
+            MergeError::TooManySamples((i % w) as u32, (i / w) as u32)
+        })?;
         match (&mut self.features, features) {
             (Some(all), Some(f)) => {
                 for (a, b) in all[i].iter_mut().zip(f) {
@@ -810,50 +809,6 @@ impl Film {
             .flat_map(|y| (0..self.width).map(move |x| (x, y)))
             .map(|(x, y)| self.pixel(x, y))
             .collect()
-    }
-}
-
-/// A film's exact sums, for writing a farm shard's partial file and reading it back
-/// ([`Film::exact_sums`], [`Film::from_exact_sums`]): per pixel, row-major from the top row.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ExactSums {
-    pub sums: Vec<[i128; 3]>,
-    pub sq_sums: Vec<[u128; 3]>,
-    pub counts: Vec<u32>,
-    /// Present where the film keeps features ([`Film::keep_features`]).
-    pub features: Option<Vec<FeatureTotals>>,
-}
-
-impl Film {
-    /// A copy of the film's exact sums, squares, counts and feature totals (not its first hits
-    /// or halves).
-    pub fn exact_sums(&self) -> ExactSums {
-        ExactSums {
-            sums: self.sums.clone(),
-            sq_sums: self.sq_sums.clone(),
-            counts: self.counts.clone(),
-            features: self.features.clone(),
-        }
-    }
-
-    /// The film that holds `sums` (each vector `width × height` long, else None): keeping
-    /// features where `sums` has them, and no first hits or halves.
-    pub fn from_exact_sums(width: u32, height: u32, sums: ExactSums) -> Option<Film> {
-        let n = width as usize * height as usize;
-        let lengths_match = sums.sums.len() == n
-            && sums.sq_sums.len() == n
-            && sums.counts.len() == n
-            && sums.features.as_ref().is_none_or(|f| f.len() == n);
-        lengths_match.then_some(Film {
-            width,
-            height,
-            sums: sums.sums,
-            sq_sums: sums.sq_sums,
-            counts: sums.counts,
-            halves: None,
-            features: sums.features,
-            first_hits: None,
-        })
     }
 }
 

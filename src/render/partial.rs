@@ -13,7 +13,7 @@
 
 use exr::prelude::{AnyChannel, AnyChannels, FlatSamples};
 
-use super::film::{ExactSums, FeatureTotals, Film, PixelTotals, FEATURE_SLOTS};
+use super::film::{FeatureTotals, Film, PixelTotals, FEATURE_SLOTS};
 
 /// The layer that holds the exact sums.
 pub const EXACT_LAYER: &str = "exact";
@@ -51,19 +51,35 @@ fn wide_channels(
         .collect()
 }
 
-/// The exact layer's channels of `film`.
+/// The exact layer's channels of `film`, read from it pixel by pixel (no copy of its sums).
 pub fn exact_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
-    let exact = film.exact_sums();
-    let n = exact.counts.len();
+    let n = film.width as usize * film.height as usize;
+    let at = |i: usize| {
+        (
+            (i % film.width as usize) as u32,
+            (i / film.width as usize) as u32,
+        )
+    };
+    let totals = |i: usize| {
+        let (x, y) = at(i);
+        film.totals(x, y)
+    };
     let mut out = Vec::new();
     for (c, name) in RGB.iter().enumerate() {
-        out.extend(wide_channels(name, |i| exact.sums[i][c] as u128, n));
-        out.extend(wide_channels(&name.repeat(2), |i| exact.sq_sums[i][c], n));
+        out.extend(wide_channels(name, |i| totals(i).0[c] as u128, n));
+        out.extend(wide_channels(&name.repeat(2), |i| totals(i).1[c], n));
     }
-    out.push(channel(format!("{EXACT_LAYER}.N"), exact.counts));
-    if let Some(features) = &exact.features {
+    out.push(channel(
+        format!("{EXACT_LAYER}.N"),
+        (0..n).map(|i| totals(i).2).collect(),
+    ));
+    if film.keeps_features() {
         out.extend((0..FEATURE_SLOTS).flat_map(|slot| {
-            wide_channels(&format!("F{slot:02}_"), |i| features[i][slot] as u128, n)
+            let feature = |i: usize| {
+                let (x, y) = at(i);
+                film.feature_totals(x, y)[slot] as u128
+            };
+            wide_channels(&format!("F{slot:02}_"), feature, n)
         }));
     }
     out
@@ -73,7 +89,6 @@ pub fn exact_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
 /// words when asked ([`ExactLayer::pixel`]), so that a merge adds a part to its film without
 /// a second copy of the part's data.
 pub struct ExactLayer<'a> {
-    n: usize,
     /// Per colour, the four words of the sums, then of the squares.
     sums: [[&'a [u32]; 4]; 3],
     sq_sums: [[&'a [u32]; 4]; 3],
@@ -116,7 +131,6 @@ impl<'a> ExactLayer<'a> {
             ),
         };
         Ok(ExactLayer {
-            n,
             sums,
             sq_sums,
             counts,
@@ -145,26 +159,6 @@ impl<'a> ExactLayer<'a> {
     }
 }
 
-/// The exact sums of the layer `channels` (of `n` pixels), or why there are none.
-pub fn read_exact(channels: &AnyChannels<FlatSamples>, n: usize) -> Result<ExactSums, String> {
-    let layer = ExactLayer::find(channels, n)?;
-    let mut exact = ExactSums {
-        sums: Vec::with_capacity(n),
-        sq_sums: Vec::with_capacity(n),
-        counts: layer.counts.to_vec(),
-        features: layer.has_features().then(|| Vec::with_capacity(n)),
-    };
-    for i in 0..layer.n {
-        let ((sum, sq_sum, _), features) = layer.pixel(i);
-        exact.sums.push(sum);
-        exact.sq_sums.push(sq_sum);
-        if let (Some(all), Some(f)) = (&mut exact.features, features) {
-            all.push(f);
-        }
-    }
-    Ok(exact)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,18 +182,32 @@ mod tests {
         film.add_sample(0, 0, Vec3::new(-1.0e9, 0.25, 3.0e-7));
         film.add_sample(2, 1, Vec3::new(1.0e12, -5.0, 1.0));
         film.add_sample(2, 1, Vec3::new(1.0e12, -5.0, 1.0));
+        let features: FeatureTotals = std::array::from_fn(|s| (s as i128 - 6) << (8 * s));
+        film.rows_mut(&[(1, 2)])[0].set_features(2, 1, &features);
         let channels = AnyChannels::sort(exact_channels(&film).into());
         // 3 colours × (4 + 4) words, the count, 13 features × 4 words.
         assert_eq!(channels.list.len(), 3 * 8 + 1 + 13 * 4);
-        let read = read_exact(&channels, 6).unwrap();
-        assert_eq!(read, film.exact_sums());
-        let back = Film::from_exact_sums(3, 2, read).unwrap();
-        assert_eq!(back.totals(2, 1), film.totals(2, 1));
+        let layer = ExactLayer::find(&channels, 6).unwrap();
+        assert!(layer.has_features());
+        for (x, y) in (0..2).flat_map(|y| (0..3).map(move |x| (x, y))) {
+            let (totals, f) = layer.pixel((y * 3 + x) as usize);
+            assert_eq!(totals, film.totals(x, y), "({x}, {y})");
+            assert_eq!(f, Some(film.feature_totals(x, y)), "({x}, {y})");
+        }
+        // Added to an empty film, the layer gives back the film's estimates.
+        let mut back = Film::new(3, 2);
+        back.keep_features();
+        for i in 0..6 {
+            let (totals, f) = layer.pixel(i);
+            back.add_pixel_totals(i, totals, f.as_ref()).unwrap();
+        }
         assert_eq!(back.pixel(0, 0), film.pixel(0, 0));
+        assert_eq!(back.feature_totals(2, 1), features);
         // A layer without the count, or of the wrong size, is refused by name.
         let mut short = channels.clone();
         short.list.retain(|c| !c.name.eq("exact.N"));
-        assert!(read_exact(&short, 6).unwrap_err().contains("exact.N"));
-        assert!(read_exact(&channels, 5).unwrap_err().contains("not 5"));
+        let error = |c, n| ExactLayer::find(c, n).err().expect("refused");
+        assert!(error(&short, 6).contains("exact.N"));
+        assert!(error(&channels, 5).contains("not 5"));
     }
 }
