@@ -16,54 +16,16 @@
 //! 4. `sample_with`'s value and pdf, computed from the drawn microfacet normal, against
 //!    `eval_pdf` of the direction it returns.
 //!
-//! Random inputs come from `Pcg32`, implemented here (as in tests/sampling.rs), not from the
+//! Random inputs come from `Pcg32` (tests/common), not from the
 //! renderer's samplers.
 
+mod common;
+
+use common::Pcg32;
 use glam::{DVec3, Vec2, Vec3};
 use std::f64::consts::{PI, TAU};
 use strata::sampling::chi2::{chi2_test, Chi2Outcome};
 use strata::shading::{BsdfSample, Dielectric, LocalBsdf, ThinDielectric};
-
-// ---------------------------------------------------------------------------------------------
-// PCG32 (XSH-RR 64/32), O'Neill 2014: a test-local generator.
-// ---------------------------------------------------------------------------------------------
-
-struct Pcg32 {
-    state: u64,
-    inc: u64,
-}
-
-impl Pcg32 {
-    fn new(seed: u64, stream: u64) -> Pcg32 {
-        let mut rng = Pcg32 {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
-        rng.next_u32();
-        rng.state = rng.state.wrapping_add(seed);
-        rng.next_u32();
-        rng
-    }
-
-    fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        xorshifted.rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in [0, 1) on the 2^-24 grid.
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-    }
-
-    fn next_vec2(&mut self) -> Vec2 {
-        let x = self.next_f32();
-        Vec2::new(x, self.next_f32())
-    }
-}
 
 // ---------------------------------------------------------------------------------------------
 // The χ² harness over the whole sphere.

@@ -11,9 +11,12 @@
 //!    (0, m, 2)-nets of Owen-scrambled Sobol), determinism and decorrelation, again with
 //!    negative controls for the checkers.
 //!
-//! Every random input below comes from `Pcg32`, a small generator implemented in this file,
+//! Every random input below comes from `Pcg32`, a small generator in tests/common,
 //! never from the renderer's own hashing, so the tests do not share code with what they test.
 
+mod common;
+
+use common::Pcg32;
 use glam::{Vec2, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use strata::sampling::chi2::{chi2_survival, chi2_test, gamma_q, ln_gamma, Chi2Outcome};
@@ -21,53 +24,6 @@ use strata::sampling::onb::Onb;
 use strata::sampling::sampler::{PixelSampler, SamplerKind};
 use strata::sampling::warps;
 use strata::shading::LocalBsdf;
-
-// ---------------------------------------------------------------------------------------------
-// A test-local PRNG: PCG32 (XSH-RR 64/32), M. E. O'Neill, "PCG: A Family of Simple Fast
-// Space-Efficient Statistically Good Algorithms for Random Number Generation" (2014).
-// ---------------------------------------------------------------------------------------------
-
-struct Pcg32 {
-    state: u64,
-    inc: u64,
-}
-
-impl Pcg32 {
-    fn new(seed: u64, stream: u64) -> Pcg32 {
-        let mut rng = Pcg32 {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
-        rng.next_u32();
-        rng.state = rng.state.wrapping_add(seed);
-        rng.next_u32();
-        rng
-    }
-
-    fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        xorshifted.rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in [0, 1) on the 2^-24 grid (exactly representable in f32).
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-    }
-
-    fn next_vec2(&mut self) -> Vec2 {
-        let x = self.next_f32();
-        Vec2::new(x, self.next_f32())
-    }
-
-    /// Uniform in [0, n).
-    fn below(&mut self, n: u32) -> u32 {
-        ((self.next_u32() as u64 * n as u64) >> 32) as u32
-    }
-}
 
 #[test]
 fn incomplete_gamma_matches_known_values() {
