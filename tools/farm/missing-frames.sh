@@ -6,6 +6,8 @@
 # EXR under a temporary name and renames it when complete, so a task that crashed or was
 # killed leaves no file here: what exists is whole.
 set -euo pipefail
+# shellcheck source=tools/farm/array-list.sh
+source "$(dirname "${BASH_SOURCE[0]}")/array-list.sh"
 [[ $# -eq 3 ]] || { echo "usage: $0 OUT FIRST LAST" >&2; exit 2; }
 out=$1 first=$2 last=$3
 dir=$(dirname "$out")
@@ -28,13 +30,5 @@ for ((f = first; f <= last; f++)); do
     [[ -f $(path_of "$f") ]] || missing+=("$f")
 done
 ((${#missing[@]})) || exit 0
-# Compress runs: 3 4 5 9 -> 3-5,9.
-list="" start=${missing[0]} prev=${missing[0]}
-for f in "${missing[@]:1}" ""; do
-    if [[ -n $f && $f -eq $((prev + 1)) ]]; then prev=$f; continue; fi
-    [[ -n $list ]] && list+=","
-    if [[ $start -eq $prev ]]; then list+="$start"; else list+="$start-$prev"; fi
-    [[ -n $f ]] && start=$f prev=$f
-done
-echo "$list"
+array_list "${missing[@]}"
 exit 1

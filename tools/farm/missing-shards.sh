@@ -7,6 +7,8 @@
 # merge --check` says which files). strata writes each EXR under a temporary name and renames
 # it when complete, so what exists is whole. `render` is $STRATA_RENDER, else the one on PATH.
 set -euo pipefail
+# shellcheck source=tools/farm/array-list.sh
+source "$(dirname "${BASH_SOURCE[0]}")/array-list.sh"
 [[ $# -eq 2 ]] || { echo "usage: $0 OUT N" >&2; exit 2; }
 out=$1 shards=$2
 [[ $shards =~ ^[1-9][0-9]*$ ]] || { echo "missing-shards: N='$shards' is not a number of shards" >&2; exit 2; }
@@ -44,13 +46,5 @@ else
     ((${#missing[@]})) || { printf 'missing-shards: incomplete, yet no shard named:\n%s\n' "$report" >&2; exit 2; }
 fi
 
-# Compress runs: 3 4 5 9 -> 3-5,9 (merge --check lists gaps in order).
-list="" start=${missing[0]} prev=${missing[0]}
-for s in "${missing[@]:1}" ""; do
-    if [[ -n $s && $s -eq $((prev + 1)) ]]; then prev=$s; continue; fi
-    [[ -n $list ]] && list+=","
-    if [[ $start -eq $prev ]]; then list+="$start"; else list+="$start-$prev"; fi
-    [[ -n $s ]] && start=$s prev=$s
-done
-echo "$list"
+array_list "${missing[@]}"
 exit 1
