@@ -3,9 +3,8 @@
 //!
 //! 1. χ² goodness of fit of the sampled directions against `pdf` over the whole sphere
 //!    (reflection and transmission), for η = 1.5 and 1/1.5, α = 0.05, 0.2 and 0.6, from
-//!    outside and inside, past the critical angle included; through the two-dimensional
-//!    trait (`LocalBsdf::sample`) and with a separate lobe number (`sample_with`);
-//!    Bonferroni-corrected at 1% over all of them; with negative controls (pdfs missing a
+//!    outside and inside, past the critical angle included, the lobe chosen by a lobe number
+//!    drawn apart (`LocalBsdf::sample`'s `uc`); Bonferroni-corrected at 1% over all of them; with negative controls (pdfs missing a
 //!    Jacobian, of the wrong η, choosing the lobe by the wrong Fresnel, of the wrong side)
 //!    that the same test must reject;
 //! 2. the pdf and value written again here in f64 from the papers (Walter et al. 2007,
@@ -13,7 +12,7 @@
 //! 3. energy: the albedo ∫ f |cos θi| dωi estimated by sampling against quadrature, and the
 //!    power it carries (transmission times η'², the radiance convention's factor undone) at
 //!    most 1;
-//! 4. `sample_with`'s value and pdf, computed from the drawn microfacet normal, against
+//! 4. `sample`'s value and pdf, computed from the drawn microfacet normal, against
 //!    `eval_pdf` of the direction it returns.
 //!
 //! Random inputs come from `Pcg32` (tests/common), not from the
@@ -37,8 +36,8 @@ const PHI_BINS: usize = 40;
 const CELLS: usize = THETA_BINS * PHI_BINS;
 
 /// The χ² tests of correct sampling below, all of them: the refractive interface through the
-/// trait (36) and with a lobe number (6), the thin sheet (9).
-const CHI2_RUNS: usize = 36 + 6 + 9;
+/// (36) and the thin sheet (9).
+const CHI2_RUNS: usize = 36 + 9;
 /// The significance of each, Bonferroni-corrected for 1% over all of them.
 const CHI2_ALPHA: f64 = 0.01 / CHI2_RUNS as f64;
 
@@ -223,40 +222,12 @@ fn chi2_dielectric_sampling_matches_its_pdf_over_the_sphere() {
         let glass = Dielectric::new(eta, alpha, Vec3::ONE);
         let wo = wo_at(theta, inside);
         let name = format!("η {eta:.4} α {alpha} θo {theta} inside {inside}");
-        let sample = |rng: &mut Pcg32| glass.sample(wo, rng.next_vec2());
+        let sample = |rng: &mut Pcg32| glass.sample(wo, rng.next_f32(), rng.next_vec2());
         let pdf = |wi: Vec3| glass.pdf(wo, wi) as f64;
         let result = sphere_chi2(&sample, &pdf, panels_for(alpha), k as u64);
         p_values.push(assert_accepted(&name, result));
     }
-    report_p_values("refraction, trait sampling", &p_values);
-}
-
-/// The same with the lobe chosen by a separate uniform number (`sample_with`), for the
-/// integrators that have one: six of the cases, the hard ones among them.
-#[test]
-fn chi2_dielectric_sampling_with_a_lobe_number_matches_its_pdf() {
-    let cases = [
-        (1.5f32, 0.05f32, 0.3, false),
-        (1.5, 0.2, 0.9, true),
-        (1.5, 0.6, 1.3, false),
-        (1.0 / 1.5, 0.05, 0.9, false),
-        (1.0 / 1.5, 0.2, 1.3, true),
-        (1.0 / 1.5, 0.6, 0.3, true),
-    ];
-    let mut p_values = Vec::new();
-    for (k, &(eta, alpha, theta, inside)) in cases.iter().enumerate() {
-        let glass = Dielectric::new(eta, alpha, Vec3::ONE);
-        let wo = wo_at(theta, inside);
-        let name = format!("with uc: η {eta:.4} α {alpha} θo {theta} inside {inside}");
-        let sample = |rng: &mut Pcg32| {
-            let uc = rng.next_f32();
-            glass.sample_with(wo, uc, rng.next_vec2())
-        };
-        let pdf = |wi: Vec3| glass.pdf(wo, wi) as f64;
-        let result = sphere_chi2(&sample, &pdf, panels_for(alpha), 1000 + k as u64);
-        p_values.push(assert_accepted(&name, result));
-    }
-    report_p_values("refraction, sample_with", &p_values);
+    report_p_values("refraction", &p_values);
 }
 
 /// The thin sheet: α 0.05, 0.2 and 0.6, wo outside at 0.3 and 1.2 rad and inside at 0.7 rad.
@@ -269,7 +240,7 @@ fn chi2_thin_dielectric_sampling_matches_its_pdf_over_the_sphere() {
             let thin = ThinDielectric::new(1.5, alpha, Vec3::ONE);
             let wo = wo_at(theta, inside);
             let name = format!("thin α {alpha} θo {theta} inside {inside}");
-            let sample = |rng: &mut Pcg32| thin.sample(wo, rng.next_vec2());
+            let sample = |rng: &mut Pcg32| thin.sample(wo, rng.next_f32(), rng.next_vec2());
             let pdf = |wi: Vec3| thin.pdf(wo, wi) as f64;
             let result = sphere_chi2(&sample, &pdf, panels_for(alpha), 2000 + k);
             p_values.push(assert_accepted(&name, result));
@@ -433,7 +404,7 @@ fn chi2_rejects_dielectric_samples_against_wrong_pdfs() {
     let inside = wo_at(0.5, true);
     let ok = Mistakes::default();
     let right = |wi: Vec3| reference(outside, wi, 1.5, 0.3, ok).1;
-    let sample_outside = |rng: &mut Pcg32| glass.sample(outside, rng.next_vec2());
+    let sample_outside = |rng: &mut Pcg32| glass.sample(outside, rng.next_f32(), rng.next_vec2());
     let accepted = sphere_chi2(&sample_outside, &right, 24, 3000);
     // (A positive control outside the Bonferroni family: it must pass at the family's α.)
     assert_accepted("the f64 reference pdf", accepted);
@@ -471,7 +442,7 @@ fn chi2_rejects_dielectric_samples_against_wrong_pdfs() {
         inside,
         1.5,
     );
-    let sample_inside = |rng: &mut Pcg32| glass.sample(inside, rng.next_vec2());
+    let sample_inside = |rng: &mut Pcg32| glass.sample(inside, rng.next_f32(), rng.next_vec2());
     type Case<'a> = (
         &'a str,
         &'a dyn Fn(&mut Pcg32) -> Option<BsdfSample>,
@@ -504,7 +475,7 @@ fn chi2_rejects_dielectric_samples_against_wrong_pdfs() {
 fn chi2_rejects_thin_dielectric_samples_against_wrong_pdfs() {
     let thin = ThinDielectric::new(1.5, 0.3, Vec3::ONE);
     let wo = wo_at(0.8, false);
-    let sample = |rng: &mut Pcg32| thin.sample(wo, rng.next_vec2());
+    let sample = |rng: &mut Pcg32| thin.sample(wo, rng.next_f32(), rng.next_vec2());
     // The transmitted lobe put straight through along −wo (point-mirrored, not mirrored
     // through the plane): pdf of (−wi.x, −wi.y, −wi.z)'s reflection lobe.
     let point_mirrored = |wi: Vec3| {
@@ -546,7 +517,7 @@ fn chi2_rejects_thin_dielectric_samples_against_wrong_pdfs() {
 // ---------------------------------------------------------------------------------------------
 
 /// The reflected and transmitted albedos ∫ f |cos θi| dωi over each hemisphere, estimated by
-/// `n` samples of `sample_with` (independent lobe numbers): (R, T).
+/// `n` samples (independent lobe numbers): (R, T).
 fn sampled_albedo(
     bsdf: &dyn Fn(f32, Vec2) -> Option<BsdfSample>,
     wo: Vec3,
@@ -607,7 +578,7 @@ fn rough_glass_keeps_at_most_the_energy_that_arrives() {
                     let wo = wo_at(theta, inside);
                     let eta_p = if inside { 1.0 / eta } else { eta } as f64;
                     let power = eta_p * eta_p;
-                    let (r, t) = sampled_albedo(&|uc, u| glass.sample_with(wo, uc, u), wo, 400_000);
+                    let (r, t) = sampled_albedo(&|uc, u| glass.sample(wo, uc, u), wo, 400_000);
                     let total = r + t * power;
                     let what = format!("η {eta:.4} α {alpha} inside {inside} θo {theta}");
                     let mut line = format!(
@@ -652,7 +623,7 @@ fn a_white_thin_sheet_returns_the_ggx_albedo() {
         let thin = ThinDielectric::new(1.5, alpha, Vec3::ONE);
         for (theta, inside) in [(0.0, false), (0.7, false), (1.3, false), (0.7, true)] {
             let wo = wo_at(theta, inside);
-            let (r, t) = sampled_albedo(&|uc, u| thin.sample_with(wo, uc, u), wo, 400_000);
+            let (r, t) = sampled_albedo(&|uc, u| thin.sample(wo, uc, u), wo, 400_000);
             let e = AlbedoTable::get().e(wo.z.abs(), alpha) as f64;
             let what = format!("thin α {alpha} θo {theta} inside {inside}");
             println!("{what}: R {r:.5} T {t:.5} R+T {:.5} E(μ) {e:.5}", r + t);
@@ -673,10 +644,10 @@ fn a_white_thin_sheet_returns_the_ggx_albedo() {
     }
 }
 
-/// `sample_with` computes its value and pdf from the microfacet normal it drew; `eval_pdf`
-/// recomputes them from the returned direction's generalized half vector. They agree
-/// (to 1e-3 relative, f32 rounding of the half vector), and the trait's `sample` returns
-/// exactly `eval_pdf`'s values; the thin sheet's `sample_with` likewise.
+/// The interface's `sample` computes its value and pdf from the microfacet normal it drew;
+/// `eval_pdf` recomputes them from the returned direction's generalized half vector. They
+/// agree (to 1e-3 relative, f32 rounding of the half vector); the thin sheet's `sample`
+/// returns exactly `eval_pdf`'s values.
 #[test]
 fn sampled_values_and_pdfs_are_those_eval_and_pdf_give() {
     let mut rng = Pcg32::new(11, 0xc0de);
@@ -689,7 +660,7 @@ fn sampled_values_and_pdfs_are_those_eval_and_pdf_give() {
         for _ in 0..5000 {
             let uc = rng.next_f32();
             let u = rng.next_vec2();
-            if let Some(s) = glass.sample_with(wo, uc, u) {
+            if let Some(s) = glass.sample(wo, uc, u) {
                 let (f, p) = glass.eval_pdf(wo, s.wi);
                 let what = format!("η {eta} α {alpha} wo {wo} {s:?}: eval {f} pdf {p}");
                 let ef = ((f - s.f_cos).abs() / s.f_cos.max(Vec3::splat(1e-6))).max_element();
@@ -698,10 +669,7 @@ fn sampled_values_and_pdfs_are_those_eval_and_pdf_give() {
                 worst = worst.max(ef).max(ep);
                 compared += 1;
             }
-            if let Some(s) = glass.sample(wo, u) {
-                assert_eq!((s.f_cos, s.pdf), glass.eval_pdf(wo, s.wi));
-            }
-            if let Some(s) = thin.sample_with(wo, uc, u) {
+            if let Some(s) = thin.sample(wo, uc, u) {
                 assert_eq!((s.f_cos, s.pdf), thin.eval_pdf(wo, s.wi));
             }
         }

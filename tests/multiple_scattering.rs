@@ -232,7 +232,7 @@ fn strata_albedo(bsdf: &Bsdf, mu: f64) -> f64 {
                 (i as f32 + 0.5) / grid as f32,
                 (j as f32 + 0.5) / grid as f32,
             );
-            if let Some(s) = bsdf.sample(wo, u) {
+            if let Some(s) = bsdf.sample(wo, 0.0, u) {
                 sum += (s.f_cos.x / s.pdf) as f64;
             }
         }

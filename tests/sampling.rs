@@ -1671,7 +1671,7 @@ fn bsdf_chi2(
     let mut observed = vec![0.0; ThetaPhiGrid::CELLS + 1];
     let mut rng = Pcg32::new(seed, 0xb5df);
     for _ in 0..CHI2_SAMPLES {
-        match bsdf.sample(wo, rng.next_vec2()) {
+        match bsdf.sample(wo, 0.0, rng.next_vec2()) {
             Some(s) if !s.flags.is_specular() => match grid.cell_of(s.wi) {
                 Some(cell) => observed[cell] += 1.0,
                 None => return Err(format!("a sample below the surface: {}", s.wi)),

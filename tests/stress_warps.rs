@@ -596,7 +596,7 @@ fn lambertian_rejects_rim_samples() {
         for &x in &edges {
             for &y in &edges {
                 let u = Vec2::new(x, y);
-                if let Some(s) = bsdf.sample(u) {
+                if let Some(s) = bsdf.sample(0.0, u) {
                     let (wi, pdf) = (s.wi, s.pdf);
                     assert!(
                         pdf.is_finite() && pdf > 0.0 && wi.is_finite(),

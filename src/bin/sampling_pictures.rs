@@ -336,7 +336,8 @@ fn measure_bsdf(case: &BsdfCase, samples: usize, seed: u64) -> Measured {
     let cells = PHI_BINS * COS_BINS;
     let mut counts = vec![0.0; cells + 1];
     for u in uniform_points(samples, seed) {
-        let cell = match bsdf.sample(wo, u) {
+        // The glTF BRDF reads no lobe number (it remaps u.x).
+        let cell = match bsdf.sample(wo, 0.0, u) {
             Some(s) if !s.flags.is_specular() => hemisphere_cell(s.wi),
             _ => None,
         };

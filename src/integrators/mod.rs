@@ -399,8 +399,9 @@ fn denoising_albedo(ctx: &Context, si: &SurfaceInteraction) -> Vec3 {
         if flags.has_non_specular() || bounce == MIRROR_BOUNCES {
             return weight * bsdf.bsdf.albedo();
         }
-        // A delta lobe's direction does not depend on the point drawn.
-        let Some(s) = bsdf.sample(glam::Vec2::splat(0.5)) else {
+        // A delta lobe's direction does not depend on the 2D point; the lobe number chooses
+        // between a smooth glass's mirror and refraction: the likelier one.
+        let Some(s) = bsdf.sample(0.5, glam::Vec2::splat(0.5)) else {
             return weight * bsdf.bsdf.albedo();
         };
         weight *= s.f_cos / s.pdf;

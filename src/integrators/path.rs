@@ -20,8 +20,10 @@
 //! position's slot (dimensions 0–1 of the 4D point whose dimensions 2–3 placed the sample in
 //! the pixel, [`PixelSampler::paired_with_film`]); then each bounce draws one 4D slot, the BSDF
 //! direction (its first two dimensions) and the light point of the vertex that direction
-//! reaches (its last two), and one 1D slot for Russian roulette (skipped, not computed,
-//! before `rr_depth`). The light is chosen with the point's first dimension, which is then
+//! reaches (its last two), and one slot for Russian roulette (skipped, not computed,
+//! before `rr_depth`) whose second dimension is the lobe number of a BSDF that reads one
+//! (glass: [`crate::shading::LocalBsdf::reads_lobe_number`]; the slot is then computed at
+//! every bounce). The light is chosen with the point's first dimension, which is then
 //! reused for the point. All slots are drawn whether used or not, so a pixel's dimensions do
 //! not shift between strategies.
 //!
@@ -217,12 +219,18 @@ fn li_as<B: ShadeAs>(
             u_light = u_own;
             (u_bsdf, Vec2::ZERO)
         };
-        // The roulette's slot is computed only where the roulette runs.
-        let u_rr = if depth >= settings.rr_depth {
-            sampler.next_1d()
-        } else {
-            sampler.skip_slot();
-            1.0
+        // The roulette's slot is computed only where the roulette runs or the BSDF reads a
+        // lobe number, which is then the slot's second dimension.
+        let (u_rr, u_lobe) = match (depth >= settings.rr_depth, bsdf.reads_lobe_number()) {
+            (_, true) => {
+                let u = sampler.next_2d();
+                (u.x, u.y)
+            }
+            (true, false) => (sampler.next_1d(), 0.0),
+            (false, false) => {
+                sampler.skip_slot();
+                (1.0, 0.0)
+            }
         };
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF
@@ -264,7 +272,7 @@ fn li_as<B: ShadeAs>(
         }
 
         // Sample the BSDF for the next direction.
-        let Some(bs) = bsdf.sample(u_bsdf) else {
+        let Some(bs) = bsdf.sample(u_lobe, u_bsdf) else {
             break;
         };
         beta *= bs.f_cos / bs.pdf;

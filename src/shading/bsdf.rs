@@ -14,7 +14,9 @@
 //! |------------|--------------------------------------------------------------------------|
 //! | `eval`     | f(wo, wi)·\|cos θi\| (the cosine included, as Mitsuba's `eval` does)      |
 //! | `pdf`      | the solid-angle density with which `sample` draws `wi`                   |
-//! | `sample`   | a direction `wi` from a 2D point, with its `eval`, `pdf` and lobe flags  |
+//! | `sample`   | a direction `wi` from a 2D point (and, for a BSDF that chooses between   |
+//! |            | lobes after drawing a normal, a lobe number), with its `eval`, `pdf` and |
+//! |            | lobe flags                                                               |
 //!
 //! A variant touches nothing else: [`SurfaceBsdf`] carries world directions into its frame
 //! (and rejects those on the wrong side of the geometric surface), the material preparation
@@ -139,19 +141,28 @@ pub trait LocalBsdf: Copy {
         (self.eval(wo, wi), self.pdf(wo, wi))
     }
 
-    /// The direction `sample` draws with `u` and the lobe it comes from, before its value
-    /// and pdf are known to be non-zero.
-    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)>;
+    /// True when `sample` reads its lobe number `uc`: a BSDF that chooses its lobe after
+    /// drawing a microfacet normal needs a third number (pbrt-v4's `uc`); the others choose
+    /// by remapping `u` and ignore `uc`, so that a caller may leave that number undrawn.
+    #[inline(always)]
+    fn reads_lobe_number(&self) -> bool {
+        false
+    }
+
+    /// The direction `sample` draws with lobe number `uc` and 2D point `u`, and the lobe it
+    /// comes from, before its value and pdf are known to be non-zero.
+    fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)>;
 
     /// The sample of a delta lobe in direction `wi`, with its weight and the probability of
     /// having chosen the lobe.
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample>;
 
-    /// A local direction drawn with 2D point `u`, with its value and pdf; None where the
-    /// point maps to no direction the BSDF scatters into (the hemisphere's rim).
+    /// A local direction drawn with lobe number `uc` (read only where
+    /// [`LocalBsdf::reads_lobe_number`]) and 2D point `u`, with its value and pdf; None where
+    /// the numbers map to no direction the BSDF scatters into (the hemisphere's rim).
     #[inline]
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        let (wi, flags) = self.sample_direction(wo, u)?;
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let (wi, flags) = self.sample_direction(wo, uc, u)?;
         if flags.is_specular() {
             return self.sample_delta(wo, wi, flags);
         }
@@ -226,7 +237,7 @@ impl LocalBsdf for Lambertian {
     }
 
     #[inline(always)]
-    fn sample_direction(&self, _wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+    fn sample_direction(&self, _wo: Vec3, _uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
         let wi = match self.sampling {
             DiffuseSampling::Cosine => square_to_cosine_hemisphere(u),
             DiffuseSampling::Uniform => square_to_uniform_hemisphere(u),
@@ -317,8 +328,23 @@ impl LocalBsdf for Bsdf {
     }
 
     #[inline(always)]
-    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        each_variant!(self, b => b.sample_direction(wo, u))
+    fn reads_lobe_number(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) | Bsdf::MetallicRoughness(_) => false,
+            Bsdf::Glass(b) => b.reads_lobe_number(),
+            Bsdf::ThinGlass(b) => b.reads_lobe_number(),
+        }
+    }
+
+    #[inline(always)]
+    fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+        match self {
+            Bsdf::Diffuse(b) => b.sample_direction(wo, uc, u),
+            // The glTF BRDF chooses its lobe by remapping u.x.
+            Bsdf::MetallicRoughness(b) => b.sample_direction(wo, u),
+            Bsdf::Glass(b) => b.sample_direction(wo, uc, u),
+            Bsdf::ThinGlass(b) => b.sample_direction(wo, uc, u),
+        }
     }
 
     #[inline]
@@ -427,16 +453,23 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
         self.bsdf.eval_pdf(self.wo, local)
     }
 
-    /// A world direction drawn with 2D point `u`; None where none can be drawn, or where it
-    /// falls below the geometric surface.
+    /// True when [`SurfaceBsdf::sample`] reads its lobe number (see
+    /// [`LocalBsdf::reads_lobe_number`]).
+    #[inline(always)]
+    pub fn reads_lobe_number(&self) -> bool {
+        self.bsdf.reads_lobe_number()
+    }
+
+    /// A world direction drawn with lobe number `uc` and 2D point `u`; None where none can be
+    /// drawn, or where it falls below the geometric surface.
     ///
     /// For a non-delta lobe, the value and pdf are those [`SurfaceBsdf::eval`] and
     /// [`SurfaceBsdf::pdf`] give the world direction as it will be traced (after its
     /// rotation out of the local frame has rounded it): an emitter that direction reaches is
     /// then weighted by MIS with exactly the pdf that sampled it.
     #[inline(always)]
-    pub fn sample(&self, u: Vec2) -> Option<BsdfSample> {
-        let (local, flags) = self.bsdf.sample_direction(self.wo, u)?;
+    pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let (local, flags) = self.bsdf.sample_direction(self.wo, uc, u)?;
         let wi = self.frame.to_world(local);
         if flags.is_specular() {
             let s = self.bsdf.sample_delta(self.wo, local, flags)?;
@@ -495,7 +528,9 @@ mod tests {
                         (i as f32 + 0.5) / grid as f32,
                         (j as f32 + 0.5) / grid as f32,
                     );
-                    let Some(s) = surface.sample(u) else { continue };
+                    let Some(s) = surface.sample(0.0, u) else {
+                        continue;
+                    };
                     assert_eq!(s.pdf, surface.pdf(s.wi), "{bsdf:?} u {u}");
                     assert_eq!(s.f_cos, surface.eval(s.wi), "{bsdf:?} u {u}");
                     assert!(s.wi.dot(n) > 0.0);
@@ -565,7 +600,9 @@ mod tests {
         // Sampled directions keep to the rule.
         for i in 0..256 {
             let u = Vec2::new((i % 16) as f32 / 16.0 + 0.03, (i / 16) as f32 / 16.0 + 0.01);
-            if let Some(s) = glass.sample(u) {
+            // Both lobes: the lobe number runs through [0, 1) as a Kronecker sequence.
+            let uc = (i as f32 * 0.618_034).fract();
+            if let Some(s) = glass.sample(uc, u) {
                 let (above_ng, above_ns) = (s.wi.dot(si.ng) > 0.0, s.wi.dot(si.ns) > 0.0);
                 assert_eq!(above_ng, above_ns, "{}", s.wi);
             }
@@ -590,7 +627,7 @@ mod tests {
         for (ior, f0) in [(1.5f32, 0.04f32), (2.0, 1.0 / 9.0), (1.2, 1.0 / 121.0)] {
             let mirror = GltfBrdf::new(Vec3::ZERO, 0.0, 0.0).with_ior(ior);
             let s = Bsdf::MetallicRoughness(mirror.single_scattering())
-                .sample(Vec3::Z, Vec2::new(0.3, 0.7))
+                .sample(Vec3::Z, 0.0, Vec2::new(0.3, 0.7))
                 .expect("the mirror's sample");
             assert!(s.flags.is_specular(), "ior {ior}");
             let weight = s.f_cos / s.pdf;
@@ -640,7 +677,8 @@ mod tests {
                     (i as f32 + 0.5) / grid as f32,
                     (j as f32 + 0.5) / grid as f32,
                 );
-                if let Some(s) = bsdf.sample(wo, u) {
+                let uc = ((i * grid + j) as f32 * 0.618_034).fract();
+                if let Some(s) = bsdf.sample(wo, uc, u) {
                     estimate += (s.f_cos / s.pdf).as_dvec3();
                 }
             }
@@ -845,7 +883,7 @@ mod tests {
         let metal = gltf(Vec3::ONE, 1.0, 0.0);
         assert!(metal.flags().is_specular() && !metal.flags().has_non_specular());
         let s = metal
-            .sample(wo, Vec2::new(0.3, 0.7))
+            .sample(wo, 0.0, Vec2::new(0.3, 0.7))
             .expect("a mirror sample");
         assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
         assert!(s.flags.is_specular());
@@ -855,14 +893,14 @@ mod tests {
         // A smooth dielectric: the mirror takes F, the diffuse lobe the rest.
         let plastic = gltf(Vec3::new(0.5, 0.5, 0.5), 0.0, 0.0);
         assert!(plastic.flags().is_specular() && plastic.flags().has_non_specular());
-        let mirror = plastic.sample(wo, Vec2::new(0.0, 0.5)).unwrap();
+        let mirror = plastic.sample(wo, 0.0, Vec2::new(0.0, 0.5)).unwrap();
         let f = 0.04 + 0.96 * (1.0 - wo.z).powi(5);
         assert!(
             (mirror.f_cos.x - f).abs() < 1e-6,
             "{} against {f}",
             mirror.f_cos.x
         );
-        let diffuse = plastic.sample(wo, Vec2::new(0.99, 0.5)).unwrap();
+        let diffuse = plastic.sample(wo, 0.0, Vec2::new(0.99, 0.5)).unwrap();
         assert!(!diffuse.flags.is_specular());
         assert_eq!(diffuse.pdf, plastic.pdf(wo, diffuse.wi));
     }

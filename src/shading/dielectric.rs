@@ -43,11 +43,10 @@
 //! refraction (Walter eq. 17). The estimator f·|cos θi| / pdf is then G2 / G1(wo) for
 //! reflection and tint (η_o/η_i)² G2 / G1(wo) for transmission.
 //!
-//! The choice between the two lobes needs a third random number after h is drawn, which the
-//! two-dimensional [`LocalBsdf::sample_direction`] does not give: it takes it from the low
-//! bits of `u.y` (`fract(4096 u.y)`, whose correlation with u.y, the normal's azimuth, is
-//! under 2π / 4096 of azimuth), and [`Dielectric::sample_with`] takes it as an argument for
-//! an integrator that has one.
+//! The choice between the two lobes needs a third random number after h is drawn: the lobe
+//! number `uc` of [`LocalBsdf::sample`] (pbrt-v4's `uc`), which the path tracer draws from a
+//! sampler dimension of its own ([`LocalBsdf::reads_lobe_number`]). The smooth interface
+//! chooses with it too.
 //!
 //! **Smooth.** A delta lobe: reflection (−wo.x, −wo.y, wo.z) with probability F(n·wo) and
 //! weight F, refraction (Snell's law, [`refract`]) with probability 1 − F and weight
@@ -73,9 +72,6 @@ const SPECULAR: BsdfFlags = BsdfFlags::REFLECTION
     .union(BsdfFlags::SPECULAR);
 const GLOSSY_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::GLOSSY);
 const SPECULAR_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::SPECULAR);
-
-/// The largest f32 below 1: a probability-scaled random number stays in [0, 1).
-const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The exact Fresnel reflectance of unpolarized light at a smooth dielectric interface, for
 /// light arriving with direction cosine `cos_i` against the normal (negative: from the side
@@ -269,38 +265,6 @@ impl Dielectric {
         let wi = refract(wo, Vec3::Z, eta)?;
         (wi.z < 0.0).then_some((wi, SPECULAR_TRANSMISSION))
     }
-
-    /// A direction drawn with normal sample `u` and lobe choice `uc` (both uniform on
-    /// [0, 1)), its f·|cos θi| and pdf computed from the drawn microfacet normal (the value
-    /// and pdf [`LocalBsdf::eval_pdf`] gives the returned direction up to rounding); for a
-    /// smooth interface, the delta sample as [`LocalBsdf::sample_delta`] weights it.
-    pub fn sample_with(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let up = Upright::of(wo, self.eta)?;
-        let wo_up = up.sign * wo;
-        if self.is_specular() {
-            let (wi, flags) = self.sample_smooth_upright(wo_up, uc, up.eta)?;
-            return self.sample_delta(wo, up.sign * wi, flags);
-        }
-        let (wi, h) = self.sample_upright(wo_up, uc, u, up.eta)?;
-        let (f_cos, pdf) = self.lobe(wo_up, wi, h, up.eta);
-        let flags = match wi.z > 0.0 {
-            true => BsdfFlags::GLOSSY_REFLECTION,
-            false => GLOSSY_TRANSMISSION,
-        };
-        (pdf > 0.0 && pdf.is_finite() && f_cos.is_finite()).then_some(BsdfSample {
-            wi: up.sign * wi,
-            f_cos,
-            pdf,
-            flags,
-        })
-    }
-}
-
-/// The lobe choice the two-dimensional sampling interface leaves no number for: the low bits
-/// of u.y (see the module documentation).
-#[inline]
-fn lobe_number(u: Vec2) -> f32 {
-    (u.y * 4096.0).fract().min(BELOW_ONE)
 }
 
 impl LocalBsdf for Dielectric {
@@ -345,14 +309,19 @@ impl LocalBsdf for Dielectric {
         }
     }
 
+    #[inline(always)]
+    fn reads_lobe_number(&self) -> bool {
+        true
+    }
+
     #[inline]
-    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+    fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
         let up = Upright::of(wo, self.eta)?;
         let wo_up = up.sign * wo;
         let (wi, flags) = match self.is_specular() {
-            true => self.sample_smooth_upright(wo_up, u.x, up.eta)?,
+            true => self.sample_smooth_upright(wo_up, uc, up.eta)?,
             false => {
-                let (wi, _) = self.sample_upright(wo_up, lobe_number(u), u, up.eta)?;
+                let (wi, _) = self.sample_upright(wo_up, uc, u, up.eta)?;
                 let flags = match wi.z > 0.0 {
                     true => BsdfFlags::GLOSSY_REFLECTION,
                     false => GLOSSY_TRANSMISSION,
@@ -376,6 +345,32 @@ impl LocalBsdf for Dielectric {
         };
         (pdf > 0.0).then_some(BsdfSample {
             wi,
+            f_cos,
+            pdf,
+            flags,
+        })
+    }
+
+    /// A direction drawn with normal sample `u` and lobe choice `uc`, its f·|cos θi| and pdf
+    /// computed from the drawn microfacet normal (the value and pdf
+    /// [`LocalBsdf::eval_pdf`] gives the returned direction up to rounding); for a smooth
+    /// interface, the delta sample as [`LocalBsdf::sample_delta`] weights it.
+    #[inline]
+    fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let up = Upright::of(wo, self.eta)?;
+        let wo_up = up.sign * wo;
+        if self.is_specular() {
+            let (wi, flags) = self.sample_smooth_upright(wo_up, uc, up.eta)?;
+            return self.sample_delta(wo, up.sign * wi, flags);
+        }
+        let (wi, h) = self.sample_upright(wo_up, uc, u, up.eta)?;
+        let (f_cos, pdf) = self.lobe(wo_up, wi, h, up.eta);
+        let flags = match wi.z > 0.0 {
+            true => BsdfFlags::GLOSSY_REFLECTION,
+            false => GLOSSY_TRANSMISSION,
+        };
+        (pdf > 0.0 && pdf.is_finite() && f_cos.is_finite()).then_some(BsdfSample {
+            wi: up.sign * wi,
             f_cos,
             pdf,
             flags,
@@ -498,24 +493,6 @@ impl ThinDielectric {
             false => (Vec3::new(wi.x, wi.y, -wi.z), GLOSSY_TRANSMISSION),
         })
     }
-
-    /// A direction drawn with normal sample `u` and lobe choice `uc`, as
-    /// [`Dielectric::sample_with`].
-    pub fn sample_with(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let up = Upright::of(wo, self.eta)?;
-        let (wi, flags) = self.sample_upright(up.sign * wo, uc, u)?;
-        let wi = up.sign * wi;
-        if flags.is_specular() {
-            return self.sample_delta(wo, wi, flags);
-        }
-        let (f_cos, pdf) = self.eval_pdf(wo, wi);
-        (pdf > 0.0).then_some(BsdfSample {
-            wi,
-            f_cos,
-            pdf,
-            flags,
-        })
-    }
 }
 
 impl LocalBsdf for ThinDielectric {
@@ -560,13 +537,14 @@ impl LocalBsdf for ThinDielectric {
         }
     }
 
+    #[inline(always)]
+    fn reads_lobe_number(&self) -> bool {
+        true
+    }
+
     #[inline]
-    fn sample_direction(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
+    fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
         let up = Upright::of(wo, self.eta)?;
-        let uc = match self.is_specular() {
-            true => u.x,
-            false => lobe_number(u),
-        };
         let (wi, flags) = self.sample_upright(up.sign * wo, uc, u)?;
         Some((up.sign * wi, flags))
     }
@@ -595,6 +573,9 @@ impl LocalBsdf for ThinDielectric {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The largest f32 below 1.
+    const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
 
     fn at(theta: f32, phi: f32) -> Vec3 {
         Vec3::new(
@@ -732,7 +713,7 @@ mod tests {
             for theta in [0.0f32, 0.4, 0.8, 1.2, 1.55] {
                 let wo = sign * at(theta, 0.7);
                 let f = fresnel_dielectric(wo.z, eta);
-                let r = glass.sample(wo, Vec2::new(f * 0.5, 0.3)).unwrap();
+                let r = glass.sample(wo, f * 0.5, Vec2::new(0.5, 0.3)).unwrap();
                 assert!(r.flags.contains(BsdfFlags::SPECULAR_REFLECTION));
                 assert!((r.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
                 assert_eq!((r.f_cos.x, r.pdf), (f, f));
@@ -741,7 +722,7 @@ mod tests {
                 let eta_p = if sign > 0.0 { eta } else { 1.0 / eta };
                 if f < 1.0 {
                     let t = glass
-                        .sample(wo, Vec2::new(f + (1.0 - f) * 0.5, 0.3))
+                        .sample(wo, f + (1.0 - f) * 0.5, Vec2::new(0.5, 0.3))
                         .unwrap();
                     assert!(t.flags.contains(SPECULAR_TRANSMISSION), "{what}");
                     assert!(t.wi.z * wo.z < 0.0, "{what}");
@@ -755,7 +736,10 @@ mod tests {
                     assert!((total - 1.0).abs() < 1e-6, "{what}: {total}");
                 } else {
                     assert!(
-                        glass.sample(wo, Vec2::new(BELOW_ONE, 0.3)).unwrap().flags
+                        glass
+                            .sample(wo, BELOW_ONE, Vec2::new(0.5, 0.3))
+                            .unwrap()
+                            .flags
                             == BsdfFlags::SPECULAR_REFLECTION
                     );
                 }
@@ -767,7 +751,9 @@ mod tests {
         let glass = Dielectric::new(1.5, 0.0, Vec3::ONE);
         let wo = -at(0.9, 0.0);
         for k in 0..100 {
-            let s = glass.sample(wo, Vec2::new(k as f32 / 100.0, 0.5)).unwrap();
+            let s = glass
+                .sample(wo, k as f32 / 100.0, Vec2::new(0.5, 0.5))
+                .unwrap();
             assert_eq!(s.flags, BsdfFlags::SPECULAR_REFLECTION);
             assert_eq!((s.f_cos, s.pdf), (Vec3::ONE, 1.0));
         }
@@ -785,7 +771,7 @@ mod tests {
             );
             for k in 0..64 {
                 let u = Vec2::new((k as f32 + 0.5) / 64.0, 0.37);
-                for s in [glass.sample(wo, u), thin.sample(wo, u)]
+                for s in [glass.sample(wo, u.x, u), thin.sample(wo, u.x, u)]
                     .into_iter()
                     .flatten()
                 {
@@ -817,7 +803,7 @@ mod tests {
                 for k in 0..32 {
                     let u = Vec2::new((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 4.0 + 0.1);
                     for (uc, kind) in [(0.0f32, 0), (BELOW_ONE, 1)] {
-                        let Some(s) = glass.sample_with(wo, uc, u) else {
+                        let Some(s) = glass.sample(wo, uc, u) else {
                             continue;
                         };
                         let wi = s.wi;
@@ -828,7 +814,7 @@ mod tests {
                         let (a, b) = (f / index(wo).powi(2), b / index(wi).powi(2));
                         assert!((a - b).abs() <= 2e-4 * a, "{what}: {a} against {b}");
                         seen[kind] += 1;
-                        let Some(s) = thin.sample_with(wo, uc, u) else {
+                        let Some(s) = thin.sample(wo, uc, u) else {
                             continue;
                         };
                         let wi = s.wi;
@@ -883,11 +869,11 @@ mod tests {
             for theta in [0.0f32, 0.5, 1.0, 1.5] {
                 let wo = sign * at(theta, 0.4);
                 let f = fresnel_dielectric(theta.cos(), 1.5);
-                let t = thin.sample(wo, Vec2::new(BELOW_ONE, 0.5)).unwrap();
+                let t = thin.sample(wo, BELOW_ONE, Vec2::new(0.5, 0.5)).unwrap();
                 assert_eq!(t.wi, -wo);
                 assert!(t.flags.contains(SPECULAR_TRANSMISSION));
                 assert_eq!((t.f_cos.x, t.pdf), (1.0 - f, 1.0 - f));
-                let r = thin.sample(wo, Vec2::new(0.0, 0.5)).unwrap();
+                let r = thin.sample(wo, 0.0, Vec2::new(0.5, 0.5)).unwrap();
                 assert_eq!(r.wi, Vec3::new(-wo.x, -wo.y, wo.z));
                 assert_eq!((r.f_cos.x, r.pdf), (f, f));
                 assert!((r.f_cos.x + t.f_cos.x - 1.0).abs() < 1e-7);
@@ -905,7 +891,9 @@ mod tests {
         for sign in [1.0f32, -1.0] {
             let wo = sign * at(0.7, 0.2);
             for k in 0..16 {
-                let s = glass.sample(wo, Vec2::new(k as f32 / 16.0, 0.5)).unwrap();
+                let s = glass
+                    .sample(wo, k as f32 / 16.0, Vec2::new(0.5, 0.5))
+                    .unwrap();
                 assert!((s.wi + wo).length() < 1e-6);
                 assert_eq!((s.f_cos, s.pdf), (tint, 1.0));
             }
@@ -931,16 +919,16 @@ mod tests {
                         let u = Vec2::new((k % 20) as f32 / 20.0, (k / 20) as f32 / 20.0);
                         let u = u.min(Vec2::splat(BELOW_ONE));
                         let samples = [
-                            glass.sample(wo, u),
-                            thin.sample(wo, u),
-                            glass.sample_with(wo, u.x, u),
-                            thin.sample_with(wo, u.y, u),
+                            glass.sample(wo, u.y, u),
+                            thin.sample(wo, u.y, u),
+                            glass.sample(wo, u.x, u),
+                            thin.sample(wo, u.x, u),
                         ];
                         let again = [
-                            glass.sample(wo, u),
-                            thin.sample(wo, u),
-                            glass.sample_with(wo, u.x, u),
-                            thin.sample_with(wo, u.y, u),
+                            glass.sample(wo, u.y, u),
+                            thin.sample(wo, u.y, u),
+                            glass.sample(wo, u.x, u),
+                            thin.sample(wo, u.x, u),
                         ];
                         for (a, b) in samples.iter().zip(&again) {
                             let what = format!("α {alpha} η {eta} wo {wo:?} u {u}: {a:?}");
