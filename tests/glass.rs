@@ -14,65 +14,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-
-use common::{data_uri, render, s};
+use common::{
+    outward_sphere, perspective_camera, render, render_under_white_sky, s, write_mesh_scene,
+};
 use serde_json::{json, Value};
-
-/// Writes a glTF of one mesh (`positions`, `triangles`) with `material`, seen by `camera`
-/// (a glTF camera object) from `eye` looking down −Z, to `dir/name`.
-fn write_scene(
-    dir: &Path,
-    name: &str,
-    positions: &[[f32; 3]],
-    triangles: &[[u32; 3]],
-    material: Value,
-    camera: Value,
-    eye: [f32; 3],
-) -> PathBuf {
-    let mut bin = Vec::new();
-    for p in positions {
-        for v in p {
-            bin.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    let index_offset = bin.len();
-    for t in triangles {
-        for i in t {
-            bin.extend_from_slice(&i.to_le_bytes());
-        }
-    }
-    let (lo, hi) = positions
-        .iter()
-        .fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
-                [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
-            )
-        });
-    let doc = json!({
-        "asset": {"version": "2.0"},
-        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_ior"],
-        "scene": 0,
-        "scenes": [{"nodes": [0, 1]}],
-        "nodes": [{"mesh": 0}, {"camera": 0, "translation": eye}],
-        "cameras": [camera],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
-        "materials": [material],
-        "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": index_offset},
-            {"buffer": 0, "byteOffset": index_offset, "byteLength": bin.len() - index_offset}
-        ],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi},
-            {"bufferView": 1, "componentType": 5125, "count": triangles.len() * 3, "type": "SCALAR"}
-        ]
-    });
-    let path = dir.join(name);
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    path
-}
 
 /// A glass material: base colour white, roughness `roughness`, metallic 0, transmission 1,
 /// `ior`; a volume (thickness 1) with `attenuation` (colour, distance) unless `thin`.
@@ -95,73 +40,26 @@ fn glass(ior: f32, roughness: f32, thin: bool, attenuation: Option<([f32; 3], f3
     })
 }
 
-/// Renders `scene` under a white sky by path tracing up to 5000 bounces, without Russian
-/// roulette; the pixels.
-fn render_under_white_sky(dir: &Path, scene: &Path, spp: u32, size: &str) -> Vec<[f32; 3]> {
-    let out = dir.join(format!(
-        "{}.exr",
-        scene.file_stem().unwrap().to_string_lossy()
-    ));
-    let spp = spp.to_string();
-    let run = render(
-        dir,
-        &[
-            s(scene),
-            "--background",
-            "1,1,1",
-            "--integrator",
-            "path",
-            "--max-depth",
-            "5000",
-            "--rr-depth",
-            "1000",
-            "--spp",
-            &spp,
-            "--resolution",
-            size,
-            "-o",
-            s(&out),
-            "--no-png",
-        ],
-    );
-    run.assert_success();
-    strata::render::output::read_exr_rgb(&out).unwrap().2
-}
-
-/// An outward-wound geodesic sphere of radius 1 at the origin.
-fn sphere() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let (points, triangles) = common::inward_geodesic_sphere(4);
-    let positions = points.iter().map(|p| p.as_vec3().to_array()).collect();
-    (
-        positions,
-        triangles.iter().map(|&[a, b, c]| [a, c, b]).collect(),
-    )
-}
-
-fn perspective() -> Value {
-    json!({"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.01}})
-}
-
 #[test]
 fn a_glass_sphere_in_a_white_furnace_disappears() {
     let dir = tempfile::tempdir().unwrap();
-    let (positions, triangles) = sphere();
+    let (positions, triangles) = outward_sphere();
     let cases = [
         ("smooth.gltf", glass(1.5, 0.0, false, None)),
         ("diamond.gltf", glass(2.4, 0.0, false, None)),
         ("thin.gltf", glass(1.5, 0.0, true, None)),
     ];
     for (name, material) in cases {
-        let scene = write_scene(
+        let scene = write_mesh_scene(
             dir.path(),
             name,
             &positions,
             &triangles,
             material,
-            perspective(),
+            perspective_camera(),
             [0.0, 0.0, 4.0],
         );
-        let px = render_under_white_sky(dir.path(), &scene, 16, "32x32");
+        let px = render_under_white_sky(dir.path(), &scene, 16, "32x32", &[]);
         let (lo, hi) = px
             .iter()
             .flatten()
@@ -181,16 +79,16 @@ fn a_glass_sphere_in_a_white_furnace_disappears() {
     }
     // Control: an absorbing sphere is darker where the camera looks through it.
     let absorbing = glass(1.5, 0.0, false, Some(([0.5, 0.5, 0.5], 1.0)));
-    let scene = write_scene(
+    let scene = write_mesh_scene(
         dir.path(),
         "absorbing.gltf",
         &positions,
         &triangles,
         absorbing,
-        perspective(),
+        perspective_camera(),
         [0.0, 0.0, 4.0],
     );
-    let px = render_under_white_sky(dir.path(), &scene, 16, "32x32");
+    let px = render_under_white_sky(dir.path(), &scene, 16, "32x32", &[]);
     let centre = px[16 * 32 + 16][0];
     assert!(
         centre < 0.5,
@@ -200,16 +98,16 @@ fn a_glass_sphere_in_a_white_furnace_disappears() {
     // energy compensation for dielectrics yet: 12% over this sphere at roughness 0.5, most
     // of it on the way out, where the dielectric BSDF's own tests measure 0.675 of the power
     // kept at α 0.6 and normal incidence), and never adds light.
-    let scene = write_scene(
+    let scene = write_mesh_scene(
         dir.path(),
         "rough.gltf",
         &positions,
         &triangles,
         glass(1.5, 0.5, false, None),
-        perspective(),
+        perspective_camera(),
         [0.0, 0.0, 4.0],
     );
-    let px = render_under_white_sky(dir.path(), &scene, 64, "16x16");
+    let px = render_under_white_sky(dir.path(), &scene, 64, "16x16", &[]);
     let mean = px.iter().flatten().map(|&v| v as f64).sum::<f64>() / (px.len() * 3) as f64;
     println!("rough.gltf: mean {mean}");
     assert!(mean < 0.99 && mean > 0.8, "rough glass: mean {mean}");
@@ -249,7 +147,7 @@ fn light_through_a_slab_follows_beer_lambert() {
     let tau = color.map(|c| c.powf(thickness / distance));
     for (name, ior, spp) in [("invisible.gltf", 1.0f32, 4), ("glass.gltf", 1.5, 4096)] {
         let material = glass(ior, 0.0, false, Some((color, distance)));
-        let scene = write_scene(
+        let scene = write_mesh_scene(
             dir.path(),
             name,
             &positions,
@@ -258,7 +156,7 @@ fn light_through_a_slab_follows_beer_lambert() {
             ortho.clone(),
             [0.0, 0.0, 3.0],
         );
-        let px = render_under_white_sky(dir.path(), &scene, spp, "4x4");
+        let px = render_under_white_sky(dir.path(), &scene, spp, "4x4", &[]);
         let f = ((ior - 1.0) / (ior + 1.0)).powi(2) as f64;
         for c in 0..3 {
             let t = tau[c] as f64;
@@ -281,17 +179,17 @@ fn light_through_a_slab_follows_beer_lambert() {
 #[test]
 fn mixed_glass_is_the_same_on_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    let (positions, triangles) = sphere();
+    let (positions, triangles) = outward_sphere();
     let mut material = glass(1.5, 0.3, false, Some(([0.6, 0.8, 0.9], 1.5)));
     material["pbrMetallicRoughness"]["metallicFactor"] = json!(0.3);
     material["extensions"]["KHR_materials_transmission"]["transmissionFactor"] = json!(0.5);
-    let scene = write_scene(
+    let scene = write_mesh_scene(
         dir.path(),
         "mixed.gltf",
         &positions,
         &triangles,
         material,
-        perspective(),
+        perspective_camera(),
         [0.0, 0.0, 4.0],
     );
     // The EXRs differ only in their headers' timings: compare the pixels, channel by channel.

@@ -4,11 +4,13 @@
 //! the render tests, a film's sums as bits.
 #![allow(dead_code)]
 
+pub mod sphere_chi2;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
-use serde_json::Value;
+use serde_json::{json, Value};
 
 /// A finished run of the binary.
 pub struct Run {
@@ -396,4 +398,115 @@ impl Pcg32 {
     pub fn below(&mut self, n: u32) -> u32 {
         ((self.next_u32() as u64 * n as u64) >> 32) as u32
     }
+}
+
+/// Writes a glTF of one mesh (`positions`, `triangles`) with `material`, seen by `camera`
+/// (a glTF camera object) from `eye` looking down −Z, to `dir/name`.
+pub fn write_mesh_scene(
+    dir: &Path,
+    name: &str,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    material: Value,
+    camera: Value,
+    eye: [f32; 3],
+) -> PathBuf {
+    let mut bin = Vec::new();
+    for p in positions {
+        for v in p {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let index_offset = bin.len();
+    for t in triangles {
+        for i in t {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    let (lo, hi) = positions
+        .iter()
+        .fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
+                [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
+            )
+        });
+    // The material's extensions, declared as used.
+    let extensions: Vec<String> = (material.get("extensions").and_then(|e| e.as_object()))
+        .map(|e| e.keys().cloned().collect())
+        .unwrap_or_default();
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": extensions,
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": eye}],
+        "cameras": [camera],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "materials": [material],
+        "buffers": [{"byteLength": bin.len(), "uri": data_uri(&bin)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": index_offset},
+            {"buffer": 0, "byteOffset": index_offset, "byteLength": bin.len() - index_offset}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi},
+            {"bufferView": 1, "componentType": 5125, "count": triangles.len() * 3, "type": "SCALAR"}
+        ]
+    });
+    let path = dir.join(name);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+/// Renders `scene` under a white sky by path tracing up to 5000 bounces, without Russian
+/// roulette, with `extra` options; the pixels.
+pub fn render_under_white_sky(
+    dir: &Path,
+    scene: &Path,
+    spp: u32,
+    size: &str,
+    extra: &[&str],
+) -> Vec<[f32; 3]> {
+    let out = dir.join(format!(
+        "{}.exr",
+        scene.file_stem().unwrap().to_string_lossy()
+    ));
+    let spp = spp.to_string();
+    let mut args = vec![
+        s(scene),
+        "--background",
+        "1,1,1",
+        "--integrator",
+        "path",
+        "--max-depth",
+        "5000",
+        "--rr-depth",
+        "1000",
+        "--spp",
+        &spp,
+        "--resolution",
+        size,
+        "-o",
+        s(&out),
+        "--no-png",
+    ];
+    args.extend_from_slice(extra);
+    let run = render(dir, &args);
+    run.assert_success();
+    strata::render::output::read_exr_rgb(&out).unwrap().2
+}
+
+/// An outward-wound geodesic sphere of radius 1 at the origin.
+pub fn outward_sphere() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let (points, triangles) = inward_geodesic_sphere(4);
+    let positions = points.iter().map(|p| p.as_vec3().to_array()).collect();
+    (
+        positions,
+        triangles.iter().map(|&[a, b, c]| [a, c, b]).collect(),
+    )
+}
+
+pub fn perspective_camera() -> Value {
+    json!({"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.01}})
 }
