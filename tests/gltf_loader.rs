@@ -402,8 +402,8 @@ fn what_is_not_rendered_gets_one_warning_each() {
     let dir = tempfile::tempdir().unwrap();
     doc["extensionsUsed"] = json!([
         "KHR_materials_emissive_strength",
-        "KHR_materials_clearcoat",
-        "KHR_materials_sheen"
+        "KHR_materials_specular",
+        "KHR_materials_iridescence"
     ]);
     doc["materials"][0] = json!({
         "name": "coated",
@@ -415,7 +415,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
         "occlusionTexture": {"index": 0},
         "alphaMode": "MASK", "alphaCutoff": 0.3,
         "extensions": {
-            "KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
+            "KHR_materials_specular": {"specularFactor": 0.5},
             "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}
         }
     });
@@ -441,12 +441,12 @@ fn what_is_not_rendered_gets_one_warning_each() {
             .count()
     };
     assert_eq!(
-        says(&file_level, &["KHR_materials_clearcoat", "ignores"]),
+        says(&file_level, &["KHR_materials_specular", "ignores"]),
         1,
         "{file_level:?}"
     );
     assert_eq!(
-        says(&file_level, &["KHR_materials_sheen", "without that layer"]),
+        says(&file_level, &["KHR_materials_iridescence", "without that layer"]),
         1,
         "{file_level:?}"
     );
@@ -467,7 +467,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     for words in [
         &["material 0 'coated'"][..],
         &["occlusion texture"],
-        &["KHR_materials_clearcoat"],
+        &["KHR_materials_specular"],
     ] {
         assert_eq!(says(&coated, words), 1, "{words:?} in {coated:?}");
     }

@@ -29,8 +29,10 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
     "KHR_mesh_quantization",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_texture_transform",
@@ -39,8 +41,10 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
 /// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
 /// warning).
 const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_transmission",
     "KHR_materials_volume",
 ];
@@ -49,9 +53,7 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_clearcoat"
-        | "KHR_materials_sheen"
-        | "KHR_materials_specular"
+        "KHR_materials_specular"
         | "KHR_materials_iridescence"
         | "KHR_materials_anisotropy"
         | "KHR_materials_dispersion" => "its materials render without that layer or effect",
@@ -792,6 +794,13 @@ impl Loader<'_> {
             }
             _ => None,
         };
+        let clearcoat = self.clearcoat(m, &label)?;
+        let sheen = self.sheen(m, &label)?;
+        if transmission_factor > 0.0 && (clearcoat.is_some() || sheen.is_some()) {
+            self.warnings.push(format!(
+                "{label}: its glass (KHR_materials_transmission) renders without its clear coat and sheen, which only the opaque part shows"
+            ));
+        }
         let alpha_mode = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
             gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
@@ -809,6 +818,8 @@ impl Loader<'_> {
             transmission: transmission_factor,
             transmission_texture,
             volume,
+            clearcoat,
+            sheen,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
@@ -824,6 +835,138 @@ impl Loader<'_> {
             double_sided: m.double_sided(),
         };
         Ok(material)
+    }
+
+    /// A material's `KHR_materials_clearcoat`, None without it or where its factor is 0.
+    fn clearcoat(
+        &mut self,
+        m: &gltf::Material,
+        label: &str,
+    ) -> Result<Option<super::ClearcoatLayer>> {
+        let Some(ext) = m.extension_value("KHR_materials_clearcoat") else {
+            return Ok(None);
+        };
+        let what = format!("{label} KHR_materials_clearcoat");
+        let factor = unit_number(ext, "clearcoatFactor", 0.0, &what)?;
+        let roughness = unit_number(ext, "clearcoatRoughnessFactor", 0.0, &what)?;
+        let texture = self.extension_texture(ext, "clearcoatTexture", &what)?;
+        let roughness_texture = self.extension_texture(ext, "clearcoatRoughnessTexture", &what)?;
+        let normal_texture = self.extension_texture(ext, "clearcoatNormalTexture", &what)?;
+        let normal_scale = match ext
+            .get("clearcoatNormalTexture")
+            .and_then(|t| t.get("scale"))
+        {
+            None => 1.0,
+            Some(s) => s.as_f64().filter(|s| s.is_finite()).ok_or_else(|| {
+                format!("{what}: clearcoatNormalTexture scale {s} is not a number")
+            })? as f32,
+        };
+        if factor == 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(super::ClearcoatLayer {
+            factor,
+            texture,
+            roughness,
+            roughness_texture,
+            normal_texture,
+            normal_scale,
+        }))
+    }
+
+    /// A material's `KHR_materials_sheen`, None without it or where its colour is black.
+    fn sheen(&mut self, m: &gltf::Material, label: &str) -> Result<Option<super::SheenLayer>> {
+        let Some(ext) = m.extension_value("KHR_materials_sheen") else {
+            return Ok(None);
+        };
+        let what = format!("{label} KHR_materials_sheen");
+        let color = match ext.get("sheenColorFactor") {
+            None => Vec3::ZERO,
+            Some(v) => {
+                let c: Option<Vec<f32>> = (v.as_array()).map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64().map(|x| x as f32))
+                        .collect()
+                });
+                match c {
+                    Some(c) if c.len() == 3 && c.iter().all(|x| (0.0..=1.0).contains(x)) => {
+                        Vec3::new(c[0], c[1], c[2])
+                    }
+                    _ => {
+                        return Err(format!(
+                            "{what}: sheenColorFactor {v} is not three numbers between 0 and 1"
+                        ))
+                    }
+                }
+            }
+        };
+        let roughness = unit_number(ext, "sheenRoughnessFactor", 0.0, &what)?;
+        let color_texture = self.extension_texture(ext, "sheenColorTexture", &what)?;
+        let roughness_texture = self.extension_texture(ext, "sheenRoughnessTexture", &what)?;
+        if color == Vec3::ZERO {
+            return Ok(None);
+        }
+        Ok(Some(super::SheenLayer {
+            color,
+            color_texture,
+            roughness,
+            roughness_texture,
+        }))
+    }
+
+    /// The texture an extension's JSON binds under `key` (a textureInfo: `index`,
+    /// `texCoord`, `KHR_texture_transform`), read as the core material's are.
+    fn extension_texture(
+        &mut self,
+        ext: &gltf::json::Value,
+        key: &str,
+        what: &str,
+    ) -> Result<Option<TextureRef>> {
+        let Some(info) = ext.get(key) else {
+            return Ok(None);
+        };
+        let index = (info.get("index").and_then(|i| i.as_u64()))
+            .ok_or_else(|| format!("{what}: {key} has no texture index"))?;
+        let texture = (self.document.textures().nth(index as usize))
+            .ok_or_else(|| format!("{what}: {key} names texture {index}, which does not exist"))?;
+        let sampler = texture.sampler();
+        let mut tex_coord = info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32;
+        let mut transform = [Vec2::X, Vec2::Y, Vec2::ZERO];
+        if let Some(t) = (info.get("extensions")).and_then(|e| e.get("KHR_texture_transform")) {
+            let pair = |k: &str, default: [f32; 2]| -> [f32; 2] {
+                match t.get(k).and_then(|v| v.as_array()) {
+                    Some(a) if a.len() == 2 => [
+                        a[0].as_f64().unwrap_or(default[0] as f64) as f32,
+                        a[1].as_f64().unwrap_or(default[1] as f64) as f32,
+                    ],
+                    _ => default,
+                }
+            };
+            let rotation = t.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32;
+            let ([sx, sy], offset) = (pair("scale", [1.0, 1.0]), pair("offset", [0.0, 0.0]));
+            let (s, c) = rotation.sin_cos();
+            // As `texture_ref`: uv' = T · R · S · uv.
+            transform = [
+                Vec2::new(c * sx, -s * sx),
+                Vec2::new(s * sy, c * sy),
+                Vec2::from_array(offset),
+            ];
+            if let Some(tc) = t.get("texCoord").and_then(|t| t.as_u64()) {
+                tex_coord = tc as u32;
+            }
+        }
+        if tex_coord != 0 {
+            self.warnings.push(format!(
+                "{what} {key} uses TEXCOORD_{tex_coord}; strata reads TEXCOORD_0 only"
+            ));
+        }
+        Ok(Some(TextureRef {
+            image: texture.source().index(),
+            tex_coord,
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            transform,
+        }))
     }
 
     /// Where image `i`'s bytes are. Read from the JSON rather than through
@@ -1421,6 +1564,18 @@ fn assemble_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
             .collect(),
         _ => Vec::new(),
+    }
+}
+
+/// The number under `key` of an extension's JSON, `default` where it is absent; an error
+/// naming `what` where it is not a number between 0 and 1.
+fn unit_number(ext: &gltf::json::Value, key: &str, default: f32, what: &str) -> Result<f32> {
+    match ext.get(key) {
+        None => Ok(default),
+        Some(v) => match v.as_f64() {
+            Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
+            _ => Err(format!("{what}: {key} {v} is not a number between 0 and 1")),
+        },
     }
 }
 

@@ -79,6 +79,10 @@ pub struct Material {
     /// `KHR_materials_volume`: the transmissive surface bounds a volume (thickness factor
     /// above 0), else it is a thin wall.
     pub volume: Option<Volume>,
+    /// `KHR_materials_clearcoat` (None without it, or with a clearcoatFactor of 0).
+    pub clearcoat: Option<ClearcoatLayer>,
+    /// `KHR_materials_sheen` (None without it, or with a black sheenColorFactor).
+    pub sheen: Option<SheenLayer>,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -90,6 +94,30 @@ pub struct Material {
     /// The material's `KHR_materials_*` extensions that strata does not render.
     pub ignored_extensions: Vec<String>,
     pub double_sided: bool,
+}
+
+/// A clear coat over a material (`KHR_materials_clearcoat`): its weight, clearcoatFactor ×
+/// the texture's R; its roughness, clearcoatRoughnessFactor × the roughness texture's G; and
+/// its own normal map (without one, the coat follows the vertex normals, not the base's map).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClearcoatLayer {
+    pub factor: f32,
+    pub texture: Option<TextureRef>,
+    pub roughness: f32,
+    pub roughness_texture: Option<TextureRef>,
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+}
+
+/// A sheen of fibres over a material (`KHR_materials_sheen`): its colour, sheenColorFactor ×
+/// the colour texture's RGB (sRGB), and roughness, sheenRoughnessFactor × the roughness
+/// texture's A.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SheenLayer {
+    pub color: Vec3,
+    pub color_texture: Option<TextureRef>,
+    pub roughness: f32,
+    pub roughness_texture: Option<TextureRef>,
 }
 
 /// The medium inside a transmissive material's closed surface (`KHR_materials_volume`).
@@ -150,6 +178,8 @@ impl Default for Material {
             transmission: 0.0,
             transmission_texture: None,
             volume: None,
+            clearcoat: None,
+            sheen: None,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,

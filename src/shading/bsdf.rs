@@ -27,6 +27,7 @@ use glam::{Vec2, Vec3};
 use super::dielectric::{Dielectric, ThinDielectric};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
+use super::layers::Layered;
 use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
 use crate::sampling::Onb;
 
@@ -263,6 +264,9 @@ pub enum Bsdf {
     Glass(Dielectric),
     /// A thin transmissive wall (`KHR_materials_transmission` alone): no refraction.
     ThinGlass(ThinDielectric),
+    /// The glTF BRDF under a sheen and/or a clear coat (`KHR_materials_sheen`,
+    /// `KHR_materials_clearcoat`).
+    Layered(Layered),
 }
 
 /// Dispatches `$call` on the BSDF variant `$b` names.
@@ -273,6 +277,7 @@ macro_rules! each_variant {
             Bsdf::MetallicRoughness($b) => $call,
             Bsdf::Glass($b) => $call,
             Bsdf::ThinGlass($b) => $call,
+            Bsdf::Layered($b) => $call,
         }
     };
 }
@@ -287,6 +292,7 @@ impl LocalBsdf for Bsdf {
     fn at(self, wo: Vec3) -> Bsdf {
         match self {
             Bsdf::MetallicRoughness(brdf) => Bsdf::MetallicRoughness(brdf.at(wo)),
+            Bsdf::Layered(b) => Bsdf::Layered(b.at(wo)),
             other => other,
         }
     }
@@ -309,6 +315,7 @@ impl LocalBsdf for Bsdf {
             Bsdf::MetallicRoughness(brdf) => brdf.base_color,
             Bsdf::Glass(b) => b.albedo(),
             Bsdf::ThinGlass(b) => b.albedo(),
+            Bsdf::Layered(b) => b.albedo(),
         }
     }
 
@@ -333,6 +340,7 @@ impl LocalBsdf for Bsdf {
             Bsdf::Diffuse(_) | Bsdf::MetallicRoughness(_) => false,
             Bsdf::Glass(b) => b.reads_lobe_number(),
             Bsdf::ThinGlass(b) => b.reads_lobe_number(),
+            Bsdf::Layered(b) => b.reads_lobe_number(),
         }
     }
 
@@ -344,6 +352,7 @@ impl LocalBsdf for Bsdf {
             Bsdf::MetallicRoughness(b) => b.sample_direction(wo, u),
             Bsdf::Glass(b) => b.sample_direction(wo, uc, u),
             Bsdf::ThinGlass(b) => b.sample_direction(wo, uc, u),
+            Bsdf::Layered(b) => b.sample_direction(wo, uc, u),
         }
     }
 
@@ -353,6 +362,7 @@ impl LocalBsdf for Bsdf {
             Bsdf::MetallicRoughness(brdf) => brdf.sample_delta(wo, wi, flags),
             Bsdf::Glass(b) => b.sample_delta(wo, wi, flags),
             Bsdf::ThinGlass(b) => b.sample_delta(wo, wi, flags),
+            Bsdf::Layered(b) => b.sample_delta(wo, wi, flags),
             Bsdf::Diffuse(_) => None,
         }
     }

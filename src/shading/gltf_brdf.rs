@@ -239,6 +239,15 @@ impl GltfBrdf {
         (f0, self.base_color * (1.0 - self.metallic))
     }
 
+    /// A rough estimate of the light the BRDF returns toward `wo`: the Fresnel-weighted
+    /// luminances of its lobes that its own choice of lobe weighs, for a layer above it that
+    /// chooses between itself and this BRDF ([`super::layers::Layered`]).
+    pub fn sampling_albedo(&self, wo: Vec3) -> f32 {
+        let (f0, c_diff) = self.colors();
+        let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
+        luminance(schlick(f0, wo.z)) + luminance((Vec3::ONE - f_d) * c_diff)
+    }
+
     /// The probability of sampling the specular lobe seen from `wo`: its share of the
     /// Fresnel-weighted luminance, F(n·wo) against (1 − F_d(n·wo)) c_diff (1 where the diffuse
     /// lobe is black).

@@ -28,8 +28,10 @@ use super::bsdf::{Bsdf, BsdfFlags, Lambertian, LocalBsdf, SurfaceBsdf};
 use super::dielectric::{Dielectric, ThinDielectric};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
+use super::layers::{Coat, Layered, Sheen, SheenTable};
 use super::microfacet::AlbedoTable;
 use super::texture::{transform_uv, Encoding, Image};
+use crate::sampling::Onb;
 use crate::scene::{Scene, TextureRef};
 
 /// What the integrator needs to read from materials.
@@ -106,6 +108,9 @@ struct Prepared {
     /// The absorption coefficient inside a transmissive volume (`KHR_materials_volume`);
     /// None for a thin wall, or an opaque material.
     volume: Option<Vec3>,
+    /// `KHR_materials_clearcoat` and `KHR_materials_sheen` (glTF model only).
+    coat: Option<PreparedCoat>,
+    sheen: Option<PreparedSheen>,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -114,6 +119,26 @@ struct Prepared {
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
+}
+
+/// A material's clear coat: weight (× texture R), roughness (× texture G), normal map.
+#[derive(Clone, Debug)]
+struct PreparedCoat {
+    factor: f32,
+    texture: Option<Binding>,
+    roughness: f32,
+    roughness_texture: Option<Binding>,
+    normal_texture: Option<Binding>,
+    normal_scale: f32,
+}
+
+/// A material's sheen: colour (× texture RGB, sRGB) and roughness (× texture A).
+#[derive(Clone, Debug)]
+struct PreparedSheen {
+    color: Vec3,
+    color_texture: Option<Binding>,
+    roughness: f32,
+    roughness_texture: Option<Binding>,
 }
 
 /// A BSDF type that [`Materials`] can give a surface point as ([`Materials::bsdf_as`]): an
@@ -152,7 +177,7 @@ impl ShadeAs for Lambertian {
         uv: Vec2,
     ) -> SurfaceBsdf<Lambertian> {
         debug_assert!(materials.lambertian());
-        materials.surface(scene, si, uv, |_, base| materials.lambertian_of(base))
+        materials.surface(scene, si, uv, |_, base, _| materials.lambertian_of(base))
     }
 }
 
@@ -223,6 +248,26 @@ impl Materials {
                 true => bind(&m.transmission_texture, Encoding::Linear, &mut images)?,
                 false => None,
             };
+            let coat = match (&m.clearcoat, is_used && gltf) {
+                (Some(c), true) => Some(PreparedCoat {
+                    factor: c.factor,
+                    texture: bind(&c.texture, Encoding::Linear, &mut images)?,
+                    roughness: c.roughness,
+                    roughness_texture: bind(&c.roughness_texture, Encoding::Linear, &mut images)?,
+                    normal_texture: bind(&c.normal_texture, Encoding::Linear, &mut images)?,
+                    normal_scale: c.normal_scale,
+                }),
+                _ => None,
+            };
+            let sheen = match (&m.sheen, is_used && gltf) {
+                (Some(s), true) => Some(PreparedSheen {
+                    color: s.color,
+                    color_texture: bind(&s.color_texture, Encoding::Srgb, &mut images)?,
+                    roughness: s.roughness,
+                    roughness_texture: bind(&s.roughness_texture, Encoding::Linear, &mut images)?,
+                }),
+                _ => None,
+            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
                 let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
                 let metallic_roughness = match gltf {
@@ -251,6 +296,8 @@ impl Materials {
                     .volume
                     .filter(|_| m.transmission > 0.0)
                     .map(|v| v.absorption()),
+                coat,
+                sheen,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -264,13 +311,29 @@ impl Materials {
             // point inside the render (and its timing).
             AlbedoTable::get();
         }
+        if materials.iter().any(|m| m.sheen.is_some()) {
+            SheenTable::get();
+        }
+        let coat_normals =
+            |m: &Prepared| (m.coat.as_ref()).is_some_and(|c| c.normal_texture.is_some());
         let textured = materials.iter().any(|m| {
             m.base_texture.is_some()
                 || m.emissive_texture.is_some()
                 || m.metallic_roughness_texture.is_some()
                 || m.normal_texture.is_some()
+                || m.transmission_texture.is_some()
+                || (m.coat.as_ref()).is_some_and(|c| {
+                    c.texture.is_some()
+                        || c.roughness_texture.is_some()
+                        || c.normal_texture.is_some()
+                })
+                || (m.sheen.as_ref())
+                    .is_some_and(|s| s.color_texture.is_some() || s.roughness_texture.is_some())
         });
-        let tangents = match materials.iter().any(|m| m.normal_texture.is_some()) {
+        let tangents = match materials
+            .iter()
+            .any(|m| m.normal_texture.is_some() || coat_normals(m))
+        {
             true => scene.tangent_frames(),
             false => Vec::new(),
         };
@@ -316,9 +379,9 @@ impl Materials {
     /// The BSDF at the surface point (`uv`: its texture coordinates, [`Materials::uv`]).
     #[inline]
     pub fn bsdf(&self, scene: &Scene, si: &SurfaceInteraction, uv: Vec2) -> SurfaceBsdf {
-        self.surface(scene, si, uv, |m, base| match self.options.model {
+        self.surface(scene, si, uv, |m, base, shaded| match self.options.model {
             MaterialModel::Lambertian => Bsdf::Diffuse(self.lambertian_of(base)),
-            MaterialModel::Gltf => self.gltf_bsdf(m, base, uv, si),
+            MaterialModel::Gltf => self.gltf_bsdf(scene, m, base, uv, si, shaded),
         })
     }
 
@@ -353,7 +416,7 @@ impl Materials {
         scene: &Scene,
         si: &SurfaceInteraction,
         uv: Vec2,
-        local: impl FnOnce(&Prepared, Vec3) -> B,
+        local: impl FnOnce(&Prepared, Vec3, &SurfaceInteraction) -> B,
     ) -> SurfaceBsdf<B> {
         let m = &self.materials[scene.triangle_materials[si.prim as usize] as usize];
         let mut base = m.base_color;
@@ -363,13 +426,15 @@ impl Materials {
         if self.vertex_colors {
             base *= vertex_color(scene, si.prim, si.u, si.v).truncate();
         }
-        let bsdf = local(m, base);
-        match &m.normal_texture {
-            None => SurfaceBsdf::new(bsdf, si),
+        let mapped;
+        let shaded = match &m.normal_texture {
+            None => si,
             Some(b) => {
-                SurfaceBsdf::new(bsdf, &self.normal_mapped(scene, si, b, m.normal_scale, uv))
+                mapped = self.normal_mapped(scene, si, b, m.normal_scale, uv);
+                &mapped
             }
-        }
+        };
+        SurfaceBsdf::new(local(m, base, shaded), shaded)
     }
 
     /// The surface point with its shading normal bent by normal map `map` at `uv` (glTF 2.0,
@@ -435,8 +500,21 @@ impl Materials {
     /// keeps the metal's share. The interface refracts where the material bounds a volume
     /// (`KHR_materials_volume`): relative IOR `ior` entering at the front face, 1 / `ior`
     /// leaving; otherwise it is a thin wall. Its tint is the base colour.
+    ///
+    /// A sheen and a clear coat (`KHR_materials_sheen`, `KHR_materials_clearcoat`) layer the
+    /// BRDF ([`Layered`]); not the glass, which renders without them. The coat's normal is its
+    /// own normal map's, else the vertex normal `si.ns` (not the base's map, which bent
+    /// `shaded`), in the frame of `shaded`.
     #[inline(never)]
-    fn gltf_bsdf(&self, m: &Prepared, base: Vec3, uv: Vec2, si: &SurfaceInteraction) -> Bsdf {
+    fn gltf_bsdf(
+        &self,
+        scene: &Scene,
+        m: &Prepared,
+        base: Vec3,
+        uv: Vec2,
+        si: &SurfaceInteraction,
+        shaded: &SurfaceInteraction,
+    ) -> Bsdf {
         let (mut metallic, mut roughness) = (m.metallic, m.roughness);
         if let Some(b) = &m.metallic_roughness_texture {
             let t = self.lookup(b, uv);
@@ -463,7 +541,42 @@ impl Materials {
                 metallic = (metallic / (1.0 - w)).min(1.0);
             }
         }
-        self.bsdf_with(base, metallic, roughness, m.ior)
+        let brdf = self.bsdf_with(base, metallic, roughness, m.ior);
+        if m.coat.is_none() && m.sheen.is_none() {
+            return brdf;
+        }
+        let Bsdf::MetallicRoughness(brdf) = brdf else {
+            return brdf;
+        };
+        let sheen = m.sheen.as_ref().map(|s| {
+            let (mut color, mut roughness) = (s.color, s.roughness);
+            if let Some(b) = &s.color_texture {
+                color *= self.lookup(b, uv).truncate();
+            }
+            if let Some(b) = &s.roughness_texture {
+                roughness *= self.lookup(b, uv).w;
+            }
+            Sheen::new(color, roughness)
+        });
+        let coat = m.coat.as_ref().map(|c| {
+            let (mut weight, mut roughness) = (c.factor, c.roughness);
+            if let Some(b) = &c.texture {
+                weight *= self.lookup(b, uv).x;
+            }
+            if let Some(b) = &c.roughness_texture {
+                roughness *= self.lookup(b, uv).y;
+            }
+            let normal = match &c.normal_texture {
+                Some(b) => self.normal_mapped(scene, si, b, c.normal_scale, uv).ns,
+                None => si.ns,
+            };
+            let local = match normal == shaded.ns {
+                true => Vec3::Z,
+                false => Onb::from_normal(shaded.ns).to_local(normal).normalize(),
+            };
+            Coat::new(weight, roughness, local)
+        });
+        Bsdf::Layered(Layered::new(brdf, sheen, coat))
     }
 
     /// The absorption coefficient of the medium inside triangle `prim`'s material, where it

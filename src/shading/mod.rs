@@ -9,6 +9,7 @@
 //! | [`dielectric`]  | dielectric interfaces (glass): refractive and thin-walled, rough or  |
 //! |                 | smooth, with exact Fresnel                                           |
 //! | [`gltf_brdf`]   | the glTF 2.0 metallic-roughness BRDF (Appendix B)                     |
+//! | [`layers`]      | sheen and clear coat over it (`KHR_materials_sheen`, `_clearcoat`)    |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
 //! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
 //! | [`texture`]     | decoded images and their lookups                                      |
@@ -23,6 +24,7 @@ pub mod environment;
 pub mod envmap;
 pub mod gltf_brdf;
 pub mod interaction;
+pub mod layers;
 pub mod lights;
 pub mod material;
 pub mod microfacet;
@@ -34,5 +36,6 @@ pub use environment::Environment;
 pub use envmap::EnvMap;
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
+pub use layers::{Coat, Layered, Sheen};
 pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
 pub use material::{DiffuseSampling, MaterialModel, MaterialOptions, Materials, Need, ShadeAs};
