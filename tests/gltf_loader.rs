@@ -402,7 +402,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     let dir = tempfile::tempdir().unwrap();
     doc["extensionsUsed"] = json!([
         "KHR_materials_emissive_strength",
-        "KHR_materials_specular",
+        "KHR_materials_anisotropy",
         "KHR_materials_iridescence"
     ]);
     doc["materials"][0] = json!({
@@ -415,7 +415,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
         "occlusionTexture": {"index": 0},
         "alphaMode": "MASK", "alphaCutoff": 0.3,
         "extensions": {
-            "KHR_materials_specular": {"specularFactor": 0.5},
+            "KHR_materials_anisotropy": {"anisotropyStrength": 0.5},
             "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}
         }
     });
@@ -441,12 +441,15 @@ fn what_is_not_rendered_gets_one_warning_each() {
             .count()
     };
     assert_eq!(
-        says(&file_level, &["KHR_materials_specular", "ignores"]),
+        says(&file_level, &["KHR_materials_anisotropy", "ignores"]),
         1,
         "{file_level:?}"
     );
     assert_eq!(
-        says(&file_level, &["KHR_materials_iridescence", "without that layer"]),
+        says(
+            &file_level,
+            &["KHR_materials_iridescence", "without that layer"]
+        ),
         1,
         "{file_level:?}"
     );
@@ -467,7 +470,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     for words in [
         &["material 0 'coated'"][..],
         &["occlusion texture"],
-        &["KHR_materials_specular"],
+        &["KHR_materials_anisotropy"],
     ] {
         assert_eq!(says(&coated, words), 1, "{words:?} in {coated:?}");
     }

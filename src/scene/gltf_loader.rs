@@ -33,6 +33,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_sheen",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_texture_transform",
@@ -45,6 +46,7 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_sheen",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
 ];
@@ -53,10 +55,9 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_specular"
-        | "KHR_materials_iridescence"
-        | "KHR_materials_anisotropy"
-        | "KHR_materials_dispersion" => "its materials render without that layer or effect",
+        "KHR_materials_iridescence" | "KHR_materials_anisotropy" | "KHR_materials_dispersion" => {
+            "its materials render without that layer or effect"
+        }
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
         "KHR_materials_variants" => "each mesh renders its default material",
         "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
@@ -794,6 +795,38 @@ impl Loader<'_> {
             }
             _ => None,
         };
+        let specular = match m.specular() {
+            None => None,
+            Some(sp) => {
+                let (factor, color) = (
+                    sp.specular_factor(),
+                    Vec3::from_array(sp.specular_color_factor()),
+                );
+                if !(factor.is_finite() && (0.0..=1.0).contains(&factor)) {
+                    return Err(format!(
+                        "{label}: KHR_materials_specular specularFactor {factor} is not a number between 0 and 1"
+                    ));
+                }
+                if !(color.is_finite() && color.min_element() >= 0.0) {
+                    return Err(format!(
+                        "{label}: KHR_materials_specular specularColorFactor {color} is not three numbers of at least 0"
+                    ));
+                }
+                let what = format!("{label} specular texture");
+                let texture = sp
+                    .specular_texture()
+                    .map(|info| self.texture_ref(&info, &what));
+                let what = format!("{label} specular colour texture");
+                let color_texture =
+                    (sp.specular_color_texture()).map(|info| self.texture_ref(&info, &what));
+                Some(super::SpecularLayer {
+                    factor,
+                    texture,
+                    color,
+                    color_texture,
+                })
+            }
+        };
         let clearcoat = self.clearcoat(m, &label)?;
         let sheen = self.sheen(m, &label)?;
         if transmission_factor > 0.0 && (clearcoat.is_some() || sheen.is_some()) {
@@ -818,6 +851,7 @@ impl Loader<'_> {
             transmission: transmission_factor,
             transmission_texture,
             volume,
+            specular,
             clearcoat,
             sheen,
             metallic_roughness_texture,

@@ -79,6 +79,8 @@ pub struct Material {
     /// `KHR_materials_volume`: the transmissive surface bounds a volume (thickness factor
     /// above 0), else it is a thin wall.
     pub volume: Option<Volume>,
+    /// `KHR_materials_specular` (None without it).
+    pub specular: Option<SpecularLayer>,
     /// `KHR_materials_clearcoat` (None without it, or with a clearcoatFactor of 0).
     pub clearcoat: Option<ClearcoatLayer>,
     /// `KHR_materials_sheen` (None without it, or with a black sheenColorFactor).
@@ -94,6 +96,17 @@ pub struct Material {
     /// The material's `KHR_materials_*` extensions that strata does not render.
     pub ignored_extensions: Vec<String>,
     pub double_sided: bool,
+}
+
+/// The dielectric specular layer's strength and colour (`KHR_materials_specular`): specular =
+/// specularFactor × the texture's A, specular colour = specularColorFactor × the colour
+/// texture's RGB (sRGB).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecularLayer {
+    pub factor: f32,
+    pub texture: Option<TextureRef>,
+    pub color: Vec3,
+    pub color_texture: Option<TextureRef>,
 }
 
 /// A clear coat over a material (`KHR_materials_clearcoat`): its weight, clearcoatFactor ×
@@ -178,6 +191,7 @@ impl Default for Material {
             transmission: 0.0,
             transmission_texture: None,
             volume: None,
+            specular: None,
             clearcoat: None,
             sheen: None,
             metallic_roughness_texture: None,

@@ -48,6 +48,14 @@
 //! `KHR_materials_ior` replaces the dielectric's 0.04 by ((ior − 1) / (ior + 1))² everywhere
 //! above ([`GltfBrdf::with_ior`]); the metal's f0 stays the base colour.
 //!
+//! `KHR_materials_specular` ([`GltfBrdf::with_specular`]) colours and weights the dielectric's
+//! specular layer through the extension's `fresnel_mix`: f0_c = min(f0 × specularColor, 1),
+//! F_c = Schlick of f0_c, the layer w F_c D V with w = specular, and the diffuse lobe below it
+//! weighted by 1 − w max(F_c) in place of 1 − F_d. Compensated, the layer is scaled per channel
+//! by Turquin's factor with f0_c, and the diffuse layering reads w times the layer albedo of
+//! max(f0_c) (the quantity its weight takes). At w = 1 and a grey specularColor that leaves
+//! the plain model's values.
+//!
 //! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
 //! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
 //! normals, Heitz 2018) or the cosine, chosen with probability proportional to their
@@ -80,8 +88,13 @@ pub struct GltfBrdf {
     /// The GGX roughness α = roughness².
     pub alpha: f32,
     /// The dielectric part's reflectance at normal incidence ([`dielectric_f0`] of the
-    /// material's index of refraction; 0.04 by default).
+    /// material's index of refraction; 0.04 by default), the largest channel of
+    /// `specular_f0` under `KHR_materials_specular`.
     pub dielectric_f0: f32,
+    /// The dielectric specular layer's coloured f0_c and its weight w (KHR_materials_specular;
+    /// without it, f0 in every channel and 1).
+    pub specular_f0: Vec3,
+    pub specular_weight: f32,
     /// Compensate the energy single scattering loses (see the module documentation).
     pub energy_compensation: bool,
     /// Where α falls in the albedo table's rows.
@@ -97,8 +110,9 @@ struct Outgoing {
     wo: Vec3,
     /// The probability of choosing the specular lobe.
     p_specular: f32,
-    /// Turquin's (1 − E(μo)) / E(μo) for the dielectric's lobe; 0 without compensation.
-    k: f32,
+    /// The dielectric specular lobe's scale: w (1 + f0_c k), k = Turquin's (1 − E(μo)) /
+    /// E(μo) (0 without compensation).
+    specular_scale: Vec3,
     /// The metal's multiple-scattering lobe's factor of μo, weighted by metallic:
     /// metallic F_ms (1 − E(μo)) / (π (1 − E_avg)) (zero without compensation).
     multiple: Vec3,
@@ -117,6 +131,8 @@ impl GltfBrdf {
             metallic,
             alpha,
             dielectric_f0: DIELECTRIC_F0,
+            specular_f0: Vec3::splat(DIELECTRIC_F0),
+            specular_weight: 1.0,
             energy_compensation: true,
             row: AlbedoRow::new(alpha),
             outgoing: None,
@@ -126,8 +142,24 @@ impl GltfBrdf {
     /// The same BRDF with the dielectric part's index of refraction `ior`
     /// (`KHR_materials_ior`).
     pub fn with_ior(self, ior: f32) -> GltfBrdf {
+        let f0 = dielectric_f0(ior);
         GltfBrdf {
-            dielectric_f0: dielectric_f0(ior),
+            dielectric_f0: f0,
+            specular_f0: Vec3::splat(f0),
+            outgoing: None,
+            ..self
+        }
+    }
+
+    /// The same BRDF with `KHR_materials_specular`'s weight `specular` (specularFactor × the
+    /// texture's A) and `color` (specularColorFactor × the texture's RGB) on the dielectric's
+    /// specular layer, over the index of refraction already set.
+    pub fn with_specular(self, specular: f32, color: Vec3) -> GltfBrdf {
+        let f0 = (self.specular_f0 * color.max(Vec3::ZERO)).min(Vec3::ONE);
+        GltfBrdf {
+            dielectric_f0: f0.max_element(),
+            specular_f0: f0,
+            specular_weight: specular.clamp(0.0, 1.0),
             outgoing: None,
             ..self
         }
@@ -161,11 +193,10 @@ impl GltfBrdf {
     }
 
     fn outgoing_terms(&self, wo: Vec3) -> Outgoing {
-        let (f0, c_diff) = self.colors();
+        let c_diff = self.diffuse_color();
+        let specular = luminance(self.specular_fresnel(wo.z));
+        let diffuse = luminance(self.diffuse_weight(wo.z) * c_diff);
         let p_specular = {
-            let specular = luminance(schlick(f0, wo.z));
-            let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
-            let diffuse = luminance((Vec3::ONE - f_d) * c_diff);
             match diffuse <= 0.0 {
                 true => 1.0,
                 false => specular / (specular + diffuse),
@@ -175,7 +206,7 @@ impl GltfBrdf {
             return Outgoing {
                 wo,
                 p_specular,
-                k: 0.0,
+                specular_scale: Vec3::splat(self.specular_weight),
                 multiple: Vec3::ZERO,
                 diffuse: Vec3::ZERO,
             };
@@ -186,9 +217,7 @@ impl GltfBrdf {
         // The multiple-scattering lobe is drawn with the cosine: its energy joins the
         // diffuse lobe's in the choice of lobe.
         let p_specular = {
-            let specular = luminance(schlick(f0, wo.z));
-            let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
-            let spread = luminance((Vec3::ONE - f_d) * c_diff)
+            let spread = diffuse
                 + luminance(multiple)
                     * std::f32::consts::PI
                     * (1.0 - table.averages_in(self.row)[0]);
@@ -207,7 +236,7 @@ impl GltfBrdf {
         Outgoing {
             wo,
             p_specular,
-            k,
+            specular_scale: self.specular_weight * (Vec3::ONE + self.specular_f0 * k),
             multiple,
             diffuse,
         }
@@ -232,20 +261,39 @@ impl GltfBrdf {
         Ggx { alpha: self.alpha }
     }
 
-    /// f0 and c_diff.
+    /// c_diff, the diffuse lobe's colour.
     #[inline]
-    fn colors(&self) -> (Vec3, Vec3) {
-        let f0 = Vec3::splat(self.dielectric_f0).lerp(self.base_color, self.metallic);
-        (f0, self.base_color * (1.0 - self.metallic))
+    fn diffuse_color(&self) -> Vec3 {
+        self.base_color * (1.0 - self.metallic)
+    }
+
+    /// The specular lobes' Fresnel weight at cosine `cos`: the dielectric's w F_c and the
+    /// metal's Schlick F of its base colour, mixed by metallic. (Schlick's F is affine in f0:
+    /// without KHR_materials_specular this is F of the mixed f0.)
+    #[inline(always)]
+    fn specular_fresnel(&self, cos: f32) -> Vec3 {
+        let f0 = self.specular_f0.lerp(self.base_color, self.metallic);
+        match self.specular_weight == 1.0 {
+            true => schlick(f0, cos),
+            false => (self.specular_weight * schlick(self.specular_f0, cos))
+                .lerp(schlick(self.base_color, cos), self.metallic),
+        }
+    }
+
+    /// The dielectric's diffuse weight 1 − w max(F_c) at cosine `cos` (1 − F_d without
+    /// KHR_materials_specular).
+    #[inline(always)]
+    fn diffuse_weight(&self, cos: f32) -> Vec3 {
+        let f_c = schlick(self.specular_f0, cos);
+        Vec3::ONE - self.specular_weight * Vec3::splat(f_c.max_element())
     }
 
     /// A rough estimate of the light the BRDF returns toward `wo`: the Fresnel-weighted
     /// luminances of its lobes that its own choice of lobe weighs, for a layer above it that
     /// chooses between itself and this BRDF ([`super::layers::Layered`]).
     pub fn sampling_albedo(&self, wo: Vec3) -> f32 {
-        let (f0, c_diff) = self.colors();
-        let f_d = schlick(Vec3::splat(self.dielectric_f0), wo.z);
-        luminance(schlick(f0, wo.z)) + luminance((Vec3::ONE - f_d) * c_diff)
+        luminance(self.specular_fresnel(wo.z))
+            + luminance(self.diffuse_weight(wo.z) * self.diffuse_color())
     }
 
     /// The probability of sampling the specular lobe seen from `wo`: its share of the
@@ -294,12 +342,15 @@ impl GltfBrdf {
     #[inline]
     fn eval_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, h: Vec3, d: f32) -> Vec3 {
         let wo_h = wo.dot(h).abs();
-        let f_d = schlick(Vec3::splat(self.dielectric_f0), wo_h);
+        let f_d = schlick(self.specular_f0, wo_h);
         let f_metal = schlick(self.base_color, wo_h);
+        let w = self.specular_weight;
         let diffuse = match self.energy_compensation {
             false => {
                 let c_diff = self.base_color * (1.0 - self.metallic);
-                (Vec3::ONE - f_d) * c_diff * std::f32::consts::FRAC_1_PI
+                (Vec3::ONE - w * Vec3::splat(f_d.max_element()))
+                    * c_diff
+                    * std::f32::consts::FRAC_1_PI
             }
             true => {
                 let (a_i, _, e_i) = self.dielectric_albedo(AlbedoTable::get(), wi.z);
@@ -310,10 +361,11 @@ impl GltfBrdf {
         let specular = match ggx.is_smooth() {
             true => Vec3::ZERO,
             false => {
-                // The dielectric's Fresnel weight scaled by Turquin's 1 + f0 (1 − E(μo)) / E(μo)
-                // (k = 0 without compensation) and the metal's, mixed by metallic: F of the
-                // mixed f0 when uncompensated. (The metal's compensation is its own lobe.)
-                let dielectric = f_d * (1.0 + self.dielectric_f0 * o.k);
+                // The dielectric's Fresnel weight w F_c scaled by Turquin's 1 + f0 (1 − E(μo)) /
+                // E(μo) (k = 0 without compensation; `specular_scale`) and the metal's, mixed
+                // by metallic: F of the mixed f0 when uncompensated and w = 1. (The metal's
+                // compensation is its own lobe.)
+                let dielectric = f_d * o.specular_scale;
                 dielectric.lerp(f_metal, self.metallic) * (d * ggx.v(wo, wi))
             }
         };
@@ -328,7 +380,8 @@ impl GltfBrdf {
         let e = e.max(1e-3);
         let k = (1.0 - e) / e;
         let f0 = self.dielectric_f0;
-        ((f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k), k, e)
+        let a = (f0 * e + (1.0 - f0) * e_s) * (1.0 + f0 * k);
+        (self.specular_weight * a, k, e)
     }
 
     /// The cosine-weighted average of [`GltfBrdf::dielectric_albedo`] over μ: the table's
@@ -338,7 +391,7 @@ impl GltfBrdf {
     fn dielectric_albedo_average(&self, table: &AlbedoTable) -> f32 {
         let [e, e_s, ratio] = table.averages_in(self.row);
         let (f0, g) = (self.dielectric_f0, 1.0 - self.dielectric_f0);
-        f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio
+        self.specular_weight * (f0 * e + g * e_s + f0 * f0 * (1.0 - e) + f0 * g * ratio)
     }
 
     /// The mixture's density of `wi`, the delta lobe left out.
@@ -392,11 +445,10 @@ impl GltfBrdf {
     /// The mirror's sample in direction `wi`: weight F(n·wo) (a mirror's half vector is the
     /// normal) and the probability of having chosen the lobe.
     pub fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
-        let (f0, _) = self.colors();
         let pdf = self.specular_probability(wo);
         (pdf > 0.0).then_some(BsdfSample {
             wi,
-            f_cos: schlick(f0, wo.z),
+            f_cos: self.specular_fresnel(wo.z),
             pdf,
             flags,
         })

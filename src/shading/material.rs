@@ -108,7 +108,9 @@ struct Prepared {
     /// The absorption coefficient inside a transmissive volume (`KHR_materials_volume`);
     /// None for a thin wall, or an opaque material.
     volume: Option<Vec3>,
-    /// `KHR_materials_clearcoat` and `KHR_materials_sheen` (glTF model only).
+    /// `KHR_materials_specular`, `KHR_materials_clearcoat` and `KHR_materials_sheen` (glTF
+    /// model only).
+    specular: Option<PreparedSpecular>,
     coat: Option<PreparedCoat>,
     sheen: Option<PreparedSheen>,
     /// B = metallic, G = roughness (bound under the glTF model only).
@@ -119,6 +121,15 @@ struct Prepared {
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
+}
+
+/// A material's specular layer: weight (× texture A) and colour (× texture RGB, sRGB).
+#[derive(Clone, Debug)]
+struct PreparedSpecular {
+    factor: f32,
+    texture: Option<Binding>,
+    color: Vec3,
+    color_texture: Option<Binding>,
 }
 
 /// A material's clear coat: weight (× texture R), roughness (× texture G), normal map.
@@ -248,6 +259,15 @@ impl Materials {
                 true => bind(&m.transmission_texture, Encoding::Linear, &mut images)?,
                 false => None,
             };
+            let specular = match (&m.specular, is_used && gltf) {
+                (Some(sp), true) => Some(PreparedSpecular {
+                    factor: sp.factor,
+                    texture: bind(&sp.texture, Encoding::Linear, &mut images)?,
+                    color: sp.color,
+                    color_texture: bind(&sp.color_texture, Encoding::Srgb, &mut images)?,
+                }),
+                _ => None,
+            };
             let coat = match (&m.clearcoat, is_used && gltf) {
                 (Some(c), true) => Some(PreparedCoat {
                     factor: c.factor,
@@ -296,6 +316,7 @@ impl Materials {
                     .volume
                     .filter(|_| m.transmission > 0.0)
                     .map(|v| v.absorption()),
+                specular,
                 coat,
                 sheen,
                 metallic_roughness_texture,
@@ -322,6 +343,8 @@ impl Materials {
                 || m.metallic_roughness_texture.is_some()
                 || m.normal_texture.is_some()
                 || m.transmission_texture.is_some()
+                || (m.specular.as_ref())
+                    .is_some_and(|s| s.texture.is_some() || s.color_texture.is_some())
                 || (m.coat.as_ref()).is_some_and(|c| {
                     c.texture.is_some()
                         || c.roughness_texture.is_some()
@@ -542,12 +565,25 @@ impl Materials {
             }
         }
         let brdf = self.bsdf_with(base, metallic, roughness, m.ior);
-        if m.coat.is_none() && m.sheen.is_none() {
+        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
             return brdf;
         }
-        let Bsdf::MetallicRoughness(brdf) = brdf else {
+        let Bsdf::MetallicRoughness(mut brdf) = brdf else {
             return brdf;
         };
+        if let Some(sp) = &m.specular {
+            let (mut weight, mut color) = (sp.factor, sp.color);
+            if let Some(b) = &sp.texture {
+                weight *= self.lookup(b, uv).w;
+            }
+            if let Some(b) = &sp.color_texture {
+                color *= self.lookup(b, uv).truncate();
+            }
+            brdf = brdf.with_specular(weight, color);
+            if m.coat.is_none() && m.sheen.is_none() {
+                return Bsdf::MetallicRoughness(brdf);
+            }
+        }
         let sheen = m.sheen.as_ref().map(|s| {
             let (mut color, mut roughness) = (s.color, s.roughness);
             if let Some(b) = &s.color_texture {
