@@ -79,7 +79,11 @@ mkdir -p "$work" "$out"
 model_path() {
     case "$1" in
         MetalRoughSpheresNoTextures) echo "$scenes/metal_rough_spheres_no_textures/MetalRoughSpheresNoTextures.gltf" ;;
-        *) echo "$scenes/khronos/$1/glTF-Binary/$1.glb" ;;
+        *) if [ -f "$scenes/khronos/$1/glTF-Binary/$1.glb" ]; then
+               echo "$scenes/khronos/$1/glTF-Binary/$1.glb"
+           else
+               echo "$scenes/khronos/$1/glTF/$1.gltf"
+           fi ;;
     esac
 }
 model_env() {
