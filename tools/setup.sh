@@ -43,6 +43,6 @@ if [ -z "${STRATA_NO_OIDN:-}" ]; then
 fi
 
 if ! command -v cargo >/dev/null 2>&1; then
-    echo "setup: cargo not found: install a Rust toolchain (rustup), Rust 1.86 or newer" >&2
+    echo "setup: cargo not found: install a Rust toolchain (rustup), Rust 1.87 or newer" >&2
     exit 1
 fi

@@ -1178,7 +1178,7 @@ impl Loader<'_> {
             ));
         }
         let triangles = assemble_triangles(mode, &indices);
-        if mode == Mode::Triangles && indices.len() % 3 != 0 {
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             self.warnings.push(format!(
                 "{label}: {} indices is not a multiple of 3; the last {} ignored",
                 indices.len(),
