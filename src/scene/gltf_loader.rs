@@ -27,7 +27,9 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
     "KHR_lights_punctual",
+    "KHR_meshopt_compression",
     "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -198,7 +200,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     if is_glb {
         check_glb_header(bytes).map_err(|e| format!("invalid binary glTF: {e}"))?;
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+    let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
         format!(
             "invalid {}: {e}",
             if is_glb { "binary glTF" } else { "glTF" }
@@ -283,7 +285,12 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
 
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut files = vec![path.to_path_buf()];
-    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
+    let mut buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
+    // Meshopt compressed geometry, decoded into buffers accessors read.
+    let scene_index = root_scene.index();
+    gltf.document = super::compressed::decode_geometry(gltf.document, &mut buffers)?;
+    let root_scene =
+        (gltf.document.scenes().nth(scene_index)).ok_or("the scene to render vanished")?;
 
     let mut pose_warnings = Vec::new();
     let pose = match options.pose {
@@ -560,6 +567,11 @@ fn load_buffers(
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let i = buffer.index();
+        // EXT_meshopt_compression's URI-less placeholder, which compressed views fill.
+        if super::meshopt::is_placeholder(doc, &buffer, blob.is_some()) {
+            out.push(super::meshopt::placeholder(i, buffer.length())?);
+            continue;
+        }
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => blob
                 .ok_or_else(|| {

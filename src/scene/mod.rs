@@ -6,7 +6,9 @@
 
 pub mod animation;
 mod camera;
+mod compressed;
 mod gltf_loader;
+mod meshopt;
 mod origins;
 mod tangents;
 
