@@ -28,6 +28,7 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_meshopt_compression",
     "KHR_mesh_quantization",
@@ -235,9 +236,12 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         root.validate(root, gltf::json::Path::new, &mut |path, error| {
             errors.push((path(), error))
         });
-        errors.retain(|(path, error)| {
-            !(matches!(error, Invalid::Unsupported)
-                && path.as_str().starts_with("extensionsRequired"))
+        // Accessors a KHR_draco_mesh_compression stream fills have no bufferView by design.
+        let draco = super::compressed::draco_accessors(root);
+        errors.retain(|(path, error)| match error {
+            Invalid::Unsupported => !path.as_str().starts_with("extensionsRequired"),
+            Invalid::Missing => !draco.contains(path.as_str()),
+            _ => true,
         });
         if !errors.is_empty() {
             let shown: Vec<String> = errors
@@ -286,7 +290,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut files = vec![path.to_path_buf()];
     let mut buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
-    // Meshopt compressed geometry, decoded into buffers accessors read.
+    // Meshopt and Draco compressed geometry, decoded into buffers accessors read.
     let scene_index = root_scene.index();
     gltf.document = super::compressed::decode_geometry(gltf.document, &mut buffers)?;
     let root_scene =

@@ -7,6 +7,7 @@
 pub mod animation;
 mod camera;
 mod compressed;
+mod draco;
 mod gltf_loader;
 mod meshopt;
 mod origins;
