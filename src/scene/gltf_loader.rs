@@ -28,6 +28,7 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "EXT_texture_webp",
     "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_meshopt_compression",
@@ -36,6 +37,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_basisu",
     "KHR_texture_transform",
 ];
 
@@ -60,7 +62,7 @@ fn ignored_extension_effect(ext: &str) -> &'static str {
         | "KHR_materials_dispersion" => "its materials render without that layer or effect",
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
         "KHR_materials_variants" => "each mesh renders its default material",
-        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+        "EXT_texture_avif" => {
             "textures in that format are not decoded; their fallback images, if any, are used"
         }
         "EXT_mesh_gpu_instancing" => "each instanced mesh renders once, at its node",
@@ -207,6 +209,8 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
             if is_glb { "binary glTF" } else { "glTF" }
         )
     })?;
+    // EXT_texture_webp, KHR_texture_basisu: textures read their extension's image.
+    gltf.document = super::compressed::prefer_texture_extensions(gltf.document)?;
     for ext in gltf.document.extensions_required() {
         if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&ext) {
             return Err(format!(

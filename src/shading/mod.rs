@@ -23,6 +23,7 @@ pub mod environment;
 pub mod envmap;
 pub mod gltf_brdf;
 pub mod interaction;
+pub mod ktx2;
 pub mod lights;
 pub mod material;
 pub mod microfacet;
