@@ -82,6 +82,30 @@ enum Filter {
     Color,
 }
 
+impl Mode {
+    /// The specification's name.
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Attributes => "ATTRIBUTES",
+            Mode::Triangles => "TRIANGLES",
+            Mode::Indices => "INDICES",
+        }
+    }
+}
+
+impl Filter {
+    /// The specification's name.
+    fn name(self) -> &'static str {
+        match self {
+            Filter::None => "NONE",
+            Filter::Octahedral => "OCTAHEDRAL",
+            Filter::Quaternion => "QUATERNION",
+            Filter::Exponential => "EXPONENTIAL",
+            Filter::Color => "COLOR",
+        }
+    }
+}
+
 /// One compressed view, as its extension object describes it.
 #[derive(Debug)]
 struct Compressed {
@@ -175,7 +199,8 @@ fn parse(name: &'static str, ext: &Value, view: &gltf::buffer::View) -> Result<C
         }
         Mode::Triangles | Mode::Indices if stride != 2 && stride != 4 => {
             return broken(format!(
-                "{mode:?} needs a byteStride of 2 or 4, not {stride}"
+                "{} needs a byteStride of 2 or 4, not {stride}",
+                mode.name()
             ))
         }
         Mode::Triangles if count % 3 != 0 => {
@@ -184,7 +209,11 @@ fn parse(name: &'static str, ext: &Value, view: &gltf::buffer::View) -> Result<C
             ))
         }
         Mode::Triangles | Mode::Indices if filter != Filter::None => {
-            return broken(format!("{mode:?} allows no filter, not {filter:?}"))
+            return broken(format!(
+                "{} allows no filter, not {}",
+                mode.name(),
+                filter.name()
+            ))
         }
         _ => {}
     }
@@ -195,7 +224,8 @@ fn parse(name: &'static str, ext: &Value, view: &gltf::buffer::View) -> Result<C
     };
     if !filter_strides.is_empty() && !filter_strides.contains(&stride) {
         return broken(format!(
-            "the {filter:?} filter needs a byteStride of {filter_strides:?}, not {stride}"
+            "the {} filter needs a byteStride of {filter_strides:?}, not {stride}",
+            filter.name()
         ));
     }
     Ok(c)
@@ -252,8 +282,8 @@ pub(super) fn decode_views(doc: &gltf::Document, buffers: &mut [Vec<u8>]) -> Res
 fn decode(c: &Compressed, encoded: &[u8]) -> Result<Vec<u8>> {
     let corrupt = |e: meshopt::Error| {
         format!(
-            "the compressed stream is corrupt ({:?} of {} elements of {} bytes from {} bytes: meshoptimizer says {e})",
-            c.mode, c.count, c.stride, encoded.len()
+            "the compressed stream is corrupt ({} of {} elements of {} bytes from {} bytes: meshoptimizer says {e})",
+            c.mode.name(), c.count, c.stride, encoded.len()
         )
     };
     match c.mode {
