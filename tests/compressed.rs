@@ -1036,3 +1036,220 @@ fn ktx2_files_with_flipped_bytes_never_crash() {
         eprintln!("{file}: flipped bytes: {decoded} decoded, {refused} refused");
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// KHR_meshopt_compression: what gltfpack 1.3 does not write (version 1 of the vertex codec,
+// the COLOR filter, INDICES mode), encoded here by meshoptimizer's own encoders.
+
+/// A quad (two triangles) whose positions (floats, vertex codec version 1), colours (RGBA8
+/// through the COLOR filter, version 1) and indices (INDICES mode, 16-bit) are compressed
+/// under `extension`, in a .glb whose buffer 1 is the URI-less fallback placeholder.
+fn khr_meshopt_quad(extension: &str, colours: &[[f32; 4]; 4]) -> Vec<u8> {
+    use meshopt::encoding as enc;
+    let positions: [[f32; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+    let indices: [u32; 6] = [0, 1, 2, 0, 2, 3];
+    let pos = enc::encode_vertex_buffer_level(&positions, 2, Some(1)).unwrap();
+    let filtered: Vec<[u8; 4]> = enc::encode_filter_color(colours, 8);
+    let col = enc::encode_vertex_buffer_level(&filtered, 2, Some(1)).unwrap();
+    let idx = enc::encode_index_sequence(&indices, 4).unwrap();
+    let mut bin = Vec::new();
+    let mut place = |bytes: &[u8]| {
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+        bin.extend_from_slice(bytes);
+        (bin.len() - bytes.len(), bytes.len())
+    };
+    let (p, c, i) = (place(&pos), place(&col), place(&idx));
+    let view = |offset: usize,
+                len: usize,
+                (at, n): (usize, usize),
+                stride: usize,
+                count: usize,
+                mode: &str,
+                filter: &str| {
+        serde_json::json!({
+            "buffer": 1, "byteOffset": offset, "byteLength": len,
+            "extensions": { extension: {
+                "buffer": 0, "byteOffset": at, "byteLength": n, "byteStride": stride,
+                "count": count, "mode": mode, "filter": filter,
+            }},
+        })
+    };
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "extensionsUsed": [extension],
+        "extensionsRequired": [extension],
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0, "COLOR_0": 1 }, "indices": 2 }] }],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+              "min": [0, 0, 0], "max": [1, 1, 0] },
+            { "bufferView": 1, "componentType": 5121, "normalized": true, "count": 4, "type": "VEC4" },
+            { "bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR" },
+        ],
+        "bufferViews": [
+            view(0, 48, p, 12, 4, "ATTRIBUTES", "NONE"),
+            view(48, 16, c, 4, 4, "ATTRIBUTES", "COLOR"),
+            view(64, 12, i, 2, 6, "INDICES", "NONE"),
+        ],
+        "buffers": [
+            { "byteLength": bin.len() },
+            { "byteLength": 76, "extensions": { extension: { "fallback": true } } },
+        ],
+    });
+    common::glb(&doc, &bin)
+}
+
+const QUAD_COLOURS: [[f32; 4]; 4] = [
+    [1.0, 0.0, 0.0, 1.0],
+    [0.2, 0.6, 0.1, 0.5],
+    [0.9, 0.8, 0.05, 0.25],
+    [0.0, 0.3, 1.0, 0.75],
+];
+
+#[test]
+fn khr_meshopt_decodes_version_1_the_color_filter_and_indices_mode() {
+    let s = load_bytes(
+        "quad.glb",
+        &khr_meshopt_quad("KHR_meshopt_compression", &QUAD_COLOURS),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    // Positions and indices are exact (lossless codecs); the quad's two triangles.
+    assert_eq!(s.triangles.len(), 2);
+    let mut corners: Vec<[i32; 3]> = (s.triangles.iter().flatten())
+        .map(|&v| (s.positions[v as usize]).to_array().map(|c| c as i32))
+        .collect();
+    corners.sort();
+    corners.dedup();
+    assert_eq!(corners, vec![[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0]]);
+    // Colours within the COLOR filter's 8-bit YCoCg quantization (alpha 7 bits): 3/255 and
+    // 2/127, against the colours given to the encoder.
+    let corner_of = |p: Vec3| match (p.x as i32, p.y as i32) {
+        (0, 0) => 0,
+        (1, 0) => 1,
+        (1, 1) => 2,
+        _ => 3,
+    };
+    for (p, c) in s.positions.iter().zip(&s.colors) {
+        let want = glam::Vec4::from_array(QUAD_COLOURS[corner_of(*p)]);
+        let d = (*c - want).abs();
+        assert!(
+            d.x.max(d.y).max(d.z) <= 3.0 / 255.0 && d.w <= 2.0 / 127.0,
+            "{c} vs {want}"
+        );
+    }
+    // Negative control: other colours give other results.
+    let other = [[0.5; 4]; 4];
+    let t = load_bytes(
+        "quad.glb",
+        &khr_meshopt_quad("KHR_meshopt_compression", &other),
+    )
+    .unwrap();
+    assert!(t
+        .colors
+        .iter()
+        .all(|c| (*c - glam::Vec4::splat(0.5)).abs().max_element() <= 3.0 / 255.0));
+
+    // EXT_meshopt_compression allows neither version 1 nor COLOR.
+    let e = load_bytes(
+        "ext.glb",
+        &khr_meshopt_quad("EXT_meshopt_compression", &QUAD_COLOURS),
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("ext.glb") && e.contains("EXT_meshopt_compression"),
+        "{e}"
+    );
+    assert!(
+        e.contains("codec version 1") || e.contains("unknown filter \"COLOR\""),
+        "{e}"
+    );
+}
+
+/// gltfpack's EXT_ file with the extension renamed KHR_ (the same bitstream, which KHR_
+/// allows) loads to the same geometry.
+#[test]
+fn a_meshopt_file_under_khr_meshopt_compression_loads_as_under_ext() {
+    let bytes = std::fs::read(asset("suzanne-meshopt.glb")).unwrap();
+    let (doc, bin) = split_glb(&bytes);
+    let text = serde_json::to_string(&doc)
+        .unwrap()
+        .replace("EXT_meshopt_compression", "KHR_meshopt_compression");
+    let khr = load_bytes(
+        "khr.glb",
+        &common::glb(&serde_json::from_str(&text).unwrap(), &bin),
+    )
+    .unwrap();
+    let ext = load(&asset("suzanne-meshopt.glb"));
+    assert_eq!(
+        (khr.positions, khr.normals, khr.triangles),
+        (ext.positions, ext.normals, ext.triangles)
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// Which image a texture reads.
+
+#[test]
+fn a_texture_reads_webp_before_ktx2_before_its_fallback_and_bad_sources_are_refused() {
+    let doc: Value =
+        serde_json::from_slice(&std::fs::read(asset("suzanne-etc1s.gltf")).unwrap()).unwrap();
+    let edited = |edit: &dyn Fn(&mut Value)| {
+        let mut d = doc.clone();
+        edit(&mut d);
+        serde_json::to_vec(&d).unwrap()
+    };
+    // Both extensions on texture 0: the WebP image (suzanne-webp.glb's, as a data URI).
+    let webp_bytes = {
+        let (d, bin) = split_glb(&std::fs::read(asset("suzanne-webp.glb")).unwrap());
+        let v = &d["bufferViews"][d["images"][0]["bufferView"].as_u64().unwrap() as usize];
+        let at = v["byteOffset"].as_u64().unwrap_or(0) as usize;
+        bin[at..at + v["byteLength"].as_u64().unwrap() as usize].to_vec()
+    };
+    let both = edited(&|d| {
+        let webp = d["images"].as_array().unwrap().len();
+        let uri = common::data_uri(&webp_bytes);
+        (d["images"].as_array_mut().unwrap())
+            .push(serde_json::json!({ "uri": uri, "mimeType": "image/webp" }));
+        d["textures"][0]["extensions"]["EXT_texture_webp"] = serde_json::json!({ "source": webp });
+    });
+    let s = load_bytes("both.gltf", &both).unwrap();
+    let t = s.materials[1].base_color_texture.as_ref().unwrap();
+    assert!(
+        matches!(&s.images[t.image], ImageSource::Bytes { data, .. } if data[..] == webp_bytes[..]),
+        "{:?}",
+        s.images[t.image]
+    );
+    // Without the extensions: the core source, the PNG fallback.
+    let plain = edited(&|d| {
+        for t in d["textures"].as_array_mut().unwrap() {
+            t.as_object_mut().unwrap().remove("extensions");
+        }
+    });
+    let s = load_bytes("fallback.gltf", &plain).unwrap();
+    let t = s.materials[1].base_color_texture.as_ref().unwrap();
+    assert_eq!(
+        s.images[t.image],
+        ImageSource::File(asset("../suzanne/Suzanne_BaseColor.png"))
+    );
+    // An extension naming an image the file does not have, or none.
+    let missing = edited(&|d| {
+        d["textures"][1]["extensions"]["KHR_texture_basisu"]["source"] = 9.into();
+    });
+    assert_refused(
+        "missing.gltf",
+        &missing,
+        &["texture 1: KHR_texture_basisu names image 9, but the file has 4 image(s)"],
+    );
+    let none = edited(&|d| {
+        d["textures"][0]["extensions"]["KHR_texture_basisu"] = serde_json::json!({});
+    });
+    assert_refused(
+        "none.gltf",
+        &none,
+        &["texture 0: KHR_texture_basisu has no source"],
+    );
+}
