@@ -1,4 +1,5 @@
-//! Finds the system Embree and generates its bindings.
+//! Finds the system Embree and generates its bindings; builds the C interface to the system
+//! Draco decoder (`draco_shim`).
 //!
 //! Search order (DESIGN.md), Embree 4 before Embree 3 at every step:
 //! 1. `EMBREE_DIR`: a prefix holding `include/embree{4,3}/rtcore.h` and `lib{,64}/libembree{4,3}.so`;
@@ -224,7 +225,74 @@ fn oidn_run_path() {
     }
 }
 
+const DRACO_HINT: &str = "strata needs Google's Draco library (headers and library) for \
+KHR_draco_mesh_compression. Install it: Debian / Ubuntu: `apt-get install libdraco-dev`; \
+Homebrew: `brew install draco`; or set DRACO_DIR to a prefix containing \
+include/draco/compression/decode.h and lib/libdraco.so (or libdraco.a).";
+
+/// Builds `src/scene/draco/shim.cc`, the C interface to Draco's decoder, and links Draco:
+/// from `DRACO_DIR` (a prefix) or pkg-config's `draco`.
+fn draco_shim() {
+    println!("cargo::rerun-if-changed=src/scene/draco/shim.cc");
+    println!("cargo::rerun-if-env-changed=DRACO_DIR");
+    let (includes, lib_dirs): (Vec<PathBuf>, Vec<PathBuf>) =
+        match env::var_os("DRACO_DIR").filter(|d| !d.is_empty()) {
+            Some(dir) => {
+                let dir = PathBuf::from(dir);
+                let lib = [
+                    "lib",
+                    "lib64",
+                    "lib/x86_64-linux-gnu",
+                    "lib/aarch64-linux-gnu",
+                ]
+                .iter()
+                .map(|d| dir.join(d))
+                .find(|d| d.join("libdraco.so").exists() || d.join("libdraco.a").exists())
+                .unwrap_or_else(|| dir.join("lib"));
+                (vec![dir.join("include")], vec![lib])
+            }
+            None => match pkg_config::Config::new()
+                .cargo_metadata(false)
+                .probe("draco")
+            {
+                Ok(lib) => (lib.include_paths, lib.link_paths),
+                Err(e) => {
+                    let why = format!("Draco not found by pkg-config ({e}).");
+                    eprintln!("error: {why} {DRACO_HINT}");
+                    println!("cargo::error={why} {DRACO_HINT}");
+                    std::process::exit(1);
+                }
+            },
+        };
+    if !includes
+        .iter()
+        .chain(default_include_dirs().iter())
+        .any(|d| d.join("draco/compression/decode.h").exists())
+    {
+        let why = "Draco's header draco/compression/decode.h not found.";
+        eprintln!("error: {why} {DRACO_HINT}");
+        println!("cargo::error={why} {DRACO_HINT}");
+        std::process::exit(1);
+    }
+    // The shim first: it needs Draco, so Draco comes after it on the link line.
+    cc::Build::new()
+        .cpp(true)
+        .std("c++17")
+        .file("src/scene/draco/shim.cc")
+        .includes(&includes)
+        .warnings(true)
+        .compile("strata_draco_shim");
+    for dir in &lib_dirs {
+        println!("cargo::rustc-link-search=native={}", dir.display());
+        if !is_system_dir(dir) {
+            println!("cargo::rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        }
+    }
+    println!("cargo::rustc-link-lib=draco");
+}
+
 fn main() {
+    draco_shim();
     println!("cargo::rustc-check-cfg=cfg(embree3)");
     println!("cargo::rustc-check-cfg=cfg(embree4)");
     println!("cargo::rerun-if-changed=build.rs");

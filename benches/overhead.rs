@@ -76,7 +76,7 @@ fn rounds(tile: usize, spp: u32) -> [Option<(u32, u32)>; 2] {
     if spp == 1 {
         return [Some((0, 1)), None];
     }
-    let probed = tile % render::PROBE_TILE_STRIDE == 0;
+    let probed = tile.is_multiple_of(render::PROBE_TILE_STRIDE);
     [probed.then_some((0, 1)), Some((probed as u32, spp))]
 }
 

@@ -38,7 +38,7 @@ const CUTOUT: Vec3 = Vec3::new(0.0, 0.0, 1.0);
 const CHECKER: u32 = 4;
 
 fn opaque_texel(x: u32, y: u32) -> bool {
-    (x + y) % 2 == 0
+    (x + y).is_multiple_of(2)
 }
 
 /// A white RGBA PNG of `CHECKER` × `CHECKER` texels with the checker's alpha.
@@ -264,7 +264,7 @@ const SIZE: u32 = 8 * CHECKER;
 fn interior_pixels() -> impl Iterator<Item = (u32, u32, bool)> {
     (0..SIZE).flat_map(|py| {
         (0..SIZE).filter_map(move |px| {
-            let inner = |p: u32| p % 8 != 0 && p % 8 != 7;
+            let inner = |p: u32| !p.is_multiple_of(8) && p % 8 != 7;
             (inner(px) && inner(py)).then(|| (px, py, opaque_texel(px / 8, py / 8)))
         })
     })

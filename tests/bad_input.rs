@@ -553,18 +553,18 @@ fn max_memory_values_are_checked() {
 
 #[test]
 fn unsupported_required_extension_in_a_glb() {
-    // tests/cli.rs covers KHR_draco_mesh_compression in a .gltf; this is another one, in a .glb.
+    // tests/cli.rs covers EXT_texture_avif in a .gltf; this is another one, in a .glb.
     let mut doc = ao_wall_json();
     let bin = ao_wall_buffer();
     doc["buffers"][0] = json!({ "byteLength": bin.len() });
-    doc["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
-    doc["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
+    doc["extensionsUsed"] = json!(["KHR_gaussian_splatting"]);
+    doc["extensionsRequired"] = json!(["KHR_gaussian_splatting"]);
     expect_refused(
         "scene.glb",
         &[("scene.glb", glb(&doc, &bin))],
         &[],
         &[
-            "requires the extension EXT_meshopt_compression",
+            "requires the extension KHR_gaussian_splatting",
             "not support",
         ],
     );

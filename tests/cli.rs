@@ -118,10 +118,7 @@ fn a_scene_without_triangles_renders_the_background_with_a_warning() {
 fn error_required_extension() {
     expect_bad_scene(
         "required_extension.gltf",
-        &[
-            "requires the extension KHR_draco_mesh_compression",
-            "not support",
-        ],
+        &["requires the extension EXT_texture_avif", "not support"],
     );
 }
 

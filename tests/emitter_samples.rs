@@ -465,7 +465,7 @@ fn emitter_outlines_over_most_of_the_view_are_not_split() {
 fn glowing_squares() -> Value {
     let mut doc = ao_wall_json();
     let mut buffer = ao_wall_buffer();
-    while buffer.len() % 4 != 0 {
+    while !buffer.len().is_multiple_of(4) {
         buffer.push(0);
     }
     // The camera at (1, 1, 0) looks down at the floor with a 0.5 rad field of view: about

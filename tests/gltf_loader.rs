@@ -325,7 +325,7 @@ fn lights_materials_and_cameras_reach_the_scene() {
 fn bad_files_name_the_file_and_the_problem() {
     let cases = [
         ("not_gltf.gltf", "not a glTF"),
-        ("required_extension.gltf", "KHR_draco_mesh_compression"),
+        ("required_extension.gltf", "EXT_texture_avif"),
         ("truncated.glb", "binary glTF"),
         ("missing_buffer.gltf", "does-not-exist.bin"),
     ];

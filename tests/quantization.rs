@@ -45,7 +45,7 @@ fn quad_file(
         let mut stride = 0;
         for v in values {
             let mut e: Vec<u8> = v.iter().flat_map(|&c| encode(c, ty, normalized)).collect();
-            while e.len() % 4 != 0 {
+            while !e.len().is_multiple_of(4) {
                 e.push(0);
             }
             stride = e.len();

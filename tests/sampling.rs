@@ -186,7 +186,7 @@ impl ThetaPhiGrid {
 
 /// Composite Simpson rule over a rectangle with `panels` (even) subintervals per axis.
 fn simpson_2d(f: &dyn Fn(f64, f64) -> f64, x: (f64, f64), y: (f64, f64), panels: usize) -> f64 {
-    assert!(panels % 2 == 0);
+    assert!(panels.is_multiple_of(2));
     let hx = (x.1 - x.0) / panels as f64;
     let hy = (y.1 - y.0) / panels as f64;
     let w = |i: usize| {

@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # Installs what strata needs to build and test on Debian 12 (or Ubuntu/Debian 13):
-# Embree (headers and library), libclang for bindgen, pkg-config, and OpenImageIO's
+# Embree (headers and library), Draco's decoder (libdraco-dev: KHR_draco_mesh_compression),
+# libclang for bindgen, pkg-config, and OpenImageIO's
 # command-line tools (idiff, oiiotool) used by the image tests, and DejaVu Sans for the
 # labels of the convergence tool's plots. Idempotent: packages that
 # are already installed are not touched, and apt is not called at all when none is missing.
 set -euo pipefail
 
-packages=(libembree-dev libclang-dev pkg-config openimageio-tools fonts-dejavu-core)
+packages=(libembree-dev libdraco-dev libclang-dev pkg-config openimageio-tools fonts-dejavu-core)
 
 if ! command -v dpkg >/dev/null 2>&1; then
-    echo "setup: not a Debian-based system; install Embree 4 (or 3.13), libclang, pkg-config and" >&2
-    echo "       OpenImageIO's tools with your package manager (Homebrew: embree llvm pkg-config openimageio)." >&2
+    echo "setup: not a Debian-based system; install Embree 4 (or 3.13), Draco, libclang, pkg-config and" >&2
+    echo "       OpenImageIO's tools with your package manager (Homebrew: embree draco llvm pkg-config openimageio)." >&2
     exit 1
 fi
 
@@ -43,6 +44,6 @@ if [ -z "${STRATA_NO_OIDN:-}" ]; then
 fi
 
 if ! command -v cargo >/dev/null 2>&1; then
-    echo "setup: cargo not found: install a Rust toolchain (rustup), Rust 1.86 or newer" >&2
+    echo "setup: cargo not found: install a Rust toolchain (rustup), Rust 1.87 or newer" >&2
     exit 1
 fi

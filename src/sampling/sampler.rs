@@ -73,7 +73,7 @@ pub fn cmj_grid(spp: u32) -> (u32, u32) {
     let spp = spp.max(1);
     let root = ((spp as f64).sqrt().floor() as u32).max(1);
     let low = ((spp as f64 / 2.0).sqrt().ceil() as u32).max(1);
-    if let Some(m) = (low..=root).rev().find(|m| spp % m == 0) {
+    if let Some(m) = (low..=root).rev().find(|&m| spp.is_multiple_of(m)) {
         return (m, spp / m);
     }
     (root, spp.div_ceil(root))

@@ -27,7 +27,11 @@ use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
+    "EXT_texture_webp",
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
+    "KHR_meshopt_compression",
     "KHR_mesh_quantization",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
@@ -36,6 +40,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_basisu",
     "KHR_texture_transform",
 ];
 
@@ -60,7 +65,7 @@ fn ignored_extension_effect(ext: &str) -> &'static str {
         }
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
         "KHR_materials_variants" => "each mesh renders its default material",
-        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+        "EXT_texture_avif" => {
             "textures in that format are not decoded; their fallback images, if any, are used"
         }
         "EXT_mesh_gpu_instancing" => "each instanced mesh renders once, at its node",
@@ -201,12 +206,14 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     if is_glb {
         check_glb_header(bytes).map_err(|e| format!("invalid binary glTF: {e}"))?;
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+    let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
         format!(
             "invalid {}: {e}",
             if is_glb { "binary glTF" } else { "glTF" }
         )
     })?;
+    // EXT_texture_webp, KHR_texture_basisu: textures read their extension's image.
+    gltf.document = super::compressed::prefer_texture_extensions(gltf.document)?;
     for ext in gltf.document.extensions_required() {
         if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&ext) {
             return Err(format!(
@@ -236,9 +243,12 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         root.validate(root, gltf::json::Path::new, &mut |path, error| {
             errors.push((path(), error))
         });
-        errors.retain(|(path, error)| {
-            !(matches!(error, Invalid::Unsupported)
-                && path.as_str().starts_with("extensionsRequired"))
+        // Accessors a KHR_draco_mesh_compression stream fills have no bufferView by design.
+        let draco = super::compressed::draco_accessors(root);
+        errors.retain(|(path, error)| match error {
+            Invalid::Unsupported => !path.as_str().starts_with("extensionsRequired"),
+            Invalid::Missing => !draco.contains(path.as_str()),
+            _ => true,
         });
         if !errors.is_empty() {
             let shown: Vec<String> = errors
@@ -286,7 +296,12 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
 
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut files = vec![path.to_path_buf()];
-    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
+    let mut buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), &base_dir, &mut files)?;
+    // Meshopt and Draco compressed geometry, decoded into buffers accessors read.
+    let scene_index = root_scene.index();
+    gltf.document = super::compressed::decode_geometry(gltf.document, &mut buffers)?;
+    let root_scene =
+        (gltf.document.scenes().nth(scene_index)).ok_or("the scene to render vanished")?;
 
     let mut pose_warnings = Vec::new();
     let pose = match options.pose {
@@ -563,6 +578,11 @@ fn load_buffers(
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let i = buffer.index();
+        // EXT_meshopt_compression's URI-less placeholder, which compressed views fill.
+        if super::meshopt::is_placeholder(doc, &buffer, blob.is_some()) {
+            out.push(super::meshopt::placeholder(i, buffer.length())?);
+            continue;
+        }
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => blob
                 .ok_or_else(|| {
@@ -1355,7 +1375,7 @@ impl Loader<'_> {
             ));
         }
         let triangles = assemble_triangles(mode, &indices);
-        if mode == Mode::Triangles && indices.len() % 3 != 0 {
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             self.warnings.push(format!(
                 "{label}: {} indices is not a multiple of 3; the last {} ignored",
                 indices.len(),

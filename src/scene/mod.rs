@@ -6,7 +6,10 @@
 
 pub mod animation;
 mod camera;
+mod compressed;
+mod draco;
 mod gltf_loader;
+mod meshopt;
 mod origins;
 mod tangents;
 

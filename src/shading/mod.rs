@@ -24,6 +24,7 @@ pub mod environment;
 pub mod envmap;
 pub mod gltf_brdf;
 pub mod interaction;
+pub mod ktx2;
 pub mod layers;
 pub mod lights;
 pub mod material;

@@ -47,14 +47,37 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// Decodes encoded image bytes: KTX2 (Basis Universal, [`super::ktx2`]) by its identifier,
+/// PNG, JPEG and WebP by the `image` crate's guess from the bytes.
+fn decode_bytes(data: &[u8]) -> Result<image::DynamicImage, String> {
+    if super::ktx2::is_ktx2(data) {
+        return super::ktx2::decode(data).map(image::DynamicImage::ImageRgba8);
+    }
+    image::load_from_memory(data).map_err(|e| e.to_string())
+}
+
+/// Decodes an image file: a KTX2 file by its identifier, the others by the `image` crate.
+fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    let is_ktx2 = std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| super::ktx2::is_ktx2(&head));
+    if is_ktx2 {
+        let data = std::fs::read(path).map_err(|e| e.to_string())?;
+        return super::ktx2::decode(&data).map(image::DynamicImage::ImageRgba8);
+    }
+    image::open(path).map_err(|e| e.to_string())
+}
+
 impl Image {
-    /// Decodes PNG or JPEG bytes; colour channels are sRGB-decoded, alpha kept linear.
+    /// Decodes PNG, JPEG, WebP or KTX2 (Basis Universal) bytes; colour channels are sRGB-decoded, alpha kept linear.
     /// `index` is the image's index in the glTF file, for the error message.
     pub fn decode(source: &ImageSource, index: usize, scene_path: &Path) -> Result<Image, String> {
         Image::decode_as(source, index, scene_path, Encoding::Srgb)
     }
 
-    /// Decodes PNG or JPEG bytes whose colour channels are encoded as `encoding` says (alpha
+    /// Decodes PNG, JPEG, WebP or KTX2 bytes whose colour channels are encoded as `encoding` says (alpha
     /// is always linear).
     pub fn decode_as(
         source: &ImageSource,
@@ -63,14 +86,14 @@ impl Image {
         encoding: Encoding,
     ) -> Result<Image, String> {
         let decoded = match source {
-            ImageSource::File(path) => image::open(path).map_err(|e| {
+            ImageSource::File(path) => decode_file(path).map_err(|e| {
                 format!(
                     "{}: cannot decode image {index} ('{}'): {e}",
                     scene_path.display(),
                     path.display()
                 )
             })?,
-            ImageSource::Bytes { data, .. } => image::load_from_memory(data).map_err(|e| {
+            ImageSource::Bytes { data, .. } => decode_bytes(data).map_err(|e| {
                 format!(
                     "{}: cannot decode embedded image {index}: {e}",
                     scene_path.display()

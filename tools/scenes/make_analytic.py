@@ -891,11 +891,11 @@ def main():
     assert sum(len(t) for _, t, _ in world_triangles(doc, bufs)) == 0
 
     g = one_triangle_scene()
-    g.extensions_used = ["KHR_draco_mesh_compression"]
-    g.extensions_required = ["KHR_draco_mesh_compression"]
+    g.extensions_used = ["EXT_texture_avif"]
+    g.extensions_required = ["EXT_texture_avif"]
     write_json(bad / "required_extension.gltf", g.document())
     doc, bufs = load(bad / "required_extension.gltf")
-    assert doc["extensionsRequired"] == doc["extensionsUsed"] == ["KHR_draco_mesh_compression"]
+    assert doc["extensionsRequired"] == doc["extensionsUsed"] == ["EXT_texture_avif"]
 
     full_glb = one_triangle_scene().glb()
     validate_glb(full_glb)
