@@ -471,7 +471,10 @@ def material_props(g, mat_index, mode, materials="lambertian", warnings=None, gl
     else:
         reflectance = {"type": "rgb", "value": factor.tolist()}
     medium = None
-    if materials == "gltf" and "KHR_materials_transmission" in mat.get("extensions", {}):
+    # A transmissionFactor of 0 without a texture transmits nothing: the glTF BRDF, as in strata.
+    transmission = mat.get("extensions", {}).get("KHR_materials_transmission")
+    if materials == "gltf" and transmission is not None and (transmission.get("transmissionFactor", 0.0) > 0.0
+                                                            or "transmissionTexture" in transmission):
         glass = {} if glass is None else glass
         bsdf, medium, what = glass_props(mat, name, reflectance, glass.get("thin_model", "strata"))
         glass.setdefault("materials", {})[name] = what
@@ -549,6 +552,8 @@ def glass_props(mat, name, base_color, thin_model="strata"):
     - without a volume: thin-walled, the gltf_thin_dielectric plugin (strata's ThinDielectric);
       thin_model "mitsuba-thindielectric" (a negative control) puts Mitsuba's `thindielectric`
       in place of the smooth ones."""
+    if thin_model not in THIN_MODELS:
+        raise ValueError(f"thin_model {thin_model!r} is not one of {sorted(THIN_MODELS)}")
     ext = mat.get("extensions", {})
     pbr = mat.get("pbrMetallicRoughness", {})
     others = sorted(set(ext) - GLASS_EXTENSIONS)
