@@ -24,7 +24,10 @@
 //!
 //! Negative controls (kept as tests) show each comparison fails on a 3% darker image, on the
 //! image shifted by one pixel (what a camera off by one pixel gives), and on ambient
-//! occlusion computed with the wrong hemisphere warp (uniform, without the cosine weight).
+//! occlusion computed with the wrong hemisphere warp (uniform, without the cosine weight);
+//! the glass references, on glass made wrong (index, roughness, absorption) and on strata's
+//! true thin sheets against Mitsuba's different `thindielectric`. Manifest rows marked
+//! `control` are such wrong models: only that last test reads them.
 //!
 //! A failed comparison leaves strata's image, its variance, the reference and idiff's
 //! difference image in `target/tmp/reference-results/<test>/<scene>.<integrator>/` and names
@@ -63,6 +66,9 @@ struct Reference {
     mask: Option<PathBuf>,
     /// The environment map that lights the scene (`--env`) and its SHA-256, where there is one.
     environment: Option<(String, String)>,
+    /// A negative control (the manifest's `control`): a render of a different model that
+    /// strata must fail against, never compared as the truth.
+    control: bool,
 }
 
 fn manifest() -> Vec<Reference> {
@@ -113,6 +119,7 @@ fn manifest() -> Vec<Reference> {
                 command: s("command"),
                 mask: e["mask"].as_str().map(|m| repo().join(m)),
                 environment,
+                control: e.get("control").is_some(),
                 scene,
                 integrator,
             }
@@ -424,7 +431,7 @@ fn check_all(integrator: &str) {
     let use_idiff = idiff_available();
     let refs: Vec<Reference> = manifest()
         .into_iter()
-        .filter(|r| r.integrator == integrator)
+        .filter(|r| r.integrator == integrator && !r.control)
         .collect();
     assert!(
         !refs.is_empty(),
@@ -650,7 +657,7 @@ fn environment_references_fail_with_the_map_turned_wrong() {
     let use_idiff = idiff_available();
     let refs: Vec<Reference> = manifest()
         .into_iter()
-        .filter(|r| r.environment.is_some())
+        .filter(|r| r.environment.is_some() && !r.control)
         .collect();
     assert!(
         refs.len() >= 2,
@@ -728,5 +735,140 @@ fn povray_and_strata_lambertian_agree_on_point_lights() {
     assert!(
         z_tests(&gltf, &img, None).is_err(),
         "the glTF model must differ from POV-Ray's Lambertian image"
+    );
+}
+
+/// The reference of manifest row `name` (a file name without `.exr`).
+fn reference(name: &str) -> Reference {
+    manifest()
+        .into_iter()
+        .find(|r| r.name == name)
+        .unwrap_or_else(|| panic!("{name}: not in the manifest"))
+}
+
+/// Reference `r` with its scene replaced by a copy in which `edit` changed every material
+/// (a glTF material object) it returns true for; the copy is written beside strata's results,
+/// as `<tag>.gltf` (the bundled glass scenes embed their buffers, so the copy stands alone).
+fn with_edited_materials(r: &Reference, tag: &str, edit: impl Fn(&mut Value) -> bool) -> Reference {
+    let text = std::fs::read_to_string(repo().join(&r.scene)).unwrap();
+    let mut doc: Value = serde_json::from_str(&text).unwrap();
+    let edited = doc["materials"]
+        .as_array_mut()
+        .expect("materials")
+        .iter_mut()
+        .map(|m| edit(m) as usize)
+        .sum::<usize>();
+    assert!(edited > 0, "{}{tag}: no material edited", r.name);
+    let path = results_dir(r).join(format!("{}{tag}.gltf", r.name));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    Reference {
+        scene: path.to_str().unwrap().to_string(),
+        ..r.clone()
+    }
+}
+
+/// A glass material (KHR_materials_transmission) of the edited scene.
+fn is_glass(m: &Value) -> bool {
+    m["extensions"]["KHR_materials_transmission"].is_object()
+}
+
+/// The glass references (scenes/glass.gltf, scenes/thin-glass.gltf; Mitsuba's `dielectric`, the
+/// rough interface and thin-sheet plugins of tools/references/glass_bsdf.py, an absorbing
+/// `homogeneous` medium under `volpath`) reject strata's glass made wrong, each with the
+/// comparison its true render passes (scenes/references/README.md, "Glass", has the numbers):
+///
+/// - the spheres' index of refraction 1.4 instead of 1.5 (the refractions bend less);
+/// - the rough sphere (roughness 0.4) made smooth;
+/// - the absorbing sphere's attenuationDistance doubled (half the absorption coefficient);
+/// - strata's true thin-glass render against the control made with Mitsuba's built-in
+///   `thindielectric`, whose smooth sheet sums its internal reflections (R = 2F / (1 + F) where
+///   strata's and the extension's is F): the manifest's `control` row;
+/// - and, as for every reference, the true glass image 3% darker or shifted one pixel.
+#[test]
+fn glass_references_fail_on_wrong_glass() {
+    let use_idiff = idiff_available();
+    let glass = reference("glass.path");
+    let (img, path, _) = render_strata(&glass, &[], "");
+    compare(&glass, &img, &path, "", use_idiff)
+        .unwrap_or_else(|e| panic!("the true glass image must pass first: {e}"));
+    let rejects = |r: &Reference, img: &Image, p: &Path, tag: &str| {
+        let outcome = compare(r, img, p, tag, use_idiff);
+        eprintln!("{} against {}: {outcome:?}", tag, r.name);
+        outcome.is_err()
+    };
+    let dir = results_dir(&glass);
+    let write = |tag: &str, img: &Image| {
+        let p = dir.join(format!("strata{tag}.exr"));
+        let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+        write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
+        p
+    };
+    let mut darker = img.clone();
+    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
+    let p = write(".darker", &darker);
+    assert!(
+        rejects(&glass, &darker, &p, ".darker"),
+        "a 3% darker image passed"
+    );
+    let mut shifted = img.clone();
+    for y in 0..img.h {
+        for x in (1..img.w).rev() {
+            shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
+            shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
+        }
+    }
+    let p = write(".shifted", &shifted);
+    assert!(
+        rejects(&glass, &shifted, &p, ".shifted"),
+        "a one-pixel shift passed"
+    );
+
+    let wrong_ior = with_edited_materials(&glass, ".ior-1.4", |m| {
+        is_glass(m) && {
+            m["extensions"]["KHR_materials_ior"] = serde_json::json!({"ior": 1.4});
+            true
+        }
+    });
+    let smooth = with_edited_materials(&glass, ".rough-made-smooth", |m| {
+        let rough = m["pbrMetallicRoughness"]["roughnessFactor"]
+            .as_f64()
+            .unwrap_or(1.0)
+            > 0.0;
+        is_glass(m) && rough && {
+            m["pbrMetallicRoughness"]["roughnessFactor"] = serde_json::json!(0.0);
+            true
+        }
+    });
+    let thinner = with_edited_materials(&glass, ".absorbing-half", |m| {
+        match m.pointer_mut("/extensions/KHR_materials_volume/attenuationDistance") {
+            Some(d) => {
+                *d = serde_json::json!(2.0 * d.as_f64().unwrap());
+                true
+            }
+            None => false,
+        }
+    });
+    for (wrong, tag) in [
+        (&wrong_ior, ".ior-1.4"),
+        (&smooth, ".rough-made-smooth"),
+        (&thinner, ".absorbing-half"),
+    ] {
+        let (img, p, _) = render_strata(wrong, &[], tag);
+        assert!(rejects(&glass, &img, &p, tag), "glass{tag} passed");
+    }
+
+    // Thin-walled: strata's true render passes its reference and fails the control.
+    let thin = reference("thin-glass.path");
+    let control = manifest()
+        .into_iter()
+        .find(|r| r.control && r.scene == thin.scene)
+        .expect("the thin-walled glass's negative control (thin-glass-thindielectric.path)");
+    assert_eq!(control.strata_args, thin.strata_args);
+    let (img, path, _) = render_strata(&thin, &[], "");
+    compare(&thin, &img, &path, "", use_idiff)
+        .unwrap_or_else(|e| panic!("the true thin-glass image must pass first: {e}"));
+    assert!(
+        rejects(&control, &img, &path, ".true-vs-thindielectric"),
+        "strata's thin sheet passed against Mitsuba's thindielectric"
     );
 }

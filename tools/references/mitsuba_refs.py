@@ -7,7 +7,8 @@ Run through tools/references/make_references.sh (which makes the pinned virtuale
     make_references.sh cornell-box.path ao-wall.ao   # only these (the manifest is merged)
     make_references.sh --materials gltf        # shaded jobs with the glTF BRDF (see "material")
     python3 mitsuba_refs.py --list             # the job names
-    python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera), radiometry, environment map
+    python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera), radiometry, environment map,
+                                          # glass refusals
 
 The conversion is written from the glTF alone (nothing is tuned per scene); the contract it
 implements is strata's (see scenes/references/README.md):
@@ -33,6 +34,25 @@ implements is strata's (see scenes/references/README.md):
     texture read as linear data, bilinear, same uv and wrap rules; factors default to 1).
     Material extensions that change the BRDF (KHR_materials_ior, _specular, ...) are ignored
     with a warning in the manifest row, which also records the model ("materials").
+  - glass (gltf only): a material with KHR_materials_transmission is strata's glass
+    (Materials::gltf_bsdf), converted by glass_props() when it is glass alone: transmissionFactor
+    1 (untextured) and metallicFactor 0; a mixture with the glTF BRDF, textured roughness, other
+    extensions, ior 1 and emission are refused (ConversionError). KHR_materials_ior's ior (1.5
+    without) is the index inside; roughness r gives alpha = r^2, smooth below 1e-3; the base
+    colour tints transmitted light (specular_transmittance). With KHR_materials_volume and
+    thicknessFactor > 0 the surface bounds a volume: smooth -> `dielectric` (int_ior = ior,
+    ext_ior = 1; exact Fresnel and the same 1/eta'^2 radiance factor as strata, checked by
+    check_glass_bsdf.py); rough -> the `gltf_rough_dielectric` plugin of glass_bsdf.py (Walter et
+    al. 2007 with strata's height-correlated G2; Mitsuba's `roughdielectric` has the separable
+    G1 G1). attenuationColor c at attenuationDistance d -> an interior `homogeneous` medium,
+    albedo 0, sigma_t = -ln(c)/d (sigma_a: strata multiplies each path segment inside by
+    exp(-sigma_a t), t its length; Mitsuba's `volpath` attenuates the same segments), and the job
+    is rendered with `volpath` instead of `path`. Without a volume: thin-walled, the
+    `gltf_thin_dielectric` plugin (strata's ThinDielectric: reflection F D V, transmission that
+    lobe mirrored through the plane times (1 - F) tint; smooth: mirror F, straight through
+    (1 - F) tint). Mitsuba's own `thindielectric` (R = 2F/(1 + F)) is a different sheet: the
+    negative control job thin-glass-thindielectric (CONTROLS) uses it for the smooth sheets.
+    Glass scenes take strata --max-depth 16 (PATH_DEPTH; Mitsuba max_depth 17).
   `ao` jobs ignore --materials.
 - emission: a one-sided `area` emitter with radiance = emissiveFactor x emissiveTexture x
   KHR_materials_emissive_strength. A doubleSided emissive material is refused unless its
@@ -51,6 +71,8 @@ implements is strata's (see scenes/references/README.md):
   strata's lookup at v = k/2H (the texel rows at odd k, the means of neighbouring rows between,
   the first and last rows repeated at the poles): linear interpolation over those rows is
   strata's lookup exactly. check_environment() (--check) pins this on an asymmetric random map.
+- controls: a job of CONTROLS renders a deliberately different model; its manifest row carries
+  "control" (what it is), and tests/references.rs only checks that strata fails against it.
 - integrators: `ao` = every surface white twosided diffuse (reflectance 1), a constant
   environment of radiance 1, no other emitter, `path` with max_depth 2 and hide_emitters (so
   misses are 0): the image is (1/pi) * integral of V cos over the hemisphere. `direct` = `path`
@@ -87,6 +109,7 @@ import scene_hash  # noqa: E402
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
+import glass_bsdf  # noqa: E402
 import gltf_bsdf  # noqa: E402
 
 VARIANT = os.environ.get("STRATA_MITSUBA_VARIANT", "scalar_rgb")
@@ -107,6 +130,11 @@ SCENES = {
     # Lit by an environment map (ENVIRONMENTS) instead of their own background.
     "ao-wall-studio": ("scenes/ao-wall.gltf", (64, 64)),
     "suzanne-studio": ("scenes/suzanne.gltf", (128, 96)),
+    # Glass (tools/scenes/make_glass.py): spheres bounding volumes, and thin-walled panels.
+    "glass": ("scenes/glass.gltf", (128, 96)),
+    "thin-glass": ("scenes/thin-glass.gltf", (128, 96)),
+    # A negative control (CONTROLS), not a reference: thin-glass with Mitsuba's thindielectric.
+    "thin-glass-thindielectric": ("scenes/thin-glass.gltf", (128, 96)),
 }
 # Scenes lit by an HDR environment map: strata's --env FILE (repository-relative), --env-rotate
 # (degrees about +Y). Poly Haven's studio_small_05 (CC0) puts nearly all its light in half of
@@ -118,6 +146,21 @@ ENVIRONMENTS = {
 }
 # strata integrator -> (Mitsuba max_depth, strata --max-depth or None)
 INTEGRATORS = {"ao": (2, None), "direct": (2, 1), "path": (9, 8)}
+# Scenes whose path jobs need more bounces than strata's default 8: light through a glass
+# sphere takes two refractions and, inside, reflections, each a bounce. (strata --max-depth,
+# Mitsuba max_depth = that + 1.)
+PATH_DEPTH = {"glass": 16, "thin-glass": 16, "thin-glass-thindielectric": 16}
+# Negative controls: rendered like references, listed in the manifest with "control" (which
+# tests/references.rs uses only to show that its comparison fails), never compared as truth.
+CONTROLS = {
+    "thin-glass-thindielectric": {
+        "thin_model": "mitsuba-thindielectric",
+        "description": "NEGATIVE CONTROL, not a reference: scenes/thin-glass.gltf with its smooth sheets converted to "
+                       "Mitsuba's thindielectric (R = 2F/(1 + F): the light reflected back and forth inside the "
+                       "sheet), a different model from strata's and the extension's (R = F). strata's thin-glass "
+                       "render must fail the comparison against it.",
+    },
+}
 # Jobs: (scene, integrator, total spp, passes). Passes use spp/passes samples each.
 JOBS = [
     ("ao-open-plane", "ao", 4096, 16),
@@ -145,6 +188,11 @@ JOBS = [
     # wall (the wall hides half the map) and the glossy, textured Suzanne.
     ("ao-wall-studio", "path", 8192, 32),
     ("suzanne-studio", "path", 8192, 32),
+    # Glass (--materials gltf): smooth, rough and absorbing spheres; thin-walled panels; and the
+    # thin panels' negative control (CONTROLS).
+    ("glass", "path", 8192, 32),
+    ("thin-glass", "path", 8192, 32),
+    ("thin-glass-thindielectric", "path", 8192, 32),
 ]
 # Material models (--materials): what every glTF material of a shaded job becomes.
 MATERIAL_MODELS = {
@@ -169,7 +217,8 @@ class ConversionError(Exception):
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
-SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength"}
+SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_transmission",
+                        "KHR_materials_volume", "KHR_materials_ior"}
 
 
 class Gltf:
@@ -400,12 +449,14 @@ def check_texture_info(info, what):
 # scene conversion
 # ---------------------------------------------------------------------------------------
 
-def material_props(g, mat_index, mode, materials="lambertian", warnings=None):
-    """(bsdf dict, emitter dict or None, needs_uv) for a material, in mode 'ao' or 'shaded', with
-    the material model `materials` ('lambertian' or 'gltf', see MATERIAL_MODELS)."""
+def material_props(g, mat_index, mode, materials="lambertian", warnings=None, glass=None):
+    """(bsdf dict, emitter dict or None, needs_uv, interior medium dict or None) for a material,
+    in mode 'ao' or 'shaded', with the material model `materials` ('lambertian' or 'gltf', see
+    MATERIAL_MODELS). `glass`: a dict that collects the conversion of each transmissive
+    material (glass_props), with the key "thin_model" (THIN_MODELS) read from it."""
     white = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}}
     if mode == "ao":
-        return white, None, False
+        return white, None, False, None
     mat = g.doc["materials"][mat_index] if mat_index is not None else {}
     name = mat.get("name", f"material {mat_index}")
     pbr = mat.get("pbrMetallicRoughness", {})
@@ -419,7 +470,15 @@ def material_props(g, mat_index, mode, materials="lambertian", warnings=None):
         needs_uv = True
     else:
         reflectance = {"type": "rgb", "value": factor.tolist()}
-    if materials == "gltf":
+    medium = None
+    # A transmissionFactor of 0 without a texture transmits nothing: the glTF BRDF, as in strata.
+    transmission = mat.get("extensions", {}).get("KHR_materials_transmission")
+    if materials == "gltf" and transmission is not None and (transmission.get("transmissionFactor", 0.0) > 0.0
+                                                            or "transmissionTexture" in transmission):
+        glass = {} if glass is None else glass
+        bsdf, medium, what = glass_props(mat, name, reflectance, glass.get("thin_model", "strata"))
+        glass.setdefault("materials", {})[name] = what
+    elif materials == "gltf":
         bsdf, mr_uv = gltf_bsdf_dict(g, mat, name, reflectance, warnings)
         needs_uv |= mr_uv
     else:
@@ -444,7 +503,9 @@ def material_props(g, mat_index, mode, materials="lambertian", warnings=None):
         else:
             radiance = {"type": "rgb", "value": scale.tolist()}
         emitter = {"type": "area", "radiance": radiance}
-    return bsdf, emitter, needs_uv
+    if medium is not None and emitter is not None:
+        raise ConversionError(f"material '{name}': an emissive glass is not supported")
+    return bsdf, emitter, needs_uv, medium
 
 
 # Material extensions that change the glTF BRDF, which the plugin does not model.
@@ -453,6 +514,104 @@ GLTF_BRDF_EXTENSIONS_IGNORED = ("KHR_materials_ior", "KHR_materials_specular", "
                                 "KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_unlit",
                                 "KHR_materials_pbrSpecularGlossiness", "KHR_materials_dispersion",
                                 "KHR_materials_diffuse_transmission")
+
+
+# How a thin-walled glass (transmission without a volume) is converted (glass_props).
+THIN_MODELS = {
+    "strata": "gltf_thin_dielectric (tools/references/glass_bsdf.py): strata's ThinDielectric, the extension's "
+              "thin-walled model (reflection F D V; transmission the reflection lobe mirrored through the plane "
+              "times (1 - F) base colour; smooth: mirror F, straight through (1 - F) base colour)",
+    "mitsuba-thindielectric": "NEGATIVE CONTROL: smooth thin-walled glass as Mitsuba's built-in thindielectric, "
+                              "which sums the sheet's internal reflections (R = 2F/(1 + F), T = (1 - F)/(1 + F)); "
+                              "rough ones as gltf_thin_dielectric",
+}
+# Extensions a glass material may carry: the ones the conversion reads, and emissive strength
+# (a glass must not emit; checked by material_props).
+GLASS_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_ior",
+                    "KHR_materials_emissive_strength"}
+
+
+def glass_props(mat, name, base_color, thin_model="strata"):
+    """(bsdf dict, interior medium dict or None, description) of a transmissive glTF material
+    (KHR_materials_transmission), as strata renders it (Materials::gltf_bsdf,
+    src/shading/dielectric.rs). Only glass that strata renders as an interface alone is
+    converted: transmissionFactor 1 (no texture) and metallicFactor 0; a mixture of glass and
+    the glTF BRDF is refused, as are textured roughness, extensions the conversion does not read
+    and ior 1 (an invisible interface).
+
+    - with KHR_materials_volume and thicknessFactor > 0: the boundary of a volume, relative index
+      ior entering (ext_ior 1, int_ior ior). Smooth (alpha = roughness^2 < 1e-3): Mitsuba's
+      `dielectric` (exact Fresnel; transmission scaled by 1/eta'^2 in radiance mode and by
+      specular_transmittance = the base colour, as strata's Dielectric); rough: the
+      gltf_rough_dielectric plugin (glass_bsdf.py: Walter et al. 2007 with strata's
+      height-correlated G2; Mitsuba's roughdielectric has the separable G1 G1).
+      An attenuationColor c < 1 at attenuationDistance d gives an interior `homogeneous` medium
+      of sigma_t = sigma_a = -ln(c) / d per channel and albedo 0 (Beer-Lambert, exp(-sigma_a t)
+      over the distance t travelled inside: strata multiplies each path segment that ends on
+      the inside of the boundary by it; the reference needs `volpath`).
+    - without a volume: thin-walled, the gltf_thin_dielectric plugin (strata's ThinDielectric);
+      thin_model "mitsuba-thindielectric" (a negative control) puts Mitsuba's `thindielectric`
+      in place of the smooth ones."""
+    if thin_model not in THIN_MODELS:
+        raise ValueError(f"thin_model {thin_model!r} is not one of {sorted(THIN_MODELS)}")
+    ext = mat.get("extensions", {})
+    pbr = mat.get("pbrMetallicRoughness", {})
+    others = sorted(set(ext) - GLASS_EXTENSIONS)
+    problems = []
+    if others:
+        problems.append(f"extensions {others} on a transmissive material are not converted")
+    tr = ext["KHR_materials_transmission"]
+    if tr.get("transmissionFactor", 0.0) != 1.0 or "transmissionTexture" in tr:
+        problems.append(f"transmissionFactor {tr.get('transmissionFactor', 0.0)}"
+                        + (" with a transmissionTexture" if "transmissionTexture" in tr else "")
+                        + " mixes glass with the glTF BRDF (only transmission 1, untextured, is converted)")
+    if pbr.get("metallicFactor", 1.0) != 0.0:
+        problems.append(f"metallicFactor {pbr.get('metallicFactor', 1.0)} (glTF's default is 1) mixes glass with "
+                        "metal (only metallic 0 is converted)")
+    if "metallicRoughnessTexture" in pbr:
+        problems.append("a metallicRoughnessTexture (textured metallic and roughness) is not converted")
+    ior = float(ext.get("KHR_materials_ior", {}).get("ior", 1.5))
+    if not (math.isfinite(ior) and ior > 1.0):
+        problems.append(f"ior {ior}: only ior > 1 is converted (strata treats 1 as an invisible interface)")
+    if problems:
+        raise ConversionError(f"material '{name}': " + "; ".join(problems))
+    roughness = min(max(float(pbr.get("roughnessFactor", 1.0)), 0.0), 1.0)
+    alpha = roughness * roughness
+    smooth = alpha < glass_bsdf.SMOOTH_ALPHA
+    vol = ext.get("KHR_materials_volume")
+    medium = None
+    if vol is not None and float(vol.get("thicknessFactor", 0.0)) > 0.0:
+        what = {"kind": "volume boundary", "ior": ior, "roughness": roughness, "alpha": alpha}
+        if smooth:
+            bsdf = {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": base_color}
+            what["mitsuba"] = "dielectric"
+        else:
+            glass_bsdf.register()
+            bsdf = {"type": glass_bsdf.ROUGH_NAME, "eta": ior, "alpha": alpha, "specular_transmittance": base_color}
+            what["mitsuba"] = glass_bsdf.ROUGH_NAME
+        colour = np.array(vol.get("attenuationColor", [1.0, 1.0, 1.0]), dtype=np.float64)
+        distance = float(vol.get("attenuationDistance", math.inf))
+        if np.any(colour <= 0.0) or np.any(colour > 1.0) or not distance > 0.0:
+            raise ConversionError(f"material '{name}': attenuationColor {colour.tolist()} must lie in (0, 1] and "
+                                  f"attenuationDistance {distance} be positive")
+        sigma = -np.log(colour) / distance if math.isfinite(distance) else np.zeros(3)
+        if np.any(sigma > 0.0):
+            # Mitsuba reads an RGB sigma_t as a reflectance (each channel at most 1): the
+            # largest channel goes into `scale`.
+            top = float(sigma.max())
+            medium = {"type": "homogeneous", "albedo": {"type": "rgb", "value": [0.0, 0.0, 0.0]},
+                      "sigma_t": {"type": "rgb", "value": (sigma / top).tolist()}, "scale": top}
+            what["medium"] = {"type": "homogeneous", "albedo": 0, "sigma_t": sigma.tolist()}
+    else:
+        what = {"kind": "thin-walled", "ior": ior, "roughness": roughness, "alpha": alpha}
+        if smooth and thin_model == "mitsuba-thindielectric":
+            bsdf = {"type": "thindielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": base_color}
+            what["mitsuba"] = "thindielectric (negative control)"
+        else:
+            glass_bsdf.register()
+            bsdf = {"type": glass_bsdf.THIN_NAME, "eta": ior, "alpha": alpha, "specular_transmittance": base_color}
+            what["mitsuba"] = glass_bsdf.THIN_NAME
+    return bsdf, medium, what
 
 
 def gltf_bsdf_dict(g, mat, name, base_color, warnings):
@@ -479,11 +638,13 @@ def gltf_bsdf_dict(g, mat, name, base_color, warnings):
             "roughness": roughness}, needs_uv
 
 
-def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
+def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter, interior=None):
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf)
     if emitter is not None:
         props["emitter"] = mi.load_dict(emitter)
+    if interior is not None:
+        props["interior"] = mi.load_dict(interior)
     mesh = mi.Mesh(name, len(pos), len(faces), props, has_vertex_normals=normals is not None,
                    has_vertex_texcoords=uvs is not None)
     p = mi.traverse(mesh)
@@ -500,14 +661,17 @@ def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter):
     return mesh
 
 
-def convert(path, mode, resolution, max_depth, materials="lambertian", environment=None):
+def convert(path, mode, resolution, max_depth, materials="lambertian", environment=None, thin_model="strata"):
     """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'; materials 'lambertian' or 'gltf'
     (MATERIAL_MODELS); environment: an ENVIRONMENTS entry that lights a shaded scene in place of
-    its background, or None. Returns (dict, info)."""
+    its background, or None; thin_model: how thin-walled glass is converted (THIN_MODELS).
+    Returns (dict, info)."""
     g = Gltf(path)
     doc = g.doc
     scene = {"type": "scene"}
     info = {"triangles": 0, "meshes": 0, "lights": [], "emissive_materials": set(), "warnings": []}
+    glass = {"thin_model": thin_model}
+    media = False
     camera = None
     lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
     for ni, node, world in walk(g):
@@ -529,7 +693,9 @@ def convert(path, mode, resolution, max_depth, materials="lambertian", environme
                 if det < 0:
                     tris = tris[:, [0, 2, 1]]
                 wpos = pos @ lin.T + world[:3, 3]
-                bsdf, emitter, needs_uv = material_props(g, prim.get("material"), mode, materials, info["warnings"])
+                bsdf, emitter, needs_uv, medium = material_props(g, prim.get("material"), mode, materials,
+                                                                 info["warnings"], glass)
+                media |= medium is not None
                 normals = None
                 if "NORMAL" in attrs and emitter is None and normal_m is not None:
                     n = g.accessor(attrs["NORMAL"]) @ normal_m.T
@@ -547,7 +713,7 @@ def convert(path, mode, resolution, max_depth, materials="lambertian", environme
                     # first (top) row, as glTF does (verified by --check; flipping v
                     # renders the texture upside down).
                     uvs = g.accessor(attrs["TEXCOORD_0"])[:, :2].copy()
-                mesh = make_mesh(f"n{ni}_m{node['mesh']}_p{pi}", wpos, tris, normals, uvs, bsdf, emitter)
+                mesh = make_mesh(f"n{ni}_m{node['mesh']}_p{pi}", wpos, tris, normals, uvs, bsdf, emitter, medium)
                 scene[f"mesh_{ni}_{pi}"] = mesh
                 info["triangles"] += len(tris)
                 info["meshes"] += 1
@@ -605,7 +771,14 @@ def convert(path, mode, resolution, max_depth, materials="lambertian", environme
             scene["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [float(c) for c in background]}}
         scene["integrator"] = {"type": "path", "max_depth": max_depth, "rr_depth": RR_DEPTH, "hide_emitters": False}
         info["background"] = [float(c) for c in background] if background is not None else [0.0, 0.0, 0.0]
+    if media:
+        # The path integrator ignores media: volpath attenuates the segments inside an absorbing
+        # glass (albedo 0: a sampled medium interaction ends the path, which averages to
+        # exp(-sigma_t t)). Without media it gives the same estimates as path.
+        scene["integrator"]["type"] = "volpath"
     info["emissive_materials"] = sorted(info["emissive_materials"])
+    if "materials" in glass:
+        info["glass"] = {"thin_model": thin_model, "materials": glass["materials"]}
     return scene, info
 
 
@@ -816,6 +989,22 @@ def job_name(scene, integrator):
     return f"{scene}.{integrator}"
 
 
+def depths(scene_name, integrator):
+    """(Mitsuba max_depth, strata --max-depth or None) of a job."""
+    if integrator == "path" and scene_name in PATH_DEPTH:
+        return PATH_DEPTH[scene_name] + 1, PATH_DEPTH[scene_name]
+    return INTEGRATORS[integrator]
+
+
+def job_convert(scene_name, integrator, materials):
+    """convert() with a job's settings."""
+    rel, res = SCENES[scene_name]
+    mdepth, _ = depths(scene_name, integrator)
+    thin_model = CONTROLS.get(scene_name, {}).get("thin_model", "strata")
+    return convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
+                   materials, ENVIRONMENTS.get(scene_name), thin_model)
+
+
 def strata_args(integrator, strata_depth, res, background, materials="lambertian", environment=None):
     """The strata command-line options that match this reference (plus --spp, --seed, -o)."""
     args = ["--integrator", integrator]
@@ -840,9 +1029,7 @@ _masks_done = set()
 
 def run_job(scene_name, integrator, spp, passes, seed_base=0, materials="lambertian"):
     rel, res = SCENES[scene_name]
-    mdepth, _ = INTEGRATORS[integrator]
-    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
-                               materials, ENVIRONMENTS.get(scene_name))
+    scene_dict, info = job_convert(scene_name, integrator, materials)
     t0 = time.time()
     mean, var_mean = render_passes(scene_dict, spp, passes, seed_base)
     seconds = time.time() - t0
@@ -862,7 +1049,7 @@ def run_job(scene_name, integrator, spp, passes, seed_base=0, materials="lambert
 def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds,
                    materials="lambertian"):
     rel, res = SCENES[scene_name]
-    mdepth, strata_depth = INTEGRATORS[integrator]
+    mdepth, strata_depth = depths(scene_name, integrator)
     if integrator == "ao":
         materials = "lambertian"  # AO renders every surface white diffuse whatever the model
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
@@ -916,6 +1103,10 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         entry["strata_args"] = entry["strata_args"] + ["--no-alpha"]
     if materials != "lambertian":  # (lambertian rows stay as they were before the option existed)
         entry["materials"] = {"model": materials, "description": MATERIAL_MODELS[materials]}
+    if "glass" in info:
+        entry["glass"] = info["glass"]
+    if scene_name in CONTROLS:
+        entry["control"] = CONTROLS[scene_name]["description"]
     return entry
 
 
@@ -940,9 +1131,7 @@ def mask_stats(path):
 def rebuild_entry(scene_name, integrator, spp, passes, old, materials="lambertian"):
     """Manifest entry recomputed from the EXRs on disk (no rendering); keeps the old timing."""
     rel, res = SCENES[scene_name]
-    mdepth, _ = INTEGRATORS[integrator]
-    scene_dict, info = convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
-                               materials, ENVIRONMENTS.get(scene_name))
+    scene_dict, info = job_convert(scene_name, integrator, materials)
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
     mean = np.array(mi.Bitmap(base + ".exr"), dtype=np.float64)[..., :3]
     var_mean = np.array(mi.Bitmap(base + ".var.exr"), dtype=np.float64)[..., :3]
@@ -1219,6 +1408,48 @@ def check_environment():
     return ok, lines
 
 
+def check_glass_refusals():
+    """glass_props() converts glass alone and refuses what it cannot convert exactly: each
+    material below must raise ConversionError naming it, and the plain glass must convert."""
+    tr = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    pbr = {"metallicFactor": 0.0, "roughnessFactor": 0.0}
+    refused = {
+        "half transmissive": {"pbrMetallicRoughness": pbr,
+                              "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.5}}},
+        "transmission texture": {"pbrMetallicRoughness": pbr, "extensions": {"KHR_materials_transmission": {
+            "transmissionFactor": 1.0, "transmissionTexture": {"index": 0}}}},
+        "metallic by default": {"pbrMetallicRoughness": {"roughnessFactor": 0.0}, "extensions": tr},
+        "half metal": {"pbrMetallicRoughness": dict(pbr, metallicFactor=0.5), "extensions": tr},
+        "textured roughness": {"pbrMetallicRoughness": dict(pbr, metallicRoughnessTexture={"index": 0}),
+                               "extensions": tr},
+        "ior 1": {"pbrMetallicRoughness": pbr, "extensions": dict(tr, KHR_materials_ior={"ior": 1.0})},
+        "clearcoat": {"pbrMetallicRoughness": pbr, "extensions": dict(tr, KHR_materials_clearcoat={})},
+        "black attenuation": {"pbrMetallicRoughness": pbr, "extensions": dict(tr, KHR_materials_volume={
+            "thicknessFactor": 1.0, "attenuationColor": [0.5, 0.0, 0.5], "attenuationDistance": 1.0})},
+    }
+    lines, ok = [], True
+    white = {"type": "rgb", "value": [1.0, 1.0, 1.0]}
+    for name, mat in refused.items():
+        try:
+            glass_props(mat, name, white)
+            good, why = False, "converted"
+        except ConversionError as e:
+            good, why = f"'{name}'" in str(e), str(e)
+        ok &= good
+        lines.append(f"{'ok  ' if good else 'FAIL'} glass refused, {name}: {why}")
+    try:
+        bsdf, medium, _ = glass_props({"pbrMetallicRoughness": pbr, "extensions": dict(tr, KHR_materials_volume={
+            "thicknessFactor": 1.0, "attenuationColor": [0.5, 0.25, 1.0], "attenuationDistance": 2.0})}, "glass", white)
+        sigma = np.array(medium["sigma_t"]["value"]) * medium["scale"]
+        good = bsdf["type"] == "dielectric" and np.allclose(sigma, -np.log([0.5, 0.25, 1.0]) / 2.0)
+    except ConversionError as e:
+        good = False
+        lines.append(str(e))
+    ok &= good
+    lines.append(f"{'ok  ' if good else 'FAIL'} plain absorbing glass converts: dielectric, sigma_t = -ln(c)/d")
+    return ok, lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
@@ -1240,9 +1471,11 @@ def main():
         ok1, lines1 = check_orientation(args.check)
         ok2, lines2 = check_radiometry(args.check)
         ok3, lines3 = check_environment()
-        print("\n".join(lines1 + lines2 + lines3))
-        print("checks:", "passed" if ok1 and ok2 and ok3 else "FAILED")
-        return 0 if ok1 and ok2 and ok3 else 1
+        ok4, lines4 = check_glass_refusals()
+        print("\n".join(lines1 + lines2 + lines3 + lines4))
+        ok = ok1 and ok2 and ok3 and ok4
+        print("checks:", "passed" if ok else "FAILED")
+        return 0 if ok else 1
     if args.list:
         for s, i, spp, k in JOBS:
             print(job_name(s, i), spp, k)

@@ -49,21 +49,21 @@ LIGHT = {"centre": [0.0, 5.0, 2.5], "half": 1.0, "radiance": 12.0}
 SKY = [0.6, 0.75, 1.0]
 
 
-def uv_sphere():
-    """A unit sphere: (RINGS + 1) x (SEGMENTS + 1) vertices with smooth normals, CCW outward."""
+def uv_sphere(segments=SEGMENTS, rings=RINGS):
+    """A unit sphere: (rings + 1) x (segments + 1) vertices with smooth normals, CCW outward."""
     pos, idx = [], []
-    for r in range(RINGS + 1):
-        theta = math.pi * r / RINGS
-        for s in range(SEGMENTS + 1):
-            phi = 2.0 * math.pi * s / SEGMENTS
+    for r in range(rings + 1):
+        theta = math.pi * r / rings
+        for s in range(segments + 1):
+            phi = 2.0 * math.pi * s / segments
             pos.append([math.sin(theta) * math.cos(phi), math.cos(theta), -math.sin(theta) * math.sin(phi)])
-    w = SEGMENTS + 1
-    for r in range(RINGS):
-        for s in range(SEGMENTS):
+    w = segments + 1
+    for r in range(rings):
+        for s in range(segments):
             a, b, c, d = r * w + s, (r + 1) * w + s, (r + 1) * w + s + 1, r * w + s + 1
             if r > 0:
                 idx += [a, b, d]
-            if r < RINGS - 1:
+            if r < rings - 1:
                 idx += [d, b, c]
     return pos, [list(p) for p in pos], idx
 
