@@ -293,7 +293,9 @@ impl LocalBsdf for Bsdf {
         match self {
             Bsdf::MetallicRoughness(brdf) => Bsdf::MetallicRoughness(brdf.at(wo)),
             Bsdf::Layered(b) => Bsdf::Layered(b.at(wo)),
-            other => other,
+            Bsdf::Glass(b) => Bsdf::Glass(b.at(wo)),
+            Bsdf::ThinGlass(b) => Bsdf::ThinGlass(b.at(wo)),
+            Bsdf::Diffuse(b) => Bsdf::Diffuse(b),
         }
     }
 

@@ -56,11 +56,18 @@
 //!
 //! [`ThinDielectric`] is the thin-walled surface of `KHR_materials_transmission` alone: see its
 //! documentation.
+//!
+//! **Energy compensation.** Single scattering among the microfacets loses energy (a rough
+//! glass sphere in a white furnace keeps 88% at roughness 0.5). With compensation (the
+//! renderer's default, as for the glTF BRDF) both lobes are scaled by 1 / E(μo), E the power
+//! the white interface returns from wo's side ([`DielectricAlbedoTable`], Turquin 2019's
+//! scaling); the thin sheet's by the white GGX albedo's reciprocal. Shapes, and so sampling,
+//! are unchanged.
 
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{BsdfFlags, BsdfSample, LocalBsdf};
-use super::microfacet::Ggx;
+use super::microfacet::{AlbedoTable, Ggx};
 
 /// The lobes of a rough interface.
 const GLOSSY: BsdfFlags = BsdfFlags::REFLECTION
@@ -161,13 +168,39 @@ pub struct Dielectric {
     pub alpha: f32,
     /// What transmitted light is multiplied by (glTF: the base colour).
     pub tint: Vec3,
+    /// Compensate the energy single scattering among the microfacets loses
+    /// ([`Dielectric::with_energy_compensation`]).
+    pub compensated: bool,
+    /// The compensation's factor 1 / E(μo) for the wo of [`LocalBsdf::at`] (1 before, or
+    /// without compensation).
+    scale: f32,
 }
 
 impl Dielectric {
     /// The interface of relative index `eta` (n_inside / n_outside), GGX roughness `alpha`
-    /// (roughness², not the perceptual roughness) and transmission tint `tint`.
+    /// (roughness², not the perceptual roughness) and transmission tint `tint`; single
+    /// scattering.
     pub fn new(eta: f32, alpha: f32, tint: Vec3) -> Dielectric {
-        Dielectric { eta, alpha, tint }
+        Dielectric {
+            eta,
+            alpha,
+            tint,
+            compensated: false,
+            scale: 1.0,
+        }
+    }
+
+    /// The same interface with the energy single scattering loses given back: reflection
+    /// and transmission both scaled by 1 / E(μo), E the power the white interface returns
+    /// from wo's side, R + η'² T ([`DielectricAlbedoTable`]; Turquin 2019's scaling, which
+    /// keeps the lobes' shapes, so sampling is unchanged). A rough glass sphere then stays
+    /// white in a white furnace. Not reciprocal (it reads μo alone), as Turquin notes.
+    pub fn with_energy_compensation(self) -> Dielectric {
+        Dielectric {
+            compensated: true,
+            scale: 1.0,
+            ..self
+        }
     }
 
     /// True when the interface is a delta lobe: smooth, or index-matched (η = 1).
@@ -273,9 +306,19 @@ impl LocalBsdf for Dielectric {
         false
     }
 
-    #[inline(always)]
-    fn at(self, _wo: Vec3) -> Dielectric {
-        self
+    #[inline]
+    fn at(self, wo: Vec3) -> Dielectric {
+        if !self.compensated || self.is_specular() {
+            return self;
+        }
+        let Some(up) = Upright::of(wo, self.eta) else {
+            return self;
+        };
+        let e = DielectricAlbedoTable::get().e(wo.z.abs(), self.alpha, up.eta);
+        Dielectric {
+            scale: 1.0 / e.max(1e-3),
+            ..self
+        }
     }
 
     #[inline]
@@ -304,7 +347,10 @@ impl LocalBsdf for Dielectric {
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match (self.is_specular(), Upright::of(wo, self.eta)) {
-            (false, Some(up)) => self.eval_pdf_upright(up.sign * wo, up.sign * wi, up.eta),
+            (false, Some(up)) => {
+                let (f, pdf) = self.eval_pdf_upright(up.sign * wo, up.sign * wi, up.eta);
+                (f * self.scale, pdf)
+            }
             _ => (Vec3::ZERO, 0.0),
         }
     }
@@ -365,6 +411,7 @@ impl LocalBsdf for Dielectric {
         }
         let (wi, h) = self.sample_upright(wo_up, uc, u, up.eta)?;
         let (f_cos, pdf) = self.lobe(wo_up, wi, h, up.eta);
+        let f_cos = f_cos * self.scale;
         let flags = match wi.z > 0.0 {
             true => BsdfFlags::GLOSSY_REFLECTION,
             false => GLOSSY_TRANSMISSION,
@@ -375,6 +422,104 @@ impl LocalBsdf for Dielectric {
             pdf,
             flags,
         })
+    }
+}
+
+/// The power a white rough interface returns from one side, E(μ, α, η) = R + η² T (η the
+/// relative index seen from that side, undoing the radiance convention's 1/η²): 1 for a smooth
+/// one, less for a rough one by what single scattering among its microfacets loses.
+/// Tabulated once per process (the first scene with compensated rough glass) on a grid of μ
+/// (32), √α (16) and n = max(η, 1/η) from 1 to 3 (17), for light arriving from the lower
+/// index (η ≥ 1) and from the higher, each entry the mean over 16 × 16 stratified
+/// visible-normal samples (the lobe number a Kronecker sequence) of the sample's power weight;
+/// looked up by interpolation in all three.
+pub struct DielectricAlbedoTable {
+    /// [side][n][√α][μ].
+    e: Vec<f32>,
+}
+
+impl DielectricAlbedoTable {
+    const N_MU: usize = 32;
+    const N_R: usize = 16;
+    const N_ETA: usize = 17;
+    const N_MAX: f32 = 3.0;
+    const SAMPLES: usize = 16;
+
+    /// The table, made on first use.
+    pub fn get() -> &'static DielectricAlbedoTable {
+        static TABLE: std::sync::OnceLock<DielectricAlbedoTable> = std::sync::OnceLock::new();
+        TABLE.get_or_init(DielectricAlbedoTable::compute)
+    }
+
+    fn compute() -> DielectricAlbedoTable {
+        use rayon::prelude::*;
+        let (n_mu, n_r, n_eta) = (Self::N_MU, Self::N_R, Self::N_ETA);
+        let blocks: Vec<Vec<f32>> = (0..2 * n_eta)
+            .into_par_iter()
+            .map(|b| {
+                let (side, k) = (b / n_eta, b % n_eta);
+                let n = 1.0 + (Self::N_MAX - 1.0) * k as f32 / (n_eta - 1) as f32;
+                let eta = if side == 0 { n } else { 1.0 / n };
+                let mut out = Vec::with_capacity(n_r * n_mu);
+                for j in 0..n_r {
+                    let r = j as f32 / (n_r - 1) as f32;
+                    for i in 0..n_mu {
+                        let mu = (i as f32 / (n_mu - 1) as f32).max(1e-3);
+                        out.push(Self::power_albedo(eta, r * r, mu));
+                    }
+                }
+                out
+            })
+            .collect();
+        DielectricAlbedoTable { e: blocks.concat() }
+    }
+
+    /// R + η² T of the white single-scattering interface (η, α) seen from direction cosine
+    /// `mu` above it, by stratified sampling.
+    pub fn power_albedo(eta: f32, alpha: f32, mu: f32) -> f32 {
+        let glass = Dielectric::new(eta, alpha, Vec3::ONE);
+        if glass.is_specular() {
+            return 1.0;
+        }
+        let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+        let k = Self::SAMPLES;
+        let mut sum = 0.0f64;
+        for a in 0..k {
+            for b in 0..k {
+                let u = Vec2::new((a as f32 + 0.5) / k as f32, (b as f32 + 0.5) / k as f32);
+                // The lobe number from the golden-ratio sequence, apart from u's strata.
+                let uc = ((a * k + b) as f32 * 0.618_034).fract();
+                if let Some(s) = glass.sample(wo, uc, u) {
+                    let w = s.f_cos.x / s.pdf;
+                    sum += match s.wi.z < 0.0 {
+                        true => (w * eta * eta) as f64,
+                        false => w as f64,
+                    };
+                }
+            }
+        }
+        (sum / (k * k) as f64) as f32
+    }
+
+    /// E at direction cosine `mu`, GGX α `alpha` and relative index `eta` seen from wo's side.
+    pub fn e(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let (n_mu, n_r, n_eta) = (Self::N_MU, Self::N_R, Self::N_ETA);
+        let side = usize::from(eta < 1.0);
+        let n = if eta < 1.0 { 1.0 / eta } else { eta };
+        let grid = |x: f32, cells: usize| {
+            let x = x.clamp(0.0, 1.0) * (cells - 1) as f32;
+            let lo = (x as usize).min(cells - 2);
+            (lo, x - lo as f32)
+        };
+        let (i, fi) = grid(mu, n_mu);
+        let (j, fj) = grid(alpha.max(0.0).sqrt(), n_r);
+        let (k, fk) = grid((n - 1.0) / (Self::N_MAX - 1.0), n_eta);
+        let at = |k: usize, j: usize, i: usize| self.e[((side * n_eta + k) * n_r + j) * n_mu + i];
+        let plane = |k: usize| {
+            let row = |j: usize| at(k, j, i) * (1.0 - fi) + at(k, j, i + 1) * fi;
+            row(j) * (1.0 - fj) + row(j + 1) * fj
+        };
+        plane(k) * (1.0 - fk) + plane(k + 1) * fk
     }
 }
 
@@ -416,13 +561,35 @@ pub struct ThinDielectric {
     pub alpha: f32,
     /// What transmitted light is multiplied by (glTF: the base colour).
     pub tint: Vec3,
+    /// Compensate the energy single scattering loses
+    /// ([`ThinDielectric::with_energy_compensation`]).
+    pub compensated: bool,
+    /// 1 / E(μo) for the wo of [`LocalBsdf::at`] (1 before, or without compensation).
+    scale: f32,
 }
 
 impl ThinDielectric {
     /// The sheet of relative index `eta`, GGX roughness `alpha` (roughness²) and
-    /// transmission tint `tint`.
+    /// transmission tint `tint`; single scattering.
     pub fn new(eta: f32, alpha: f32, tint: Vec3) -> ThinDielectric {
-        ThinDielectric { eta, alpha, tint }
+        ThinDielectric {
+            eta,
+            alpha,
+            tint,
+            compensated: false,
+            scale: 1.0,
+        }
+    }
+
+    /// The same sheet with reflection and transmission scaled by 1 / E(μo), E the white GGX
+    /// lobe's single-scattering albedo ([`AlbedoTable`]), which is what the white sheet
+    /// returns (R + T = E, F + (1 − F) = 1 at every microfacet): it then returns all of it.
+    pub fn with_energy_compensation(self) -> ThinDielectric {
+        ThinDielectric {
+            compensated: true,
+            scale: 1.0,
+            ..self
+        }
     }
 
     /// True when the sheet is smooth: a delta lobe.
@@ -501,9 +668,16 @@ impl LocalBsdf for ThinDielectric {
         false
     }
 
-    #[inline(always)]
-    fn at(self, _wo: Vec3) -> ThinDielectric {
-        self
+    #[inline]
+    fn at(self, wo: Vec3) -> ThinDielectric {
+        if !self.compensated || self.is_specular() || wo.z == 0.0 {
+            return self;
+        }
+        let e = AlbedoTable::get().e(wo.z.abs(), self.alpha);
+        ThinDielectric {
+            scale: 1.0 / e.max(1e-3),
+            ..self
+        }
     }
 
     #[inline]
@@ -532,7 +706,10 @@ impl LocalBsdf for ThinDielectric {
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match (self.is_specular(), Upright::of(wo, self.eta)) {
-            (false, Some(up)) => self.eval_pdf_upright(up.sign * wo, up.sign * wi),
+            (false, Some(up)) => {
+                let (f, pdf) = self.eval_pdf_upright(up.sign * wo, up.sign * wi);
+                (f * self.scale, pdf)
+            }
             _ => (Vec3::ZERO, 0.0),
         }
     }

@@ -25,7 +25,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 pub use super::bsdf::DiffuseSampling;
 use super::bsdf::{Bsdf, BsdfFlags, Lambertian, LocalBsdf, SurfaceBsdf};
-use super::dielectric::{Dielectric, ThinDielectric};
+use super::dielectric::{Dielectric, DielectricAlbedoTable, ThinDielectric};
 use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use super::layers::{Coat, Layered, Sheen, SheenTable};
@@ -335,6 +335,10 @@ impl Materials {
         if materials.iter().any(|m| m.sheen.is_some()) {
             SheenTable::get();
         }
+        if gltf && options.energy_compensation && materials.iter().any(|m| m.volume.is_some()) {
+            // Rough glass's compensation table (about 0.2 s), likewise before the render.
+            DielectricAlbedoTable::get();
+        }
         let coat_normals =
             |m: &Prepared| (m.coat.as_ref()).is_some_and(|c| c.normal_texture.is_some());
         let textured = materials.iter().any(|m| {
@@ -552,12 +556,23 @@ impl Materials {
             let w = transmission * (1.0 - metallic);
             if w > 0.0 && (w >= 1.0 || point_choice(si) < w) {
                 let alpha = roughness * roughness;
+                let compensated = self.options.energy_compensation;
                 return match m.volume {
                     Some(_) => {
                         let eta = if si.front_face { m.ior } else { 1.0 / m.ior };
-                        Bsdf::Glass(Dielectric::new(eta, alpha, base))
+                        let glass = Dielectric::new(eta, alpha, base);
+                        Bsdf::Glass(match compensated {
+                            true => glass.with_energy_compensation(),
+                            false => glass,
+                        })
                     }
-                    None => Bsdf::ThinGlass(ThinDielectric::new(m.ior, alpha, base)),
+                    None => {
+                        let thin = ThinDielectric::new(m.ior, alpha, base);
+                        Bsdf::ThinGlass(match compensated {
+                            true => thin.with_energy_compensation(),
+                            false => thin,
+                        })
+                    }
                 };
             }
             if w > 0.0 {
