@@ -278,6 +278,12 @@ pub struct Args {
     #[arg(long)]
     pub no_alpha: bool,
 
+    /// Store every placement of a mesh as a world-space copy of its triangles, where a mesh
+    /// that several nodes or EXT_mesh_gpu_instancing instances place is otherwise stored
+    /// once and placed by BVH instances: memory grows with the placements (for comparisons).
+    #[arg(long)]
+    pub flatten_instances: bool,
+
     /// Render passes written as layers of the EXR beside the beauty, comma-separated:
     /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z), position
     /// (position.X/Y/Z), uv (uv.U/V), each the pixel's mean over its samples of the camera

@@ -101,6 +101,9 @@ pub struct Job {
     pub quads: bool,
     /// Alpha coverage of MASK and BLEND materials (`--no-alpha` turns it off).
     pub alpha: bool,
+    /// Every placement of a mesh stored as its own copy (`--flatten-instances`), not
+    /// instanced.
+    pub flatten_instances: bool,
 
     pub integrator: Integrator,
     /// How materials and lights are shaded: the environment (`--background`), diffuse
@@ -352,6 +355,7 @@ impl Job {
             robust: !args.no_robust,
             quads: !args.no_quads,
             alpha: !args.no_alpha,
+            flatten_instances: args.flatten_instances,
             integrator,
             shading: ShadingOptions {
                 environment: Environment::Constant(Vec3::from_array(
@@ -448,6 +452,7 @@ impl Job {
                 animation: self.animation,
                 seconds: f as f64 / self.fps,
             }),
+            flatten_instances: self.flatten_instances,
         }
     }
 
@@ -844,8 +849,12 @@ mod tests {
         // Feature totals: 13 16-byte integers in the film and as many in a round's tiles.
         assert_eq!(with("depth") - plain, 100 * 100 * 2 * 13 * 16);
         assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 2 * 13 * 16);
-        // IDs: one u32 triangle index in the film and one in a round's tiles.
-        assert_eq!(with("object_id") - plain, 100 * 100 * 8);
-        assert_eq!(with("depth,mesh_id") - plain, 100 * 100 * (2 * 13 * 16 + 8));
+        // IDs: one u64 first hit (triangle and instance) in the film and one in a round's
+        // tiles.
+        assert_eq!(with("object_id") - plain, 100 * 100 * 16);
+        assert_eq!(
+            with("depth,mesh_id") - plain,
+            100 * 100 * (2 * 13 * 16 + 16)
+        );
     }
 }

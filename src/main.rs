@@ -263,7 +263,7 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     let t_load = Instant::now();
     let scene = scene::load(&job.scene, &job.load_options())?;
     let load_time = t_load.elapsed();
-    render::passes::check_exact(&job.passes, &scene.origins)
+    render::passes::check_exact(&job.passes, scene.largest_origin())
         .map_err(|e| anyhow!("{}: {e}", job.scene.display()))?;
     for w in &scene.load_warnings {
         eprintln!("warning: {}: {w}", job.scene.display());

@@ -43,15 +43,21 @@ impl Ray {
     }
 }
 
+/// [`Hit::inst`] of a hit on a triangle that no instance places (one in world space).
+pub const NO_INSTANCE: u32 = u32::MAX;
+
 /// The closest intersection of a ray with the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
     /// Index of the triangle in the scene.
     pub prim: u32,
+    /// The instance that placed the triangle ([`crate::scene::Instance`], an index into
+    /// [`crate::scene::Scene::instances`]), or [`NO_INSTANCE`] for a triangle in world space.
+    pub inst: u32,
     /// Barycentric coordinates of the hit point.
     pub u: f32,
     pub v: f32,
-    /// Unit geometric normal on the counter-clockwise (front) side.
+    /// Unit geometric normal on the counter-clockwise (front) side, in world space.
     pub ng: Vec3,
 }

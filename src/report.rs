@@ -127,6 +127,15 @@ pub fn summary(run: &Run) -> String {
     s
 }
 
+/// The most memory the process has held resident so far (Linux's `VmHWM`), if the system
+/// says.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// The `--stats` report: the scene, the backend and its memory, the time of each phase, the
 /// memory estimate, the checkpoints, the shading data and the rays by kind.
 pub fn stats(run: &Run) -> String {
@@ -145,6 +154,15 @@ pub fn stats(run: &Run) -> String {
         summary.punctual_lights,
         summary.cameras
     );
+    if summary.instances > 0 {
+        let _ = writeln!(
+            s,
+            "instances: {} of {} meshes stored once, placing {} triangles",
+            summary.instances,
+            scene.prototypes.len(),
+            summary.instanced_triangles
+        );
+    }
     let roles = &summary.texture_roles;
     let _ = writeln!(
         s,
@@ -192,6 +210,11 @@ pub fn stats(run: &Run) -> String {
         format_bytes(scene_memory),
         format_bytes(image_memory),
         job.memory_limit.map_or("none".to_string(), format_bytes)
+    );
+    let _ = writeln!(
+        s,
+        "peak resident memory: {}",
+        peak_resident_bytes().map_or("unknown".to_string(), format_bytes)
     );
     if job.checkpoint.is_some() {
         let _ = writeln!(
@@ -336,6 +359,7 @@ mod tests {
                     "memory",
                     "time",
                     "memory estimate",
+                    "peak resident memory",
                     "checkpoints",
                     "shading",
                     "rays"

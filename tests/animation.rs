@@ -123,12 +123,29 @@ fn corners(s: f32, angle: f32, t: Vec3) -> [Vec3; 3] {
     [Vec3::X, Vec3::Y, Vec3::Z].map(|p| rot(p * s) + t)
 }
 
+/// The corners of the scene's triangles in the pose of `animation` at `seconds`, flattened;
+/// checked against the same pose loaded as instances (the two nodes share their mesh).
 fn positions_at(scene: &Path, animation: usize, seconds: f64) -> Vec<Vec3> {
     let options = LoadOptions {
         pose: Some(PoseTime { animation, seconds }),
+        flatten_instances: true,
         ..Default::default()
     };
-    load(scene, &options).unwrap().positions
+    let flat = load(scene, &options).unwrap().positions;
+    let instanced = load(
+        scene,
+        &LoadOptions {
+            flatten_instances: false,
+            ..options
+        },
+    )
+    .unwrap();
+    assert_eq!(instanced.instances.len(), 2);
+    let placed: Vec<Vec3> = (0..2)
+        .flat_map(|k| instanced.placed_positions(0, k))
+        .collect();
+    assert_close(&placed, &flat, "the instances");
+    flat
 }
 
 fn assert_close(got: &[Vec3], want: &[Vec3], what: &str) {

@@ -63,6 +63,7 @@ fn load_bounded(path: &Path) -> Result<Result<Scene, String>, String> {
             memory_limit: Some(256 << 20),
             other_memory: 0,
             pose: None,
+            flatten_instances: false,
         };
         let result = scene::load(&p, &options).map_err(|e| e.to_string());
         let _ = tx.send(result);

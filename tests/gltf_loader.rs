@@ -20,6 +20,15 @@ fn load(path: &Path) -> Scene {
     scene::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The scene with every placement of a mesh flattened into world space.
+fn load_flat(path: &Path) -> Scene {
+    let options = LoadOptions {
+        flatten_instances: true,
+        ..Default::default()
+    };
+    scene::load(path, &options).unwrap_or_else(|e| panic!("{e}"))
+}
+
 fn vec3(v: &Value) -> Vec3 {
     let a = v.as_array().expect("[x, y, z]");
     Vec3::new(
@@ -97,7 +106,7 @@ fn check_hierarchy(scene: &Scene) {
         );
         // The document's node and mesh (A and B share mesh 0); both primitives name
         // material 0.
-        let origin = scene.origin(prim);
+        let origin = scene.origin(prim, strata::ray::NO_INSTANCE);
         let (node, mesh) = origins[i];
         assert_eq!(
             (origin.node, origin.mesh, origin.material),
@@ -150,9 +159,52 @@ fn check_hierarchy(scene: &Scene) {
     );
 }
 
+/// The hierarchy loaded with its shared mesh instanced: every expected triangle is one
+/// placed by its own node (an instance's, or a flat one), with its node, mesh and front
+/// normal. An instance keeps its mesh's winding where a mirroring node's flattened copy is
+/// rewound, so positions match up to winding; the front is the normal's, carried by the
+/// instance's inverse transpose.
+fn check_instanced_hierarchy(scene: &Scene) {
+    let e = expected();
+    assert!(!scene.instances.is_empty(), "no instances");
+    let front = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
+    let mut world = Vec::new();
+    for t in scene.flat_triangles() {
+        let p = scene.triangle_positions(t);
+        let o = scene.origin(t, strata::ray::NO_INSTANCE);
+        world.push((p, o.node, o.mesh, front(p).normalize()));
+    }
+    for (k, instance) in scene.instances.iter().enumerate() {
+        let k = k as u32;
+        for t in scene.prototypes[instance.prototype as usize]
+            .triangles
+            .clone()
+        {
+            let n = scene.normal_to_world(k, front(scene.triangle_positions(t)));
+            let o = scene.origin(t, k);
+            world.push((scene.placed_positions(t, k), o.node, o.mesh, n));
+        }
+    }
+    assert_eq!(world.len(), e.triangles.len(), "triangles placed");
+    for (i, want) in e.triangles.iter().enumerate() {
+        let (node, mesh) = e.origins[i];
+        let found = world.iter().any(|&(p, n, m, ng)| {
+            (n, m) == (Some(node), Some(mesh))
+                && (same_triangle(p, *want, e.tolerance)
+                    || same_triangle([p[0], p[2], p[1]], *want, e.tolerance))
+                && near(ng, e.geometric_normals[i], e.tolerance)
+        });
+        assert!(
+            found,
+            "triangle {i} of node {node}: {want:?} is placed nowhere"
+        );
+    }
+}
+
 #[test]
 fn node_hierarchy_lands_where_hand_computation_says() {
-    check_hierarchy(&load(&data("hierarchy.gltf")));
+    check_hierarchy(&load_flat(&data("hierarchy.gltf")));
+    check_instanced_hierarchy(&load(&data("hierarchy.gltf")));
 }
 
 /// The hierarchy file's JSON and its embedded buffer.
@@ -193,7 +245,7 @@ fn binary_gltf_gives_the_same_scene() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("hierarchy.glb");
     std::fs::write(&path, glb).unwrap();
-    check_hierarchy(&load(&path));
+    check_hierarchy(&load_flat(&path));
 }
 
 #[test]
@@ -205,7 +257,7 @@ fn external_buffers_are_found_beside_the_file() {
     std::fs::write(dir.path().join("hierarchy data.bin"), bin).unwrap();
     let path = dir.path().join("hierarchy.gltf");
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    check_hierarchy(&load(&path));
+    check_hierarchy(&load_flat(&path));
 
     std::fs::remove_file(dir.path().join("hierarchy data.bin")).unwrap();
     let err = scene::load(&path, &LoadOptions::default())

@@ -62,7 +62,7 @@ fn render_range(
 
 /// Every pixel's exact totals, feature totals and first hit.
 #[allow(clippy::type_complexity)]
-fn raw(film: &Film) -> Vec<(render::PixelTotals, render::FeatureTotals, u32)> {
+fn raw(film: &Film) -> Vec<(render::PixelTotals, render::FeatureTotals, u64)> {
     pixels(film)
         .map(|(x, y)| {
             (
@@ -85,7 +85,10 @@ fn output(film: &Film, scene: &Scene) -> Vec<u32> {
     for (x, y) in pixels(film) {
         out.extend(film.pixel(x, y).to_array().map(f32::to_bits));
         out.extend(film.variance_of_mean(x, y).to_array().map(f32::to_bits));
-        let origin = film.first_hit(x, y).map(|t| scene.origin(t));
+        let origin = film.first_hit(x, y).map(|h| {
+            let (prim, inst) = render::split_first_hit(h);
+            scene.origin(prim, inst)
+        });
         for pass in PASSES {
             out.extend(pass.values(film.features(x, y), origin).map(f32::to_bits));
         }

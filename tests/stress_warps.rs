@@ -589,6 +589,7 @@ fn lambertian_rejects_rim_samples() {
             wo: n,
             front_face: true,
             prim: 0,
+            inst: strata::ray::NO_INSTANCE,
             u: 0.0,
             v: 0.0,
         };

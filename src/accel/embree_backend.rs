@@ -18,17 +18,24 @@
 //! well, else triangles), so Embree still builds and traverses one BVH (it builds one per
 //! primitive type). A scene without alpha-tested triangles is laid out exactly as before:
 //! one geometry, Embree's primitive ids the scene's triangle indices.
+//!
+//! Instances ([`crate::scene::Instance`]): each prototype's triangles are a scene of their own
+//! (triangles or quads by the same rule, alpha-tested ones behind the filter), built once; each instance is an Embree instance
+//! geometry of it in the top scene, after the world-space geometries, so that instance k's
+//! geometry id is the first instance's + k. Embree reports an instanced hit's primitive in
+//! the prototype's scene and its normal in the prototype's space: [`EmbreeAccel`] maps both
+//! back (the scene's triangle; the normal by the instance's inverse transpose).
 
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::coverage::AlphaCoverage;
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::embree::{
     self, Device, EmbreeError, HitFilter, SceneBuilder, SceneOptions, OCCLUSION_PACKET, PACKET,
 };
-use crate::scene::Scene;
+use crate::scene::{Instance, Scene, NO_INSTANCE};
 
 /// A ray as the Embree module takes it: (origin, direction, t_min, t_max).
 #[inline(always)]
@@ -358,10 +365,27 @@ impl Part {
     }
 }
 
+/// The geometries of some of a scene's triangles: how the primitives of the one without a
+/// filter map to the scene's triangles, and the alpha-tested ones' geometry id and filter (which
+/// holds their map), if any.
+type Parts = (PrimMap, Option<(u32, Arc<AlphaFilter>)>);
+
+/// The instances of a scene's prototypes in the top scene.
+struct Placed {
+    /// Each prototype's geometries in its own scene.
+    prototypes: Vec<Parts>,
+    /// The scene's instances.
+    instances: Arc<Vec<Instance>>,
+    /// The geometry id of instance 0 in the top scene.
+    first_id: u32,
+}
+
 pub struct EmbreeAccel {
     scene: embree::Scene,
     version: String,
     memory: AccelMemory,
+    /// The prototypes and their instances, if the scene has any.
+    placed: Option<Placed>,
     /// How the primitives of the geometry without a filter map to scene triangles (all of
     /// them when none is alpha-tested).
     opaque: PrimMap,
@@ -401,52 +425,40 @@ impl EmbreeAccel {
         )?;
         // glam's Vec3 is three packed f32s: the same layout as Embree's FLOAT3 buffer items.
         let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
-        let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
-        let (opaque, alpha) = match coverage {
-            // Nothing to attach: Embree commits an empty scene, which no ray hits.
-            None if all.is_empty() => (PrimMap::Identity, None),
-            None => {
-                let map = match options
-                    .quads
-                    .then(|| pair_quads(scene, &all, false))
-                    .flatten()
-                {
-                    Some((indices, map)) => {
-                        builder.attach_quads(&positions, &indices)?;
-                        PrimMap::Quads(map)
-                    }
-                    None => {
-                        builder.attach_triangles(&positions, &scene.triangles)?;
-                        PrimMap::Identity
-                    }
-                };
-                (map, None)
-            }
-            Some(coverage) => {
-                let (tested, untested): (Vec<u32>, Vec<u32>) =
-                    all.into_iter().partition(|&t| coverage.tests(t));
-                // Quads where the untested triangles pair well (judged on the tested ones
-                // when there are no others), and then for both, so that Embree keeps one BVH.
-                let pair = |prims: &[u32], always| {
-                    options
-                        .quads
-                        .then(|| pair_quads(scene, prims, always))
-                        .flatten()
-                };
-                let (opaque, tested_quads) = if untested.is_empty() {
-                    (PrimMap::Triangles(Vec::new()), pair(&tested, false))
-                } else {
-                    let quads = pair(&untested, false);
-                    let tested_quads = quads.as_ref().and_then(|_| pair(&tested, true));
-                    let part = Part::new(scene, &positions, &untested, quads);
-                    (part.attach(&mut builder)?, tested_quads)
-                };
-                let alpha = Part::new(scene, &positions, &tested, tested_quads)
-                    .attach_filtered(&mut builder, coverage)?;
-                (opaque, Some(alpha))
+        let instanced = !scene.prototypes.is_empty();
+        // Without prototypes every triangle is in world space (and the layout is the one
+        // before instances).
+        let all: Vec<u32> = match instanced {
+            false => (0..scene.triangles.len() as u32).collect(),
+            true => scene.flat_triangles(),
+        };
+        let (opaque, alpha) = attach_parts(
+            &mut builder,
+            scene,
+            &positions,
+            &all,
+            coverage.as_ref(),
+            options,
+            !instanced,
+        )?;
+        // The vertex and index buffers: the world-space triangles', then each prototype's
+        // (whose BVHs are built in `place_instances`).
+        let mut geometry = device.memory_in_use();
+        let placed = match instanced {
+            false => None,
+            true => {
+                let (placed, buffers) = place_instances(
+                    scene,
+                    &device,
+                    options,
+                    &positions,
+                    coverage.as_ref(),
+                    &mut builder,
+                )?;
+                geometry += buffers;
+                Some(placed)
             }
         };
-        let geometry = device.memory_in_use();
         let scene = builder.commit()?;
         // What stays allocated after the build (the builder's scratch memory is freed).
         let total = device.memory_in_use();
@@ -460,9 +472,15 @@ impl EmbreeAccel {
             scene,
             version,
             memory,
+            placed,
             opaque,
             alpha,
         })
+    }
+
+    /// How many instances the top scene places.
+    pub fn instances(&self) -> usize {
+        self.placed.as_ref().map_or(0, |p| p.instances.len())
     }
 
     /// True when the geometry is made of quads (see the module docs).
@@ -481,6 +499,11 @@ impl EmbreeAccel {
     /// the unit geometric normal.
     #[inline(always)]
     fn to_hit(&self, h: embree::RawHit) -> Hit {
+        if h.inst_id != embree::INVALID_GEOMETRY_ID {
+            if let Some(placed) = &self.placed {
+                return placed.hit(h);
+            }
+        }
         let (prim, u, v) = match &self.alpha {
             Some((id, filter)) if h.geom_id == *id => filter.map.hit(h.prim_id, h.u, h.v),
             _ => self.opaque.hit(h.prim_id, h.u, h.v),
@@ -488,6 +511,7 @@ impl EmbreeAccel {
         Hit {
             t: h.t,
             prim,
+            inst: NO_INSTANCE,
             u,
             v,
             ng: super::unit_normal(Vec3::from_array(h.ng)),
@@ -555,10 +579,161 @@ impl EmbreeAccel {
             0 => String::new(),
             n => format!(", {n} alpha-tested triangles behind a hit filter"),
         };
+        let instances = self.placed.as_ref().map_or(String::new(), |p| {
+            super::instances_note(p.instances.len(), p.prototypes.len())
+        });
         format!(
-            "Embree {} (compiled against {} headers){quads}{alpha}",
+            "Embree {} (compiled against {} headers){quads}{alpha}{instances}",
             self.version,
             env!("STRATA_EMBREE_HEADER_VERSION")
         )
     }
+}
+
+impl Placed {
+    /// A hit inside instance geometry `h.inst_id`: the scene's triangle, placed by its
+    /// instance, with the normal carried to world space.
+    #[inline(always)]
+    fn hit(&self, h: embree::RawHit) -> Hit {
+        let k = h.inst_id.wrapping_sub(self.first_id);
+        let instance = &self.instances[k as usize];
+        let (prim, u, v) = match &self.prototypes[instance.prototype as usize] {
+            (_, Some((id, filter))) if h.geom_id == *id => filter.map.hit(h.prim_id, h.u, h.v),
+            (opaque, _) => opaque.hit(h.prim_id, h.u, h.v),
+        };
+        let ng = instance.normal_to_world * Vec3A::from_array(h.ng);
+        Hit {
+            t: h.t,
+            prim,
+            inst: k,
+            u,
+            v,
+            ng: super::unit_normal(ng.into()),
+        }
+    }
+}
+
+/// Attaches triangles `prims` (ascending) of `scene` to `builder`: those `coverage` tests
+/// behind [`AlphaFilter`], the rest without a filter, both as quads where the untested ones
+/// pair well (judged on the tested ones when there are no others), so that Embree keeps one
+/// BVH. `whole` says `prims` are all the scene's triangles, none tested: then they are one
+/// geometry whose primitive ids are the scene's triangle indices, unless they pair into quads.
+fn attach_parts(
+    builder: &mut SceneBuilder,
+    scene: &Scene,
+    positions: &[[f32; 3]],
+    prims: &[u32],
+    coverage: Option<&Arc<AlphaCoverage>>,
+    options: &AccelOptions,
+    whole: bool,
+) -> Result<Parts, EmbreeError> {
+    let pair = |prims: &[u32], always| {
+        options
+            .quads
+            .then(|| pair_quads(scene, prims, always))
+            .flatten()
+    };
+    let (tested, untested): (Vec<u32>, Vec<u32>) = match coverage {
+        Some(c) => prims.iter().partition(|&&t| c.tests(t)),
+        None => (Vec::new(), prims.to_vec()),
+    };
+    if tested.is_empty() {
+        // Nothing to attach: Embree commits an empty scene, which no ray hits.
+        if untested.is_empty() {
+            return Ok((PrimMap::Triangles(Vec::new()), None));
+        }
+        if !whole {
+            let part = Part::new(scene, positions, &untested, pair(&untested, false));
+            return Ok((part.attach(builder)?, None));
+        }
+        let map = match pair(&untested, false) {
+            Some((indices, map)) => {
+                builder.attach_quads(positions, &indices)?;
+                PrimMap::Quads(map)
+            }
+            None => {
+                builder.attach_triangles(positions, &scene.triangles)?;
+                PrimMap::Identity
+            }
+        };
+        return Ok((map, None));
+    }
+    let coverage = coverage.expect("tested triangles have a coverage").clone();
+    let (opaque, tested_quads) = if untested.is_empty() {
+        (PrimMap::Triangles(Vec::new()), pair(&tested, false))
+    } else {
+        let quads = pair(&untested, false);
+        let tested_quads = quads.as_ref().and_then(|_| pair(&tested, true));
+        let part = Part::new(scene, positions, &untested, quads);
+        (part.attach(builder)?, tested_quads)
+    };
+    let alpha =
+        Part::new(scene, positions, &tested, tested_quads).attach_filtered(builder, coverage)?;
+    Ok((opaque, Some(alpha)))
+}
+
+/// Builds each of `scene`'s prototypes as a scene of its own and attaches its instances to
+/// `top`, in order after the geometries already there (so their ids are consecutive). Returns
+/// them and the bytes of the prototypes' vertex and index buffers.
+fn place_instances(
+    scene: &Scene,
+    device: &Device,
+    options: &AccelOptions,
+    positions: &[[f32; 3]],
+    coverage: Option<&Arc<AlphaCoverage>>,
+    top: &mut SceneBuilder,
+) -> Result<(Placed, i64), EmbreeError> {
+    let scene_options = SceneOptions {
+        quality: match options.quality {
+            BuildQuality::Low => embree::BuildQuality::Low,
+            BuildQuality::Medium => embree::BuildQuality::Medium,
+            BuildQuality::High => embree::BuildQuality::High,
+        },
+        robust: options.robust,
+        compact: false,
+    };
+    let mut children = Vec::with_capacity(scene.prototypes.len());
+    let mut prototypes = Vec::with_capacity(scene.prototypes.len());
+    let mut buffers = 0;
+    for p in &scene.prototypes {
+        let prims: Vec<u32> = p.triangles.clone().collect();
+        let mut builder = SceneBuilder::new(device, scene_options)?;
+        let before = device.memory_in_use();
+        let parts = attach_parts(
+            &mut builder,
+            scene,
+            positions,
+            &prims,
+            coverage,
+            options,
+            false,
+        )?;
+        buffers += device.memory_in_use() - before;
+        prototypes.push(parts);
+        children.push(Arc::new(builder.commit()?));
+    }
+    let mut first_id = None;
+    for (k, instance) in scene.instances.iter().enumerate() {
+        let m = instance.to_world;
+        let cols: [f32; 12] = std::array::from_fn(|i| match i / 3 {
+            0 => m.matrix3.x_axis[i % 3],
+            1 => m.matrix3.y_axis[i % 3],
+            2 => m.matrix3.z_axis[i % 3],
+            _ => m.translation[i % 3],
+        });
+        let id = top.attach_instance(&children[instance.prototype as usize], &cols)?;
+        let first = *first_id.get_or_insert(id);
+        if id != first + k as u32 {
+            return Err(EmbreeError::unknown(format!(
+                "Embree gave instance {k} geometry id {id}, not {} (ids must be consecutive)",
+                first + k as u32
+            )));
+        }
+    }
+    let placed = Placed {
+        prototypes,
+        instances: scene.instances.clone(),
+        first_id: first_id.unwrap_or(0),
+    };
+    Ok((placed, buffers))
 }

@@ -3,9 +3,12 @@
 //! [`Accel`] is the only type the renderer traces rays through. It answers two queries:
 //! [`Accel::intersect`] (closest hit: distance, primitive, barycentrics, geometric normal) and
 //! [`Accel::occluded`] (is there any hit within the ray's extent). Primitive ids are indices
-//! into [`crate::scene::Scene::triangles`]; barycentrics follow p = (1 − u − v)·p0 + u·p1 + v·p2;
+//! into [`crate::scene::Scene::triangles`], and a hit on a prototype's triangle names the
+//! instance that placed it (`Hit::inst`); barycentrics follow p = (1 − u − v)·p0 + u·p1 + v·p2;
 //! the geometric normal is normalize((p1 − p0) × (p2 − p0)), the front side of a
-//! counter-clockwise triangle. Integrators never see backend types.
+//! counter-clockwise triangle, carried to world space by an instance's inverse transpose
+//! (which keeps a mirrored instance's front where glTF puts it). Integrators never see
+//! backend types.
 //!
 //! Alpha coverage ([`AlphaCoverage`], glTF's MASK and BLEND): a hit where a triangle's alpha
 //! makes a hole is no hit, for every query of both backends; [`Accel::build`] builds the
@@ -95,6 +98,11 @@ pub(crate) fn unit_normal(n: Vec3) -> Vec3 {
     } else {
         (n / n.abs().max_element()).normalize_or_zero()
     }
+}
+
+/// The backends' description of their instances ([`Accel::describe`]).
+fn instances_note(instances: usize, prototypes: usize) -> String {
+    format!(", {instances} instances of {prototypes} prototypes")
 }
 
 /// Which BVH library traces the rays.
@@ -206,7 +214,7 @@ impl Accel {
         };
         Ok(Accel {
             bvh,
-            clusters: cluster_boxes(scene, 0..scene.triangles.len() as u32),
+            clusters: scene_cluster_boxes(scene),
             coverage,
         })
     }
@@ -317,18 +325,40 @@ impl Accel {
 /// Cells per axis of the grid that [`Accel::clusters`] bins triangles into.
 pub const CLUSTER_GRID: usize = 8;
 
-/// [`Accel::clusters`] of triangles `prims` of `scene` (all of them for the accelerator; the
-/// renderer also bins the emissive ones alone).
+/// [`Accel::clusters`] of triangles `prims` of `scene`, as their vertices are stored (the
+/// renderer bins the emissive ones alone, which are in world space).
 pub fn cluster_boxes(scene: &Scene, prims: impl Iterator<Item = u32> + Clone) -> Vec<(Vec3, Vec3)> {
     let corners = |prim: u32| {
         scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
     };
+    clusters_of(prims.map(corners))
+}
+
+/// [`Accel::clusters`] of everything in `scene`: its world-space triangles, and its instances
+/// each as its world box (binned by the box's centre, as a triangle with the box's corners
+/// and centre for vertices).
+pub fn scene_cluster_boxes(scene: &Scene) -> Vec<(Vec3, Vec3)> {
+    if scene.prototypes.is_empty() {
+        return cluster_boxes(scene, 0..scene.triangles.len() as u32);
+    }
+    let flat = scene.flat_triangles();
+    let triangles = flat.iter().map(|&prim| {
+        scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
+    });
+    let instances = scene.instances.iter().map(|i| {
+        let (lo, hi) = i.world_box(scene.prototypes[i.prototype as usize].bounds);
+        let (lo, hi) = (Vec3A::from(lo), Vec3A::from(hi));
+        [lo, hi, (lo + hi) * 0.5]
+    });
+    clusters_of(triangles.chain(instances))
+}
+
+/// The cluster boxes of triangles given by their corners (see [`Accel::clusters`]).
+fn clusters_of(triangles: impl Iterator<Item = [Vec3A; 3]> + Clone) -> Vec<(Vec3, Vec3)> {
     // Triangles with a non-finite vertex are left out: one NaN in a box's running minimum
     // would make it forget the triangles before it. The loader refuses such vertices, so
     // only a scene built by hand can have them, and nothing about hitting them is promised.
-    let finite = prims
-        .map(corners)
-        .filter(|p| p.iter().all(|v| v.is_finite()));
+    let finite = triangles.filter(|p| p.iter().all(|v| v.is_finite()));
     let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     for t in finite.clone() {
         for p in t {

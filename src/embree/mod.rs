@@ -59,6 +59,16 @@ pub struct EmbreeError {
     pub message: String,
 }
 
+impl EmbreeError {
+    /// An error Embree did not report itself: `RTC_ERROR_UNKNOWN` with `message`.
+    pub fn unknown(message: String) -> EmbreeError {
+        EmbreeError {
+            code: sys::RTC_ERROR_UNKNOWN,
+            message,
+        }
+    }
+}
+
 impl fmt::Display for EmbreeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
@@ -383,6 +393,8 @@ pub struct SceneBuilder {
     quality: BuildQuality,
     /// The hit filters of the attached geometries, alive as long as the scene is.
     filters: Vec<Arc<dyn Any + Send + Sync>>,
+    /// The scenes its instances place, alive as long as it is.
+    children: Vec<Arc<Scene>>,
 }
 
 impl Drop for SceneBuilder {
@@ -423,6 +435,7 @@ impl SceneBuilder {
             raw,
             quality: options.quality,
             filters: Vec::new(),
+            children: Vec::new(),
         };
         device.check()?;
         Ok(builder)
@@ -588,6 +601,51 @@ impl SceneBuilder {
         result
     }
 
+    /// Attaches an instance of the committed scene `child` (built on the same device), placed
+    /// by the affine map `transform`: 12 floats in column-major order, the images of the x, y
+    /// and z axes and then the translation. Returns its geometry id, which hits on the
+    /// child's geometry report as their instance id ([`RawHit::inst_id`]; their geometry and
+    /// primitive ids are the child's, their normal in the child's space). The child is kept
+    /// alive as long as this scene is.
+    pub fn attach_instance(
+        &mut self,
+        child: &Arc<Scene>,
+        transform: &[f32; 12],
+    ) -> Result<u32, EmbreeError> {
+        if transform.iter().any(|x| !x.is_finite()) {
+            return Err(EmbreeError {
+                code: sys::RTC_ERROR_INVALID_ARGUMENT,
+                message: "an instance's transform is not finite".into(),
+            });
+        }
+        // SAFETY: the device is live; a null geometry is reported by device.check().
+        let geom =
+            unsafe { sys::rtcNewGeometry(self.device.inner.raw, sys::RTC_GEOMETRY_TYPE_INSTANCE) };
+        self.device.check()?;
+        // SAFETY: `geom` is a live instance geometry; `child.raw` a committed scene that
+        // outlives this one (its Arc goes into `self.children` and then into the committed
+        // Scene, released after the Embree scene); Embree copies the 12 floats of the
+        // transform, which `transform` holds, during the call.
+        let result = unsafe {
+            sys::rtcSetGeometryInstancedScene(geom, child.raw);
+            sys::rtcSetGeometryTransform(
+                geom,
+                0,
+                sys::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR,
+                transform.as_ptr().cast::<c_void>(),
+            );
+            sys::rtcCommitGeometry(geom);
+            let id = sys::rtcAttachGeometry(self.raw, geom);
+            self.device.check().map(|_| id)
+        };
+        // SAFETY: the scene holds its own reference once attached; ours is released either way.
+        unsafe { sys::rtcReleaseGeometry(geom) };
+        if !self.children.last().is_some_and(|c| Arc::ptr_eq(c, child)) {
+            self.children.push(child.clone());
+        }
+        result
+    }
+
     /// Builds the BVH. The returned scene is immutable and may be traced from many threads.
     pub fn commit(mut self) -> Result<Scene, EmbreeError> {
         // SAFETY: `raw` is a live scene with committed geometries.
@@ -598,6 +656,7 @@ impl SceneBuilder {
             device: self.device.clone(),
             raw,
             _filters: std::mem::take(&mut self.filters),
+            _children: std::mem::take(&mut self.children),
         })
     }
 }
@@ -624,6 +683,8 @@ pub struct Scene {
     /// The geometries' hit filters, whose addresses Embree holds as user data: dropped after
     /// `Drop` has released `raw` (fields drop after `drop` runs).
     _filters: Vec<Arc<dyn Any + Send + Sync>>,
+    /// The scenes its instances place: released after it, likewise.
+    _children: Vec<Arc<Scene>>,
 }
 
 // SAFETY: a committed RTCScene is immutable; Embree documents rtcIntersect1/rtcOccluded1 on a
@@ -648,12 +709,16 @@ const _: () = assert!(PACKET == 8 && OCCLUSION_PACKET == 16);
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RawHit {
     pub t: f32,
+    /// The instance's geometry id for a hit inside an instance
+    /// ([`SceneBuilder::attach_instance`]), else [`INVALID_GEOMETRY_ID`].
+    pub inst_id: u32,
     pub geom_id: u32,
     pub prim_id: u32,
     /// Barycentric coordinates: p = (1 − u − v)·v0 + u·v1 + v·v2.
     pub u: f32,
     pub v: f32,
-    /// Unnormalised geometric normal, (v1 − v0) × (v2 − v0) for triangles.
+    /// Unnormalised geometric normal, (v1 − v0) × (v2 − v0) for triangles, in the space of
+    /// the geometry (an instanced one's own).
     pub ng: [f32; 3],
 }
 
@@ -956,6 +1021,7 @@ impl Scene {
             hit: sys::RTCHit {
                 geomID: INVALID_GEOMETRY_ID,
                 primID: INVALID_GEOMETRY_ID,
+                instID: [INVALID_GEOMETRY_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
                 ..Default::default()
             },
         };
@@ -978,6 +1044,7 @@ impl Scene {
         }
         Some(RawHit {
             t: rayhit.ray.tfar,
+            inst_id: rayhit.hit.instID[0],
             geom_id: rayhit.hit.geomID,
             prim_id: rayhit.hit.primID,
             u: rayhit.hit.u,
@@ -1006,6 +1073,7 @@ impl Scene {
         let mut rh: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         let valid: Valid<PACKET> = pack(rays, ray, &mut rh.ray);
         rh.hit.geomID = [INVALID_GEOMETRY_ID; PACKET];
+        rh.hit.instID[0] = [INVALID_GEOMETRY_ID; PACKET];
         #[cfg(embree3)]
         {
             let mut ctx = hinted_context(true);
@@ -1024,6 +1092,7 @@ impl Scene {
                 i,
                 (rh.hit.geomID[i] != INVALID_GEOMETRY_ID).then(|| RawHit {
                     t: rh.ray.tfar[i],
+                    inst_id: rh.hit.instID[0][i],
                     geom_id: rh.hit.geomID[i],
                     prim_id: rh.hit.primID[i],
                     u: rh.hit.u[i],

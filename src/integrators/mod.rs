@@ -173,10 +173,11 @@ pub struct SampleRecord {
     pub l: Vec3A,
     /// The first hit's features; None for a ray that meets nothing, or when not asked for.
     pub features: Option<Features>,
-    /// The camera ray's first hit's triangle (its index in [`Scene::triangles`], the hit's
-    /// primitive id), which ID passes name by its glTF node, mesh and material; None for a
-    /// ray that meets nothing, or when not asked for ([`Context::ids`]).
-    pub triangle: Option<u32>,
+    /// The camera ray's first hit's triangle and instance ([`crate::render::FirstHit`]: its
+    /// index in [`Scene::triangles`], the hit's primitive id, and the hit's instance), which
+    /// ID passes name by its glTF node, mesh and material; None for a ray that meets nothing,
+    /// or when not asked for ([`Context::ids`]).
+    pub triangle: Option<u64>,
 }
 
 /// The first surface a camera ray meets, as feature layers describe it.
@@ -323,7 +324,7 @@ impl Integrator {
         }
         if ctx.ids {
             for k in 0..rays.len() {
-                out[k].triangle = hits[k].map(|hit| hit.prim);
+                out[k].triangle = hits[k].map(|hit| crate::render::first_hit(hit.prim, hit.inst));
             }
         }
     }

@@ -137,11 +137,27 @@ pub struct Film {
     features: Option<Vec<FeatureTotals>>,
     /// For ID passes ([`Film::keep_first_hits`]): per pixel, the triangle that its sample 0's
     /// camera ray met ([`NO_HIT`] where it met nothing or was not taken).
-    first_hits: Option<Vec<u32>>,
+    first_hits: Option<Vec<FirstHit>>,
 }
 
 /// A pixel's first hit where its sample 0 met nothing, or has not been taken.
-pub const NO_HIT: u32 = u32::MAX;
+pub const NO_HIT: FirstHit = u64::MAX;
+
+/// A first hit as the film keeps it: the triangle in the low 32 bits, the instance that placed
+/// it (or [`crate::ray::NO_INSTANCE`]) in the high ones ([`first_hit`], [`split_first_hit`]).
+pub type FirstHit = u64;
+
+/// Triangle `prim` placed by instance `inst` as a [`FirstHit`].
+#[inline]
+pub fn first_hit(prim: u32, inst: u32) -> FirstHit {
+    (inst as u64) << 32 | prim as u64
+}
+
+/// A [`FirstHit`]'s triangle and instance.
+#[inline]
+pub fn split_first_hit(h: FirstHit) -> (u32, u32) {
+    (h as u32, (h >> 32) as u32)
+}
 
 /// The slots of [`FeatureTotals`].
 pub const FEATURE_SLOTS: usize = 13;
@@ -349,7 +365,7 @@ pub struct FilmRows<'a> {
     counts: &'a mut [u32],
     halves: Option<&'a mut [Halves]>,
     features: Option<&'a mut [FeatureTotals]>,
-    first_hits: Option<&'a mut [u32]>,
+    first_hits: Option<&'a mut [FirstHit]>,
 }
 
 impl FilmRows<'_> {
@@ -403,7 +419,7 @@ impl FilmRows<'_> {
 
     /// Replaces pixel (x, y)'s first hit, where the film keeps them.
     #[inline]
-    pub fn set_first_hit(&mut self, x: u32, y: u32, triangle: u32) {
+    pub fn set_first_hit(&mut self, x: u32, y: u32, triangle: FirstHit) {
         let i = (y - self.y0) as usize * self.width as usize + x as usize;
         if let Some(h) = self.first_hits.as_deref_mut() {
             h[i] = triangle;
@@ -474,7 +490,7 @@ impl Film {
 
     /// The memory [`Film::keep_first_hits`] adds, per pixel: the film's triangle and a
     /// round's copy of it for its tiles.
-    pub const FIRST_HITS_BYTES_PER_PIXEL: u64 = 8;
+    pub const FIRST_HITS_BYTES_PER_PIXEL: u64 = 16;
 
     /// Keeps, from now on, the triangle each pixel's sample 0 meets ([`Film::first_hit`]), for
     /// ID passes: exact, where an average of IDs over the samples would name no object at
@@ -491,14 +507,14 @@ impl Film {
 
     /// The triangle pixel (x, y)'s sample 0 met: None where it met nothing, has not been
     /// taken, or the film keeps no first hits.
-    pub fn first_hit(&self, x: u32, y: u32) -> Option<u32> {
+    pub fn first_hit(&self, x: u32, y: u32) -> Option<FirstHit> {
         let t = self.first_hits.as_ref()?[self.index(x, y)];
         (t != NO_HIT).then_some(t)
     }
 
     /// Pixel (x, y)'s first hit as the film stores it ([`NO_HIT`] where it keeps none).
     #[inline]
-    pub fn first_hit_raw(&self, x: u32, y: u32) -> u32 {
+    pub fn first_hit_raw(&self, x: u32, y: u32) -> FirstHit {
         self.first_hits
             .as_ref()
             .map_or(NO_HIT, |h| h[self.index(x, y)])

@@ -49,6 +49,7 @@ use crate::scene::{Camera, RayGenerator};
 use culling::BlockMask;
 use emitters::EmitterView;
 use film::add_features;
+pub use film::{first_hit, split_first_hit, FirstHit};
 pub use film::{
     BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals, RoundTotals,
     WideTotals, FEATURE_SLOTS, NO_HIT,
@@ -315,7 +316,7 @@ struct TileSums {
     features: Vec<FeatureTotals>,
     /// The same pixels' first hits ([`Film::first_hit`]), where the film keeps them; empty
     /// otherwise.
-    first_hits: Vec<u32>,
+    first_hits: Vec<FirstHit>,
     /// Tile i's sums are `data[offsets[i]..offsets[i + 1]]`.
     offsets: Vec<usize>,
 }
@@ -326,7 +327,7 @@ type TileTotals<'a> = (
     &'a mut [RoundTotals],
     &'a mut Vec<WideTotals>,
     &'a mut [FeatureTotals],
-    &'a mut [u32],
+    &'a mut [FirstHit],
 );
 
 /// A tile's part of [`TileSums`] to read.
@@ -334,7 +335,7 @@ type TileTotalsRef<'a> = (
     &'a [RoundTotals],
     &'a [WideTotals],
     &'a [FeatureTotals],
-    &'a [u32],
+    &'a [FirstHit],
 );
 
 impl TileSums {

@@ -13,7 +13,7 @@ use exr::prelude::{
 
 use super::passes::Pass;
 use super::view::Display;
-use super::{Film, RenderResult};
+use super::{split_first_hit, Film, RenderResult};
 use crate::integrators::Integrator;
 use crate::job::Job;
 use crate::scene::Scene;
@@ -168,7 +168,12 @@ pub fn write_exr(
     let features: Vec<_> = pixels().map(|(x, y)| film.features(x, y)).collect();
     let origins: Vec<_> = match ids {
         Ids::Scene(scene) if with_ids => pixels()
-            .map(|(x, y)| film.first_hit(x, y).map(|t| scene.origin(t)))
+            .map(|(x, y)| {
+                film.first_hit(x, y).map(|h| {
+                    let (prim, inst) = split_first_hit(h);
+                    scene.origin(prim, inst)
+                })
+            })
             .collect(),
         _ => vec![None; features.len()],
     };

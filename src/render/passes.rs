@@ -31,7 +31,7 @@ use glam::Vec3;
 #[cfg(doc)]
 use super::Film;
 use super::PixelFeatures;
-use crate::scene::{Origins, TriangleOrigin};
+use crate::scene::TriangleOrigin;
 
 /// The largest integer a float32 channel holds exactly, with every integer below it: 2^24.
 pub const MAX_EXACT_ID: u32 = 1 << 24;
@@ -157,10 +157,10 @@ impl Pass {
     }
 }
 
-/// Refuses ID passes whose indices in `origins` a float32 channel cannot hold exactly (past
+/// Refuses ID passes whose indices (`largest`: the largest of each a scene's triangles may
+/// name, [`crate::scene::Scene::largest_origin`]) a float32 channel cannot hold exactly (past
 /// [`MAX_EXACT_ID`]), naming the pass, rather than writing wrong IDs.
-pub fn check_exact(passes: &[Pass], origins: &Origins) -> Result<(), String> {
-    let largest = origins.largest();
+pub fn check_exact(passes: &[Pass], largest: TriangleOrigin) -> Result<(), String> {
     for &pass in passes {
         if let Some(i) = pass.id_of(largest).filter(|&i| i > MAX_EXACT_ID) {
             return Err(format!(
@@ -182,7 +182,7 @@ pub fn canonical(passes: &[Pass]) -> Vec<Pass> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::OriginRun;
+    use crate::scene::{OriginRun, Origins};
 
     #[test]
     fn id_passes_past_two_to_the_24_are_refused_and_up_to_it_are_exact() {
@@ -196,13 +196,13 @@ mod tests {
         };
         let all = [Pass::ObjectId, Pass::MeshId, Pass::MaterialId, Pass::Depth];
         assert_eq!(
-            check_exact(&all, &origins(MAX_EXACT_ID, MAX_EXACT_ID)),
+            check_exact(&all, origins(MAX_EXACT_ID, MAX_EXACT_ID).largest()),
             Ok(())
         );
         // 2^24 is the last integer of a run that float32 holds: 2^24 + 1 rounds to 2^24.
         assert_eq!(MAX_EXACT_ID as f32 as u32, MAX_EXACT_ID);
         assert_ne!((MAX_EXACT_ID + 1) as f32 as u32, MAX_EXACT_ID + 1);
-        let err = check_exact(&all, &origins(MAX_EXACT_ID + 1, 3)).unwrap_err();
+        let err = check_exact(&all, origins(MAX_EXACT_ID + 1, 3).largest()).unwrap_err();
         assert!(
             err.contains("object_id") && err.contains("16777217"),
             "{err}"
@@ -210,10 +210,10 @@ mod tests {
         // Only the pass whose indices are too large is refused.
         let big_material = origins(7, MAX_EXACT_ID + 1);
         assert_eq!(
-            check_exact(&[Pass::ObjectId, Pass::MeshId], &big_material),
+            check_exact(&[Pass::ObjectId, Pass::MeshId], big_material.largest()),
             Ok(())
         );
-        assert!(check_exact(&[Pass::MaterialId], &big_material)
+        assert!(check_exact(&[Pass::MaterialId], big_material.largest())
             .unwrap_err()
             .contains("material_id"));
     }

@@ -18,11 +18,14 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use base64::Engine;
-use glam::{DMat3, DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
+use glam::{Affine3A, DMat3, DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::{AlphaMode, Camera, ImageSource, Light, Material, Projection, Scene, TextureRef, Wrap};
+use super::{
+    AlphaMode, Camera, ImageSource, Instance, Light, Material, Projection, Prototype, Scene,
+    TextureRef, Wrap,
+};
 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
 pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
@@ -93,16 +96,23 @@ pub struct LoadOptions {
     /// Flatten the nodes in this animation's pose at this time; None: their rest pose
     /// (their own transforms).
     pub pose: Option<super::PoseTime>,
+    /// Draw every placement of a mesh as a world-space copy, where a mesh that several
+    /// nodes (or `EXT_mesh_gpu_instancing` instances) place is otherwise stored once and
+    /// instanced ([`super::Prototype`]): for comparisons (`--flatten-instances`).
+    pub flatten_instances: bool,
 }
 
 /// What loading a scene will allocate, estimated from the file's accessor counts and buffer
-/// lengths before anything is read. Every mesh instance counts (meshes are flattened).
+/// lengths before anything is read. A mesh placed once, or flattened, counts once per
+/// placement; an instanced one once, and each of its instances [`Self::BYTES_PER_INSTANCE`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemoryEstimate {
-    /// Vertices of the flattened scene (POSITION counts of triangle primitives).
+    /// Vertices stored (POSITION counts of triangle primitives).
     pub vertices: u64,
-    /// Triangles of the flattened scene (index counts / 3, or − 2 for strips and fans).
+    /// Triangles stored (index counts / 3, or − 2 for strips and fans).
     pub triangles: u64,
+    /// Instances of meshes stored once.
+    pub instances: u64,
     /// The file itself and the buffers it declares, held while loading.
     pub input_bytes: u64,
 }
@@ -116,12 +126,17 @@ impl MemoryEstimate {
     /// (BVH and its geometry buffers, BENCHMARKS.md "BVH memory per backend"), obvhs about 64;
     /// 90 covers either.
     pub const BYTES_PER_TRIANGLE: u64 = 32 + 90;
+    /// Per instance: the scene's record (128 bytes), the loader's placement (128), and the
+    /// BVH's: Embree's instance geometry and its share of the top-level BVH, or obvhs's
+    /// inverse placement and node; measured in BENCHMARKS.md ("Instances").
+    pub const BYTES_PER_INSTANCE: u64 = 640;
 
     /// The estimate in bytes (saturating: absurd counts give `u64::MAX`, never wrap).
     pub fn bytes(&self) -> u64 {
         self.vertices
             .saturating_mul(Self::BYTES_PER_VERTEX)
             .saturating_add(self.triangles.saturating_mul(Self::BYTES_PER_TRIANGLE))
+            .saturating_add(self.instances.saturating_mul(Self::BYTES_PER_INSTANCE))
             .saturating_add(self.input_bytes)
     }
 }
@@ -271,7 +286,8 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
 
     // Before reading a buffer or allocating geometry: the node graph must be a forest, and
     // what the scene would need must fit the memory limit.
-    let mut estimate = estimate_memory(&gltf.document, &root_scene)?;
+    let (mut estimate, mesh_uses) =
+        estimate_memory(&gltf.document, &root_scene, options.flatten_instances)?;
     estimate.input_bytes = gltf.document.buffers().fold(bytes.len() as u64, |sum, b| {
         sum.saturating_add(b.length() as u64)
     });
@@ -343,6 +359,11 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         bad_uvs: 0,
         skipped_primitives: 0,
         bad_colors: 0,
+        mesh_uses,
+        flatten_instances: options.flatten_instances,
+        prototype_of_mesh: vec![None; gltf.document.meshes().len()],
+        instances: Vec::new(),
+        singular_placements: 0,
     };
     // The scene's material 0 is glTF's default, which the document does not hold; the
     // file's material k is the scene's k + 1.
@@ -367,7 +388,14 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     }
 
     let mut scene = loader.scene;
+    scene.instances = Arc::new(loader.instances);
     let mut warnings = extension_warnings;
+    if loader.singular_placements > 0 {
+        warnings.push(format!(
+            "{} placement(s) of instanced meshes have a singular transform (a scale of 0): drawn as flattened copies",
+            loader.singular_placements
+        ));
+    }
     warnings.extend(pose_warnings);
     if loader.skinned > 0 {
         warnings.push(format!(
@@ -507,15 +535,22 @@ fn check_before_validation(root: &gltf::json::Root) -> Result<()> {
 
 /// Walks the node graph of `scene` once: refuses cycles, nodes with more than one parent (glTF
 /// requires disjoint trees; shared subtrees would be flattened once per path, exponentially
-/// often) and hierarchies deeper than [`MAX_NODE_DEPTH`], and sums the vertex and triangle
-/// counts of every mesh instance from the accessors' declared counts.
-fn estimate_memory(doc: &gltf::Document, scene: &gltf::Scene) -> Result<MemoryEstimate> {
+/// often) and hierarchies deeper than [`MAX_NODE_DEPTH`], and counts how often each mesh is
+/// placed (nodes × `EXT_mesh_gpu_instancing` instances). Then sums the vertex and triangle
+/// counts the scene will store from the accessors' declared counts: a mesh that will be
+/// instanced ([`instanced_mesh`]) once, any other once per placement. Returns the estimate and
+/// the placements per mesh.
+fn estimate_memory(
+    doc: &gltf::Document,
+    scene: &gltf::Scene,
+    flatten_instances: bool,
+) -> Result<(MemoryEstimate, Vec<u64>)> {
     fn walk(
         doc: &gltf::Document,
         node: &gltf::Node,
         path: &mut Vec<usize>,
         seen: &mut std::collections::HashSet<usize>,
-        est: &mut MemoryEstimate,
+        uses: &mut [u64],
     ) -> Result<()> {
         let index = node.index();
         if path.contains(&index) {
@@ -534,38 +569,65 @@ fn estimate_memory(doc: &gltf::Document, scene: &gltf::Scene) -> Result<MemoryEs
             ));
         }
         if let Some(mesh) = node.mesh() {
-            // Instances are flattened: each is a copy.
             let copies = instance_count(doc, node).unwrap_or(1) as u64;
-            for primitive in mesh.primitives() {
-                let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
-                    continue;
-                };
-                let vertices = positions.count() as u64;
-                let indices = primitive.indices().map_or(vertices, |a| a.count() as u64);
-                let triangles = match primitive.mode() {
-                    Mode::Triangles => indices / 3,
-                    Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
-                    _ => continue,
-                };
-                est.vertices = est.vertices.saturating_add(vertices.saturating_mul(copies));
-                est.triangles = est
-                    .triangles
-                    .saturating_add(triangles.saturating_mul(copies));
-            }
+            let n = &mut uses[mesh.index()];
+            *n = n.saturating_add(copies);
         }
         path.push(index);
         for child in node.children() {
-            walk(doc, &child, path, seen, est)?;
+            walk(doc, &child, path, seen, uses)?;
         }
         path.pop();
         Ok(())
     }
-    let mut est = MemoryEstimate::default();
+    let mut uses = vec![0u64; doc.meshes().len()];
     let mut seen = std::collections::HashSet::new();
     for node in scene.nodes() {
-        walk(doc, &node, &mut Vec::new(), &mut seen, &mut est)?;
+        walk(doc, &node, &mut Vec::new(), &mut seen, &mut uses)?;
     }
-    Ok(est)
+    let mut est = MemoryEstimate::default();
+    for mesh in doc.meshes() {
+        let placements = uses[mesh.index()];
+        let copies = match instanced_mesh(&mesh, placements, flatten_instances) {
+            true => {
+                est.instances = est.instances.saturating_add(placements);
+                1
+            }
+            false => placements,
+        };
+        for primitive in mesh.primitives() {
+            let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                continue;
+            };
+            let vertices = positions.count() as u64;
+            let indices = primitive.indices().map_or(vertices, |a| a.count() as u64);
+            let triangles = match primitive.mode() {
+                Mode::Triangles => indices / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+                _ => continue,
+            };
+            est.vertices = est.vertices.saturating_add(vertices.saturating_mul(copies));
+            est.triangles = est
+                .triangles
+                .saturating_add(triangles.saturating_mul(copies));
+        }
+    }
+    Ok((est, uses))
+}
+
+/// True when `mesh`, placed `placements` times, is stored once and instanced: placed more than
+/// once (unless `flatten_instances`), and no primitive's material emitting or BLEND (light
+/// sampling works on world-space triangles, and BLEND's coin on the ray, which an instance's
+/// triangles see in their own space: such a mesh is flattened, a copy per placement). MASK
+/// coverage depends on the point alone, and is tested inside instances.
+fn instanced_mesh(mesh: &gltf::Mesh, placements: u64, flatten_instances: bool) -> bool {
+    placements >= 2
+        && !flatten_instances
+        && mesh.primitives().all(|p| {
+            let m = p.material();
+            m.alpha_mode() != gltf::material::AlphaMode::Blend
+                && m.emissive_factor().iter().all(|&e| e == 0.0)
+        })
 }
 
 /// The document's buffers; the external files read are added to `files`.
@@ -706,6 +768,14 @@ struct Loader<'a> {
     skipped_primitives: usize,
     /// `COLOR_0` values that were not finite.
     bad_colors: usize,
+    /// How often the scene places each mesh (nodes × `EXT_mesh_gpu_instancing` instances).
+    mesh_uses: Vec<u64>,
+    flatten_instances: bool,
+    /// Each mesh's prototype in the scene, once made.
+    prototype_of_mesh: Vec<Option<u32>>,
+    instances: Vec<Instance>,
+    /// Placements of instanced meshes flattened for a singular transform.
+    singular_placements: usize,
 }
 
 impl Loader<'_> {
@@ -1098,16 +1168,31 @@ impl Loader<'_> {
         if let Some(mesh) = node.mesh() {
             self.skinned += node.skin().is_some() as usize;
             // EXT_mesh_gpu_instancing: the mesh once per instance, each placed by the
-            // instance's transform under the node's (flattened: each is a copy).
+            // instance's transform under the node's.
             let placements = match instance_transforms(self.document, node, self.buffers)? {
                 Some(instances) => instances.iter().map(|m| world * *m).collect(),
                 None => vec![world],
             };
+            let instanced =
+                instanced_mesh(&mesh, self.mesh_uses[mesh.index()], self.flatten_instances);
             for (k, placed) in placements.iter().enumerate() {
                 if !placed.is_finite() {
                     return Err(format!(
                         "node {index}: instance {k}'s transform is not finite"
                     ));
+                }
+                if instanced {
+                    // Stored once in its own space, placed here by an instance; a placement
+                    // that cannot be inverted (a zero scale) is flattened instead.
+                    let to_world = Affine3A::from_mat4(placed.as_mat4());
+                    let det = to_world.matrix3.determinant();
+                    if det.is_normal() && to_world.inverse().is_finite() {
+                        let prototype = self.prototype(&mesh, index)?;
+                        let instance = Instance::new(prototype, to_world, Some(index as u32));
+                        self.instances.push(instance);
+                        continue;
+                    }
+                    self.singular_placements += 1;
                 }
                 for primitive in mesh.primitives() {
                     if k == 0 {
@@ -1134,6 +1219,42 @@ impl Loader<'_> {
         }
         path.pop();
         Ok(())
+    }
+
+    /// Mesh `mesh`'s prototype, its primitives loaded in its own space the first time a node
+    /// (`node`, which ID passes name for the prototype's triangles until an instance names its
+    /// own) places it.
+    fn prototype(&mut self, mesh: &gltf::Mesh, node: usize) -> Result<u32> {
+        if let Some(p) = self.prototype_of_mesh[mesh.index()] {
+            return Ok(p);
+        }
+        let first = self.scene.triangles.len();
+        for primitive in mesh.primitives() {
+            self.morphed += (primitive.morph_targets().len() > 0) as usize;
+            let at = u32::try_from(self.scene.triangles.len()).unwrap_or(u32::MAX);
+            (self.scene.origins).start(at, node as u32, mesh.index() as u32);
+            let label = format!("mesh {} primitive {}", mesh.index(), primitive.index());
+            self.primitive(&primitive, &DMat4::IDENTITY, &label)?;
+        }
+        let end = self.scene.triangles.len();
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in &self.scene.triangles[first..end] {
+            for &v in t {
+                let p = self.scene.positions[v as usize];
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
+        }
+        if first == end {
+            (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
+        }
+        let index = self.scene.prototypes.len() as u32;
+        self.scene.prototypes.push(Prototype {
+            triangles: first as u32..end as u32,
+            bounds: (lo, hi),
+            mesh: Some(mesh.index() as u32),
+        });
+        self.prototype_of_mesh[mesh.index()] = Some(index);
+        Ok(index)
     }
 
     fn camera(&self, camera: &gltf::Camera, world: &DMat4) -> Result<Camera> {
@@ -1926,15 +2047,17 @@ mod tests {
         let huge = MemoryEstimate {
             vertices: u64::MAX / 2,
             triangles: u64::MAX / 2,
+            instances: u64::MAX,
             input_bytes: u64::MAX,
         };
         assert_eq!(huge.bytes(), u64::MAX);
         let small = MemoryEstimate {
             vertices: 8,
             triangles: 4,
+            instances: 3,
             input_bytes: 1000,
         };
-        assert_eq!(small.bytes(), 8 * 64 + 4 * 122 + 1000);
+        assert_eq!(small.bytes(), 8 * 64 + 4 * 122 + 3 * 640 + 1000);
         assert_eq!(format_bytes(100), "100 bytes");
         assert_eq!(format_bytes(64 << 10), "64.0 KiB");
         assert_eq!(format_bytes(3 << 29), "1.5 GiB");

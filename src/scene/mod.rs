@@ -1,8 +1,11 @@
 //! The backend-free scene: world-space triangles, materials, lights, cameras and a summary of
 //! which features the scene uses, so the renderer can skip work a scene does not need.
 //!
-//! Every mesh of the glTF file is flattened into one triangle list in world space; a
-//! triangle's index is its primitive id in the acceleration structure's hits.
+//! The meshes of the glTF file are flattened into one triangle list in world space, but for
+//! those that several nodes draw (or `EXT_mesh_gpu_instancing` instances): their triangles
+//! are stored once, in the mesh's own space ([`Prototype`]), and placed by an [`Instance`]
+//! each, so that memory grows with the unique geometry. A triangle's index is its primitive
+//! id in the acceleration structure's hits, which also name the instance (`Hit::inst`).
 
 pub mod animation;
 mod camera;
@@ -20,7 +23,9 @@ pub use gltf_loader::{
 };
 pub use origins::{OriginRun, Origins, TriangleOrigin};
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A, Vec4};
+
+pub use crate::ray::NO_INSTANCE;
 
 /// How a texture is addressed outside `[0, 1]` (glTF sampler wrap modes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -270,6 +275,64 @@ pub enum Light {
     },
 }
 
+/// A mesh drawn in several places: its triangles, stored once in [`Scene::triangles`] in the
+/// mesh's own space, which each [`Instance`] places. The loader makes prototypes of meshes
+/// without emission or BLEND only (light sampling sees world-space triangles, and BLEND's coin
+/// reads the ray: a mesh with either is flattened, one copy per placement); MASK coverage is
+/// tested inside instances.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prototype {
+    /// Its triangles, `triangles.start..triangles.end` of [`Scene::triangles`].
+    pub triangles: std::ops::Range<u32>,
+    /// The box of its triangles' vertices, in its own space.
+    pub bounds: (Vec3, Vec3),
+    /// The glTF mesh it is (ID passes); None for one built in code.
+    pub mesh: Option<u32>,
+}
+
+/// One placement of a [`Prototype`]: its triangles seen through an affine map to world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Scene::prototypes`].
+    pub prototype: u32,
+    /// The prototype's space to world space.
+    pub to_world: Affine3A,
+    /// The inverse transpose of `to_world`'s linear part, which carries normals to world
+    /// space (unnormalized).
+    pub normal_to_world: Mat3A,
+    /// The glTF node that draws it (ID passes); None for one built in code.
+    pub node: Option<u32>,
+}
+
+impl Instance {
+    /// Prototype `prototype` placed by `to_world` (invertible: the loader refuses singular
+    /// placements).
+    pub fn new(prototype: u32, to_world: Affine3A, node: Option<u32>) -> Instance {
+        Instance {
+            prototype,
+            to_world,
+            normal_to_world: to_world.matrix3.inverse().transpose(),
+            node,
+        }
+    }
+
+    /// The world-space box of a box `bounds` in the prototype's space: the box of its eight
+    /// corners placed.
+    pub fn world_box(&self, (lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
+        let (mut a, mut b) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        for k in 0..8 {
+            let corner = Vec3A::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = self.to_world.transform_point3a(corner);
+            (a, b) = (a.min(p), b.max(p));
+        }
+        (a.into(), b.into())
+    }
+}
+
 /// How many textures the scene's materials reference in each role.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TextureRoles {
@@ -302,9 +365,15 @@ pub struct SceneSummary {
     pub alpha_tested_triangles: usize,
     pub punctual_lights: usize,
     pub cameras: usize,
+    /// Instances of meshes drawn in several places ([`Scene::instances`]), and the triangles
+    /// they place (each instance's prototype's, counted once per instance); `triangles` counts
+    /// the triangles stored.
+    pub instances: usize,
+    pub instanced_triangles: usize,
 }
 
-/// A scene ready to render: all geometry flattened into world space.
+/// A scene ready to render: geometry in world space, but for the [`Prototype`]s that
+/// [`Instance`]s place.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
     pub positions: Vec<Vec3>,
@@ -334,7 +403,11 @@ pub struct Scene {
     pub images: Vec<ImageSource>,
     pub lights: Vec<Light>,
     pub cameras: Vec<Camera>,
-    /// World-space bounds of all vertices (min, max).
+    /// Meshes drawn in several places, their triangles in their own space.
+    pub prototypes: Vec<Prototype>,
+    /// Where the prototypes are drawn (shared with the acceleration structure).
+    pub instances: std::sync::Arc<Vec<Instance>>,
+    /// World-space bounds of all triangles, instances' included (min, max).
     pub bounds: (Vec3, Vec3),
     pub summary: SceneSummary,
     /// What the loader skipped or repaired, one line each.
@@ -421,12 +494,83 @@ impl Scene {
         !self.colors.is_empty() && tri.iter().any(|&v| self.colors[v as usize].w < 1.0)
     }
 
-    /// Triangle `prim`'s node, mesh and material in the glTF document it was loaded from
-    /// (None each for a scene built in code, and the material of a primitive that names
-    /// none).
-    pub fn origin(&self, prim: u32) -> TriangleOrigin {
-        self.origins
-            .of(prim, self.triangle_materials[prim as usize])
+    /// Triangle `prim`'s node, mesh and material in the glTF document it was loaded from, as
+    /// instance `inst` places it (None each for a scene built in code, and the material of a
+    /// primitive that names none).
+    pub fn origin(&self, prim: u32, inst: u32) -> TriangleOrigin {
+        let mut origin = self
+            .origins
+            .of(prim, self.triangle_materials[prim as usize]);
+        // A prototype's triangle is the node's that placed it.
+        if let Some(i) = self.instances.get(inst as usize) {
+            origin.node = i.node;
+            origin.mesh = self.prototypes[i.prototype as usize].mesh;
+        }
+        origin
+    }
+
+    /// The triangles in world space (all but the prototypes'), ascending.
+    pub fn flat_triangles(&self) -> Vec<u32> {
+        let mut inside = vec![false; self.triangles.len()];
+        for p in &self.prototypes {
+            inside[p.triangles.start as usize..p.triangles.end as usize].fill(true);
+        }
+        (0..self.triangles.len() as u32)
+            .filter(|&t| !inside[t as usize])
+            .collect()
+    }
+
+    /// Positions of the three vertices of triangle `prim` placed by instance `inst` (or as
+    /// stored, for [`NO_INSTANCE`]).
+    #[inline(always)]
+    pub fn placed_positions(&self, prim: u32, inst: u32) -> [Vec3; 3] {
+        let p = self.triangle_positions(prim);
+        match self.instances.get(inst as usize) {
+            None => p,
+            Some(i) => p.map(|q| i.to_world.transform_point3(q)),
+        }
+    }
+
+    /// A normal `n` of instance `inst`'s prototype in world space, unit length (`n` as it is
+    /// for [`NO_INSTANCE`]).
+    #[inline(always)]
+    pub fn normal_to_world(&self, inst: u32, n: Vec3) -> Vec3 {
+        match self.instances.get(inst as usize) {
+            None => n,
+            Some(i) => (i.normal_to_world * Vec3A::from(n))
+                .normalize_or_zero()
+                .into(),
+        }
+    }
+
+    /// True when instance `inst` mirrors its prototype (its placement's determinant is
+    /// negative), which turns the handedness of tangent frames; false for [`NO_INSTANCE`].
+    #[inline]
+    pub fn mirrors(&self, inst: u32) -> bool {
+        self.instances
+            .get(inst as usize)
+            .is_some_and(|i| i.to_world.matrix3.determinant() < 0.0)
+    }
+
+    /// A tangent direction `v` of instance `inst`'s prototype in world space (not
+    /// normalized; `v` for [`NO_INSTANCE`]).
+    #[inline(always)]
+    pub fn vector_to_world(&self, inst: u32, v: Vec3) -> Vec3 {
+        match self.instances.get(inst as usize) {
+            None => v,
+            Some(i) => i.to_world.transform_vector3(v),
+        }
+    }
+
+    /// The largest node, mesh and material index any triangle's origin may name
+    /// ([`Scene::origin`]; None where none names one).
+    pub fn largest_origin(&self) -> TriangleOrigin {
+        let mut largest = self.origins.largest();
+        let nodes = self.instances.iter().filter_map(|i| i.node);
+        largest.node = largest.node.into_iter().chain(nodes).max();
+        let meshes = self.prototypes.iter().filter_map(|p| p.mesh);
+        largest.mesh = largest.mesh.into_iter().chain(meshes).max();
+        largest
     }
 
     /// Positions of the three vertices of triangle `prim`.
@@ -467,9 +611,23 @@ impl Scene {
             lo = lo.min(*p);
             hi = hi.max(*p);
         }
+        if !self.prototypes.is_empty() {
+            // The flat triangles' vertices and the instances' boxes (the prototypes' vertices
+            // are in their own space).
+            (lo, hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for t in self.flat_triangles() {
+                for p in self.triangle_positions(t) {
+                    (lo, hi) = (lo.min(p), hi.max(p));
+                }
+            }
+            for i in self.instances.iter() {
+                let (a, b) = i.world_box(self.prototypes[i.prototype as usize].bounds);
+                (lo, hi) = (lo.min(a), hi.max(b));
+            }
+        }
         // Nothing to bound (a scene with no triangles): a point at the origin, which the
         // framing camera looks at from +Z.
-        self.bounds = match self.positions.is_empty() {
+        self.bounds = match self.positions.is_empty() || lo.x > hi.x {
             true => (Vec3::ZERO, Vec3::ZERO),
             false => (lo, hi),
         };
@@ -500,6 +658,12 @@ impl Scene {
             alpha_tested_triangles,
             punctual_lights: self.lights.len(),
             cameras: self.cameras.len(),
+            instances: self.instances.len(),
+            instanced_triangles: self
+                .instances
+                .iter()
+                .map(|i| self.prototypes[i.prototype as usize].triangles.len())
+                .sum(),
         };
     }
 }

@@ -510,6 +510,7 @@ mod tests {
             wo: n,
             front_face: true,
             prim: 0,
+            inst: crate::ray::NO_INSTANCE,
             u: 0.0,
             v: 0.0,
         }
@@ -590,6 +591,7 @@ mod tests {
             wo: Vec3::new(0.0, 0.6, 0.8),
             front_face: true,
             prim: 0,
+            inst: crate::ray::NO_INSTANCE,
             u: 0.0,
             v: 0.0,
         };

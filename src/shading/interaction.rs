@@ -39,18 +39,20 @@ pub struct SurfaceInteraction {
     /// True when the ray hit the counter-clockwise (front) face.
     pub front_face: bool,
     pub prim: u32,
+    /// The instance that placed the triangle (`Hit::inst`).
+    pub inst: u32,
     pub u: f32,
     pub v: f32,
 }
 
 impl SurfaceInteraction {
-    /// Always inlined: called, it returns its 76 bytes through memory written a field at a
+    /// Always inlined: called, it returns its 80 bytes through memory written a field at a
     /// time, and a caller that moves them on (the AO packet's array of hits) reads them back
     /// 16 bytes at a time, which store-to-load forwarding cannot serve (perf: a stall of
     /// 1.7% of a one-ray AO render).
     #[inline(always)]
     pub fn from_hit(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
-        let [p0, p1, p2] = scene.triangle_positions(hit.prim);
+        let [p0, p1, p2] = scene.placed_positions(hit.prim, hit.inst);
         let (b1, b2) = (hit.u, hit.v);
         // p = p0 + b1·(p1 − p0) + b2·(p2 − p0): the edge terms are small next to p0 when the
         // triangle is far from the origin, so p is within about half an ulp of |p| of the
@@ -72,15 +74,31 @@ impl SurfaceInteraction {
             .max((p1 - p).abs())
             .max((p2 - p).abs())
             .max_element();
-        let p_error =
+        let mut p_error =
             gamma(2) * p.abs() + gamma(4) * (d1.abs() + d2.abs()) + Vec3::splat(gamma(7) * extent);
+        // An instance's vertices were placed by its affine map M·q + t: three products and
+        // three sums per coordinate, off by at most γ₃·(|M|·|q| + |t|) each (γ₄ for margin).
+        if let Some(i) = scene.instances.get(hit.inst as usize) {
+            let q = scene
+                .triangle_positions(hit.prim)
+                .iter()
+                .fold(Vec3::ZERO, |m, q| m.max(q.abs()));
+            let m = &i.to_world;
+            let abs = glam::Mat3::from_cols(
+                m.matrix3.x_axis.abs().into(),
+                m.matrix3.y_axis.abs().into(),
+                m.matrix3.z_axis.abs().into(),
+            );
+            p_error += gamma(4) * (abs * q + Vec3::from(m.translation.abs()));
+        }
         let front_face = hit.ng.dot(ray.dir) < 0.0;
         let ng = if front_face { hit.ng } else { -hit.ng };
         // Two-sided shading: the shading normal faces the side the ray arrives from. Where
         // an interpolated normal disagrees with the geometry (grazing views of smooth
         // silhouettes) it may then point below the geometric surface; directions sampled
         // around it enter the object, as in Mitsuba's `twosided` BSDF.
-        let ns = match scene.shading_normal(hit.prim, b1, b2) {
+        let normal = scene.shading_normal(hit.prim, b1, b2);
+        let ns = match normal.map(|n| scene.normal_to_world(hit.inst, n)) {
             Some(n) if n.dot(ray.dir) > 0.0 => -n,
             Some(n) => n,
             None => ng,
@@ -93,6 +111,7 @@ impl SurfaceInteraction {
             wo: -ray.dir.normalize(),
             front_face,
             prim: hit.prim,
+            inst: hit.inst,
             u: b1,
             v: b2,
         }
@@ -404,6 +423,7 @@ mod tests {
                 wo,
                 front_face: true,
                 prim: 0,
+                inst: crate::ray::NO_INSTANCE,
                 u: 0.0,
                 v: 0.0,
             };

@@ -488,13 +488,20 @@ impl Materials {
         let t4 = (1.0 - u - v) * corners[0] + u * corners[1] + v * corners[2];
         // The surface's own normal, before the two-sided rule turned it toward the ray.
         let front_ng = if si.front_face { si.ng } else { -si.ng };
-        let n = scene.shading_normal(si.prim, u, v).unwrap_or(front_ng);
-        let t = t4.truncate() - n * n.dot(t4.truncate());
+        // The frame in world space: an instance carries the normal by its inverse transpose
+        // and the tangent by its linear map, and a mirroring one turns the frame's handedness.
+        let n = scene
+            .shading_normal(si.prim, u, v)
+            .map(|n| scene.normal_to_world(si.inst, n))
+            .unwrap_or(front_ng);
+        let tangent = scene.vector_to_world(si.inst, t4.truncate());
+        let t = tangent - n * n.dot(tangent);
         if t.length_squared() < 1e-12 || !t.is_finite() {
             return *si;
         }
         let t = t.normalize();
-        let b = n.cross(t) * if t4.w < 0.0 { -1.0 } else { 1.0 };
+        let left_handed = (t4.w < 0.0) != scene.mirrors(si.inst);
+        let b = n.cross(t) * if left_handed { -1.0 } else { 1.0 };
         let texel = self.lookup(map, uv);
         let m = Vec3::new(
             (2.0 * texel.x - 1.0) * scale,
