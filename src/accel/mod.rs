@@ -325,8 +325,7 @@ impl Accel {
 /// Cells per axis of the grid that [`Accel::clusters`] bins triangles into.
 pub const CLUSTER_GRID: usize = 8;
 
-/// [`Accel::clusters`] of triangles `prims` of `scene`, as their vertices are stored (the
-/// renderer bins the emissive ones alone, which are in world space).
+/// [`Accel::clusters`] of triangles `prims` of `scene`, as their vertices are stored.
 pub fn cluster_boxes(scene: &Scene, prims: impl Iterator<Item = u32> + Clone) -> Vec<(Vec3, Vec3)> {
     let corners = |prim: u32| {
         scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
@@ -354,7 +353,7 @@ pub fn scene_cluster_boxes(scene: &Scene) -> Vec<(Vec3, Vec3)> {
 }
 
 /// The cluster boxes of triangles given by their corners (see [`Accel::clusters`]).
-fn clusters_of(triangles: impl Iterator<Item = [Vec3A; 3]> + Clone) -> Vec<(Vec3, Vec3)> {
+pub fn clusters_of(triangles: impl Iterator<Item = [Vec3A; 3]> + Clone) -> Vec<(Vec3, Vec3)> {
     // Triangles with a non-finite vertex are left out: one NaN in a box's running minimum
     // would make it forget the triangles before it. The loader refuses such vertices, so
     // only a scene built by hand can have them, and nothing about hitting them is promised.

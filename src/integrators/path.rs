@@ -193,7 +193,7 @@ fn li_as<B: ShadeAs>(
                 Some(_) if specular => 1.0,
                 Some((pdf_bsdf, p_prev)) => match settings.strategy {
                     Strategy::Mis => {
-                        let pdf_light = lights.triangle_pdf(scene, si.prim, p_prev, si.p, hit.ng);
+                        let pdf_light = lights.triangle_pdf(si.prim, si.inst, p_prev, si.p, hit.ng);
                         power_heuristic(pdf_bsdf, pdf_light)
                     }
                     Strategy::Bsdf => 1.0,

@@ -29,7 +29,7 @@ use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::culling::{BlockMask, BLOCK_H, BLOCK_W};
-use crate::accel::{cluster_boxes, Hit, Ray, PACKET};
+use crate::accel::{clusters_of, Hit, Ray, PACKET};
 use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
@@ -71,12 +71,12 @@ impl EmitterView {
         if settings.emitter_samples == 0 || !integrator.traces_rays(ctx) {
             return None;
         }
-        // The emissive triangles, as the light set already lists them.
+        // The emissive triangles, as the light set already lists them (in world space).
         let emissive = ctx.lights.emitters.iter().filter_map(|e| match e {
-            Emitter::Triangle(t) => Some(t.prim),
+            Emitter::Triangle(t) => Some(t.vertices.map(Vec3A::from)),
             _ => None,
         });
-        let boxes = cluster_boxes(ctx.scene, emissive);
+        let boxes = clusters_of(emissive);
         if boxes.is_empty() {
             return None;
         }

@@ -616,18 +616,16 @@ fn estimate_memory(
 }
 
 /// True when `mesh`, placed `placements` times, is stored once and instanced: placed more than
-/// once (unless `flatten_instances`), and no primitive's material emitting or BLEND (light
-/// sampling works on world-space triangles, and BLEND's coin on the ray, which an instance's
-/// triangles see in their own space: such a mesh is flattened, a copy per placement). MASK
-/// coverage depends on the point alone, and is tested inside instances.
+/// once (unless `flatten_instances`), and no primitive's material BLEND (its coin reads the
+/// ray, which an instance's triangles see in their own space: such a mesh is flattened, a copy
+/// per placement). MASK coverage depends on the point alone, and is tested inside instances;
+/// an emitting mesh's triangles are lights once per instance.
 fn instanced_mesh(mesh: &gltf::Mesh, placements: u64, flatten_instances: bool) -> bool {
     placements >= 2
         && !flatten_instances
-        && mesh.primitives().all(|p| {
-            let m = p.material();
-            m.alpha_mode() != gltf::material::AlphaMode::Blend
-                && m.emissive_factor().iter().all(|&e| e == 0.0)
-        })
+        && mesh
+            .primitives()
+            .all(|p| p.material().alpha_mode() != gltf::material::AlphaMode::Blend)
 }
 
 /// The document's buffers; the external files read are added to `files`.

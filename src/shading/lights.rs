@@ -32,7 +32,7 @@ use crate::accel::AlphaCoverage;
 use crate::sampling::warps::{
     spherical_triangle_area, square_to_spherical_triangle, square_to_uniform_triangle,
 };
-use crate::scene::{Light, Scene};
+use crate::scene::{Light, Scene, NO_INSTANCE};
 
 pub use super::environment::luminance;
 
@@ -72,12 +72,16 @@ impl Emitter {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleLight {
     pub prim: u32,
-    /// The triangle's area and unit geometric normal (along e1 × e2): each costs a square
-    /// root or a division.
+    /// The instance that places it ([`crate::scene::Instance`]), or
+    /// [`crate::scene::NO_INSTANCE`] for a world-space triangle.
+    pub inst: u32,
+    /// The triangle's area and unit geometric normal on its front (along e1 × e2, but for a
+    /// mirroring instance's triangle, whose placed corners wind the other way): each costs a
+    /// square root or a division.
     pub area: f32,
     pub normal: Vec3,
-    /// Its vertices, copied here so that a light sample reads them without going through the
-    /// scene's index buffer.
+    /// Its vertices in world space (placed by its instance), copied here so that a light
+    /// sample reads them without going through the scene's index buffer.
     pub vertices: [Vec3; 3],
     /// A per-axis bound on the rounding error of any point b₀·a + b₁·b + b₂·c computed on the
     /// triangle, and on the error of a ray–triangle test near it: γ₇·(max |vᵢ| + the
@@ -217,8 +221,12 @@ pub struct LightSet {
     pub triangle_sampling: TriangleSampling,
     pub emitters: Vec<Emitter>,
     table: AliasTable,
-    /// Emitter index of each triangle, or `u32::MAX`; empty when no triangle emits.
+    /// Emitter index of each world-space triangle, and for a prototype's triangle its index
+    /// among the prototype's emitting triangles, or `u32::MAX`; empty when no triangle emits.
     triangle_light: Vec<u32>,
+    /// Each instance's first emitter (its prototype's emitting triangles follow in order), or
+    /// `u32::MAX` for an instance of a prototype that emits nothing; empty when none does.
+    instance_lights: Vec<u32>,
     environment: Environment,
     /// What camera rays that miss the scene see instead of the environment (`--background`
     /// in front of an `--env` map); None: the environment.
@@ -295,38 +303,89 @@ impl LightSet {
             }
         }
         let mut triangle_light = Vec::new();
+        let mut instance_lights = Vec::new();
         let mut alpha_tested_emitters = false;
         if scene.summary.emissive_triangles > 0 {
+            triangle_light = vec![u32::MAX; scene.triangles.len()];
             // Each material's mean emission (a texture's mean reads every texel), once.
             let mut emission: Vec<Option<(Vec3, bool)>> = vec![None; scene.materials.len()];
-            for (prim, &m) in scene.triangle_materials.iter().enumerate() {
-                if !materials.is_emissive_triangle(scene, prim as u32) {
-                    continue;
-                }
+            let mut power_of = |prim: u32, [a, b, c]: [Vec3; 3]| {
+                let m = scene.triangle_materials[prim as usize];
                 let (le, two_sided) =
                     *emission[m as usize].get_or_insert_with(|| materials.emission_power_factor(m));
-                let [a, b, c] = scene.triangle_positions(prim as u32);
+                let area = 0.5 * (b - a).cross(c - a).length() as f64;
+                pi * area * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 }
+            };
+            let light = |prim: u32, inst: u32, [a, b, c]: [Vec3; 3]| {
                 let cross = (b - a).cross(c - a);
                 let area = 0.5 * cross.length();
-                let power =
-                    pi * area as f64 * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 };
+                let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
+                let point_error =
+                    gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
+                Emitter::Triangle(TriangleLight {
+                    prim,
+                    inst,
+                    area,
+                    normal: cross / (2.0 * area),
+                    vertices: [a, b, c],
+                    point_error,
+                })
+            };
+            let world = match scene.prototypes.is_empty() {
+                true => (0..scene.triangles.len() as u32).collect(),
+                false => scene.flat_triangles(),
+            };
+            for prim in world {
+                if !materials.is_emissive_triangle(scene, prim) {
+                    continue;
+                }
+                let corners = scene.triangle_positions(prim);
+                let power = power_of(prim, corners);
                 if power > 0.0 {
-                    if triangle_light.is_empty() {
-                        triangle_light = vec![u32::MAX; scene.triangles.len()];
-                    }
-                    triangle_light[prim] = emitters.len() as u32;
-                    alpha_tested_emitters |= scene.may_cut_holes(prim);
-                    let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
-                    let point_error =
-                        gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
-                    emitters.push(Emitter::Triangle(TriangleLight {
-                        prim: prim as u32,
-                        area,
-                        normal: cross / (2.0 * area),
-                        vertices: [a, b, c],
-                        point_error,
-                    }));
+                    triangle_light[prim as usize] = emitters.len() as u32;
+                    alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
+                    emitters.push(light(prim, NO_INSTANCE, corners));
                     weights.push(power);
+                }
+            }
+            // A prototype's emitting triangles (those of positive power in its own space,
+            // which an invertible placement keeps positive), a light each per instance.
+            let emitting: Vec<Vec<u32>> = scene
+                .prototypes
+                .iter()
+                .map(|p| {
+                    let prims = p.triangles.clone().filter(|&prim| {
+                        materials.is_emissive_triangle(scene, prim)
+                            && power_of(prim, scene.triangle_positions(prim)) > 0.0
+                    });
+                    prims.collect()
+                })
+                .collect();
+            if emitting.iter().any(|e| !e.is_empty()) {
+                for prims in &emitting {
+                    for (k, &prim) in prims.iter().enumerate() {
+                        triangle_light[prim as usize] = k as u32;
+                    }
+                }
+                for (k, instance) in scene.instances.iter().enumerate() {
+                    let prims = &emitting[instance.prototype as usize];
+                    instance_lights.push(match prims.is_empty() {
+                        true => u32::MAX,
+                        false => emitters.len() as u32,
+                    });
+                    // A mirroring placement turns the corners' winding: the front stays the
+                    // prototype's, where its normal carried to world space points.
+                    let mirrors = scene.mirrors(k as u32);
+                    for &prim in prims {
+                        let corners = scene.placed_positions(prim, k as u32);
+                        alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
+                        let mut emitter = light(prim, k as u32, corners);
+                        if let (true, Emitter::Triangle(t)) = (mirrors, &mut emitter) {
+                            t.normal = -t.normal;
+                        }
+                        emitters.push(emitter);
+                        weights.push(power_of(prim, corners));
+                    }
                 }
             }
         }
@@ -350,6 +409,7 @@ impl LightSet {
             emitters,
             table,
             triangle_light,
+            instance_lights,
             environment,
             camera_background: None,
             environment_light,
@@ -408,14 +468,15 @@ impl LightSet {
     }
 
     /// Selection probability × solid-angle pdf with which light sampling from `p_ref` would
-    /// have produced the point `p` on emissive triangle `prim` (unit normal `n`).
+    /// have produced the point `p` on emissive triangle `prim` placed by instance `inst`
+    /// (unit normal `n`).
     #[inline]
-    pub fn triangle_pdf(&self, scene: &Scene, prim: u32, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
-        let Some((pmf, light)) = self.light_of_triangle(prim) else {
+    pub fn triangle_pdf(&self, prim: u32, inst: u32, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
+        let Some((pmf, light)) = self.light_of_triangle(prim, inst) else {
             return 0.0;
         };
         if self.triangle_sampling == TriangleSampling::SolidAngle {
-            let [a, b, c] = scene.triangle_positions(prim);
+            let [a, b, c] = light.vertices;
             if let Some(omega) = self.spherical_area(a, b, c, p_ref) {
                 return pmf / omega;
             }
@@ -430,14 +491,21 @@ impl LightSet {
         pmf * dist2 / (cos * area)
     }
 
-    /// The emitter of triangle `prim` and its selection probability; None for a triangle
-    /// that emits nothing.
+    /// The emitter of triangle `prim` placed by instance `inst` and its selection
+    /// probability; None for a triangle that emits nothing.
     #[inline]
-    fn light_of_triangle(&self, prim: u32) -> Option<(f32, &TriangleLight)> {
+    fn light_of_triangle(&self, prim: u32, inst: u32) -> Option<(f32, &TriangleLight)> {
         let &i = self.triangle_light.get(prim as usize)?;
         if i == u32::MAX {
             return None;
         }
+        // A prototype's triangle: its index among the prototype's emitters, after the
+        // instance's first.
+        let i = match self.instance_lights.get(inst as usize) {
+            None => i,
+            Some(&u32::MAX) => return None,
+            Some(&first) => first + i,
+        };
         match &self.emitters[i as usize] {
             Emitter::Triangle(t) => Some((self.table.pmf(i as usize), t)),
             _ => {
@@ -521,6 +589,7 @@ impl LightSet {
     ) -> Option<(LightSample, Vec2)> {
         let &TriangleLight {
             prim,
+            inst: _,
             area,
             normal: n,
             vertices: [a, b, c],
