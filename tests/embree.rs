@@ -440,3 +440,191 @@ fn occlusion_packets_equal_single_ray_queries() {
         );
     }
 }
+
+/// Instances through the raw wrapper: the two triangles as a scene of their own, placed twice
+/// (moved up by 3; turned a quarter about +z, scaled by 2 and moved to x = −5), beside a
+/// triangle of the top scene. A hit inside an instance reports the instance's geometry id,
+/// the child's geometry and primitive, the child's barycentrics and normal (in the child's
+/// space) and the world ray's t (an affine map keeps a ray's parameter); a hit on the top
+/// scene's own triangle reports no instance; a packet answers as single rays do; a
+/// placement that is not finite is refused.
+#[test]
+fn instances_report_their_geometry_id_and_the_child_primitive() {
+    let device = Device::new("verbose=0").expect("Embree device");
+    let options = SceneOptions {
+        quality: BuildQuality::Medium,
+        robust: true,
+        compact: false,
+    };
+    let mut child = SceneBuilder::new(&device, options).expect("scene");
+    let (p, i) = two_triangles();
+    child.attach_triangles(&p, &i).expect("attach");
+    let child = std::sync::Arc::new(child.commit().expect("commit"));
+    let mut top = SceneBuilder::new(&device, options).expect("scene");
+    let world = top
+        .attach_triangles(
+            &[[10.0, 0.0, 0.0], [11.0, 0.0, 0.0], [10.0, 1.0, 0.0]],
+            &[[0, 1, 2]],
+        )
+        .expect("attach");
+    // Column-major: the images of x, y and z, then the translation.
+    let up = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 3.0];
+    // (x, y, z) → (−2y − 5, 2x, 2z).
+    let turned = [0.0, 2.0, 0.0, -2.0, 0.0, 0.0, 0.0, 0.0, 2.0, -5.0, 0.0, 0.0];
+    let a = top.attach_instance(&child, &up).expect("instance");
+    let b = top.attach_instance(&child, &turned).expect("instance");
+    assert_eq!((world, a, b), (0, 1, 2));
+    let mut bad = up;
+    bad[9] = f32::NAN;
+    let err = top.attach_instance(&child, &bad).unwrap_err();
+    assert!(err.to_string().contains("not finite"), "{err}");
+    let scene = top.commit().expect("commit");
+
+    let down = [0.0, 0.0, -1.0];
+    let rays = [
+        // Child triangle 0 at (0.25, 0.25, 0), moved up to z = 3.
+        ([0.25, 0.25, 10.0], down, (a, 0, 0), 7.0, [0.25, 0.25]),
+        // The same point of instance b: (−5.5, 0.5, 0).
+        ([-5.5, 0.5, 10.0], down, (b, 0, 0), 10.0, [0.25, 0.25]),
+        // Child triangle 1 at (0.8, 0.8, −1) (barycentrics 0.4, 0.4) in b: (−6.6, 1.6, −2).
+        ([-6.6, 1.6, 10.0], down, (b, 0, 1), 12.0, [0.4, 0.4]),
+        // The top scene's own triangle.
+        (
+            [10.25, 0.25, 10.0],
+            down,
+            (embree::INVALID_GEOMETRY_ID, world, 0),
+            10.0,
+            [0.25, 0.25],
+        ),
+    ];
+    let mut singles = Vec::new();
+    for &(org, dir, ids, t, [u, v]) in &rays {
+        let h = scene
+            .intersect(org, dir, 0.0, f32::INFINITY)
+            .unwrap_or_else(|| panic!("the ray from {org:?} misses"));
+        assert_eq!((h.inst_id, h.geom_id, h.prim_id), ids, "{h:?}");
+        assert!(
+            (h.t - t).abs() < 1e-4 && close(h.u, u) && close(h.v, v),
+            "{h:?}"
+        );
+        // The child's normal, in its own space (+z, whatever the placement's scale).
+        assert!(
+            h.ng[2] > 0.0 && h.ng[0].abs() < 1e-6 && h.ng[1].abs() < 1e-6,
+            "{h:?}"
+        );
+        singles.push(h);
+    }
+    let mut packed = vec![None; rays.len()];
+    scene.intersect_packet(
+        &rays,
+        |r| (r.0, r.1, 0.0, f32::INFINITY),
+        |i, h| packed[i] = h,
+    );
+    for (single, packed) in singles.iter().zip(&packed) {
+        assert_eq!(Some(*single), *packed);
+    }
+    // Below everything: no hit, no instance.
+    assert!(scene
+        .intersect([0.25, 0.25, -10.0], down, 0.0, f32::INFINITY)
+        .is_none());
+}
+
+/// Both backends on a scene built in code with instances (the two triangles placed three
+/// times: moved, turned and scaled, mirrored) beside a world-space triangle: for a grid of
+/// rays from above, some oblique, the closest hit (triangle, instance, t, barycentrics,
+/// normal) and the any-hit answer equal those on the flattened copy, whose triangles
+/// 2k + 1 and 2k + 2 are instance k's placed corners (a mirror's copy keeps the corners'
+/// order, so its e1 × e2 normal is the instance's front turned over).
+#[test]
+fn instanced_scenes_answer_as_their_flattened_copies() {
+    use glam::{Affine3A, Quat};
+    use strata::scene::{Instance, Prototype, NO_INSTANCE};
+    let (p, t) = two_triangles();
+    let world_tri = [[3.0, -3.0, 0.5], [4.0, -3.0, 0.5], [3.0, -2.0, 0.5]];
+    let placements = [
+        Affine3A::from_translation(Vec3::new(-2.0, 1.0, 0.5)),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.5, 0.5, 1.0),
+            Quat::from_rotation_z(0.7),
+            Vec3::new(1.0, -1.0, 0.0),
+        ),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(-1.0, 1.0, 1.0),
+            Quat::from_rotation_x(0.3),
+            Vec3::new(-1.0, -2.5, -0.5),
+        ),
+    ];
+    // Instanced: the world triangle (0), then the prototype (1, 2).
+    let mut positions = world_tri.to_vec();
+    positions.extend(&p);
+    let mut triangles = vec![[0, 1, 2]];
+    triangles.extend(t.iter().map(|tri| tri.map(|i| i + 3)));
+    let mut instanced = scene_of(&positions, &triangles);
+    instanced.prototypes = vec![Prototype {
+        triangles: 1..3,
+        bounds: (Vec3::new(0.0, 0.0, -1.0), Vec3::new(2.0, 2.0, 0.0)),
+        mesh: None,
+    }];
+    instanced.instances = std::sync::Arc::new(
+        placements
+            .iter()
+            .map(|m| Instance::new(0, *m, None))
+            .collect(),
+    );
+    instanced.update_summary();
+    // Flattened: the world triangle, then each instance's two triangles placed.
+    let mut flat_positions = world_tri.to_vec();
+    for m in &placements {
+        flat_positions.extend(
+            p.iter()
+                .map(|q| m.transform_point3(Vec3::from(*q)).to_array()),
+        );
+    }
+    let flat_triangles: Vec<[u32; 3]> = (0..7u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+    let flat = scene_of(&flat_positions, &flat_triangles);
+
+    let mut rays = Vec::new();
+    for i in 0..40 {
+        for j in 0..40 {
+            // Off the grid of the corners' coordinates: a ray through an edge may be given to
+            // either side by rounding, which a placement changes.
+            let org = Vec3::new(-3.9863 + 0.2 * i as f32, -4.9709 + 0.2 * j as f32, 5.0);
+            rays.push(Ray::new(org, Vec3::new(0.0, 0.0, -1.0)));
+            rays.push(Ray::new(org, Vec3::new(0.3, -0.2, -1.0)));
+        }
+    }
+    let mut hits = 0;
+    for ((backend, inst_accel), (_, flat_accel)) in both_backends(&instanced)
+        .into_iter()
+        .zip(both_backends(&flat))
+    {
+        for ray in &rays {
+            let (got, want) = (inst_accel.intersect(ray), flat_accel.intersect(ray));
+            assert_eq!(
+                inst_accel.occluded(ray),
+                flat_accel.occluded(ray),
+                "{backend:?}: {ray:?}"
+            );
+            let (got, want) = match (got, want) {
+                (None, None) => continue,
+                (Some(g), Some(w)) => (g, w),
+                other => panic!("{backend:?}: {ray:?}: {other:?}"),
+            };
+            hits += 1;
+            let (prim, mirrored) = match got.inst {
+                NO_INSTANCE => (got.prim, false),
+                k => (2 * k + got.prim, k == 2),
+            };
+            assert_eq!(prim, want.prim, "{backend:?}: {ray:?}: {got:?} {want:?}");
+            let ng = if mirrored { -want.ng } else { want.ng };
+            assert!(
+                (got.t - want.t).abs() < 1e-4
+                    && (got.u - want.u).abs() < 1e-4
+                    && (got.v - want.v).abs() < 1e-4
+                    && (got.ng - ng).length() < 1e-4,
+                "{backend:?}: {ray:?}: {got:?} against {want:?}"
+            );
+        }
+    }
+    assert!(hits > 500, "{hits} hits");
+}
