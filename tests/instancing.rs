@@ -324,14 +324,15 @@ fn shared_spheres(
     path
 }
 
-/// The render of `scene` by the path tracer (8 spp, Sobol, 120 × 72) with `extra` options:
-/// its pixels and its object ID pass.
-fn render_spheres(
+/// Renders `scene` to `dir/out` by the path tracer with Owen-scrambled Sobol samples, `spp`
+/// per pixel at `size`, with `extra` options; the EXR's path.
+fn render_path(
     dir: &std::path::Path,
     scene: &std::path::Path,
     out: &str,
+    (spp, size): (&str, &str),
     extra: &[&str],
-) -> (Vec<[f32; 3]>, Vec<f32>) {
+) -> std::path::PathBuf {
     let out = dir.join(out);
     let mut args = vec![
         s(scene),
@@ -340,19 +341,29 @@ fn render_spheres(
         "--sampler",
         "sobol",
         "--spp",
-        "8",
+        spp,
         "--resolution",
-        "120x72",
-        "--background",
-        "0.4,0.5,0.7",
-        "--passes",
-        "object_id",
+        size,
         "-o",
         s(&out),
         "--no-png",
     ];
     args.extend_from_slice(extra);
     render(dir, &args).assert_success();
+    out
+}
+
+/// The spheres' render (8 spp, 120 × 72, under a blue-grey background and the sun) with
+/// `extra` options: its pixels and its object ID pass.
+fn render_spheres(
+    dir: &std::path::Path,
+    scene: &std::path::Path,
+    out: &str,
+    extra: &[&str],
+) -> (Vec<[f32; 3]>, Vec<f32>) {
+    let mut args = vec!["--background", "0.4,0.5,0.7", "--passes", "object_id"];
+    args.extend_from_slice(extra);
+    let out = render_path(dir, scene, out, ("8", "120x72"), &args);
     let pixels = strata::render::output::read_exr_rgb(&out).unwrap().2;
     let (channels, _) = read_channels(&out);
     (pixels, channels["object_id.ID"].clone())
@@ -665,33 +676,16 @@ fn glowing_bulbs(dir: &std::path::Path, name: &str, bulbs: usize) -> std::path::
     path
 }
 
-/// The bulbs' render (path tracing, 16 spp, Sobol, 100 × 60, no light but theirs) with
-/// `extra` options.
+/// The bulbs' render (16 spp, 100 × 60, no light but theirs) with `extra` options.
 fn render_bulbs(
     dir: &std::path::Path,
     scene: &std::path::Path,
     out: &str,
     extra: &[&str],
 ) -> Vec<[f32; 3]> {
-    let out = dir.join(out);
-    let mut args = vec![
-        s(scene),
-        "--integrator",
-        "path",
-        "--sampler",
-        "sobol",
-        "--spp",
-        "16",
-        "--resolution",
-        "100x60",
-        "--env",
-        "none",
-        "-o",
-        s(&out),
-        "--no-png",
-    ];
+    let mut args = vec!["--env", "none"];
     args.extend_from_slice(extra);
-    render(dir, &args).assert_success();
+    let out = render_path(dir, scene, out, ("16", "100x60"), &args);
     strata::render::output::read_exr_rgb(&out).unwrap().2
 }
 
