@@ -148,6 +148,59 @@ fn every_instance_is_drawn_where_its_transform_puts_it() {
     );
 }
 
+/// A placement that cannot be inverted (a scale of 0 along x: the triangle flattened onto the
+/// yz plane, still a triangle) cannot be an instance: it is drawn as a flattened copy, with a
+/// warning, beside the mesh's other placement, which stays an instance.
+#[test]
+fn a_singular_placement_is_drawn_as_a_copy_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let corners: Vec<u8> = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [
+            {"mesh": 0, "translation": [0.0, 0.0, -5.0]},
+            {"mesh": 0, "translation": [3.0, 0.0, -5.0], "scale": [0.0, 1.0, 1.0]}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "buffers": [{"byteLength": corners.len(), "uri": data_uri(&corners)}],
+        "bufferViews": [{"buffer": 0, "byteLength": corners.len()}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 1.0]}]
+    });
+    let path = dir.path().join("singular.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let scene = load(&path, &LoadOptions::default()).unwrap();
+    assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 1));
+    assert_eq!(scene.triangles.len(), 2, "the prototype's and the copy's");
+    let flat = scene.flat_triangles();
+    assert_eq!(flat.len(), 1);
+    let copy = scene.triangle_positions(flat[0]);
+    let want = [
+        Vec3::new(3.0, 0.0, -5.0),
+        Vec3::new(3.0, 1.0, -5.0),
+        Vec3::new(3.0, 0.0, -4.0),
+    ];
+    assert_eq!(copy, want);
+    assert_eq!(
+        scene.origin(flat[0], strata::ray::NO_INSTANCE).node,
+        Some(1)
+    );
+    assert_eq!(scene.origin(0, 0).node, Some(0));
+    assert!(
+        scene
+            .load_warnings
+            .iter()
+            .any(|w| w.contains("1 placement(s)") && w.contains("singular transform")),
+        "{:?}",
+        scene.load_warnings
+    );
+}
+
 #[test]
 fn instance_attributes_of_different_counts_are_refused() {
     let dir = tempfile::tempdir().unwrap();
