@@ -327,10 +327,7 @@ pub const CLUSTER_GRID: usize = 8;
 
 /// [`Accel::clusters`] of triangles `prims` of `scene`, as their vertices are stored.
 pub fn cluster_boxes(scene: &Scene, prims: impl Iterator<Item = u32> + Clone) -> Vec<(Vec3, Vec3)> {
-    let corners = |prim: u32| {
-        scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
-    };
-    clusters_of(prims.map(corners))
+    clusters_of(prims.map(|prim| scene.triangle_positions(prim).map(Vec3A::from)))
 }
 
 /// [`Accel::clusters`] of everything in `scene`: its world-space triangles, and its instances
@@ -341,9 +338,9 @@ pub fn scene_cluster_boxes(scene: &Scene) -> Vec<(Vec3, Vec3)> {
         return cluster_boxes(scene, 0..scene.triangles.len() as u32);
     }
     let flat = scene.flat_triangles();
-    let triangles = flat.iter().map(|&prim| {
-        scene.triangles[prim as usize].map(|v| Vec3A::from(scene.positions[v as usize]))
-    });
+    let triangles = flat
+        .iter()
+        .map(|&prim| scene.triangle_positions(prim).map(Vec3A::from));
     let instances = scene.instances.iter().map(|i| {
         let (lo, hi) = i.world_box(scene.prototypes[i.prototype as usize].bounds);
         let (lo, hi) = (Vec3A::from(lo), Vec3A::from(hi));

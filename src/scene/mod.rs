@@ -531,6 +531,15 @@ impl Scene {
         }
     }
 
+    /// The shading normal at barycentrics (u, v) of triangle `prim` placed by instance
+    /// `inst`, in world space ([`Scene::shading_normal`] carried by
+    /// [`Scene::normal_to_world`]).
+    #[inline(always)]
+    pub fn placed_shading_normal(&self, prim: u32, inst: u32, u: f32, v: f32) -> Option<Vec3> {
+        let n = self.shading_normal(prim, u, v)?;
+        Some(self.normal_to_world(inst, n))
+    }
+
     /// A normal `n` of instance `inst`'s prototype in world space, unit length (`n` as it is
     /// for [`NO_INSTANCE`]).
     #[inline(always)]

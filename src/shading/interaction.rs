@@ -52,7 +52,13 @@ impl SurfaceInteraction {
     /// 1.7% of a one-ray AO render).
     #[inline(always)]
     pub fn from_hit(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
-        let [p0, p1, p2] = scene.placed_positions(hit.prim, hit.inst);
+        // The corners as stored, placed by the hit's instance if it has one.
+        let stored = scene.triangle_positions(hit.prim);
+        let instance = scene.instances.get(hit.inst as usize);
+        let [p0, p1, p2] = match instance {
+            None => stored,
+            Some(i) => stored.map(|q| i.to_world.transform_point3(q)),
+        };
         let (b1, b2) = (hit.u, hit.v);
         // p = p0 + b1·(p1 − p0) + b2·(p2 − p0): the edge terms are small next to p0 when the
         // triangle is far from the origin, so p is within about half an ulp of |p| of the
@@ -78,11 +84,8 @@ impl SurfaceInteraction {
             gamma(2) * p.abs() + gamma(4) * (d1.abs() + d2.abs()) + Vec3::splat(gamma(7) * extent);
         // An instance's vertices were placed by its affine map M·q + t: three products and
         // three sums per coordinate, off by at most γ₃·(|M|·|q| + |t|) each (γ₄ for margin).
-        if let Some(i) = scene.instances.get(hit.inst as usize) {
-            let q = scene
-                .triangle_positions(hit.prim)
-                .iter()
-                .fold(Vec3::ZERO, |m, q| m.max(q.abs()));
+        if let Some(i) = instance {
+            let q = stored.iter().fold(Vec3::ZERO, |m, q| m.max(q.abs()));
             let m = &i.to_world;
             let abs = glam::Mat3::from_cols(
                 m.matrix3.x_axis.abs().into(),
@@ -97,8 +100,7 @@ impl SurfaceInteraction {
         // an interpolated normal disagrees with the geometry (grazing views of smooth
         // silhouettes) it may then point below the geometric surface; directions sampled
         // around it enter the object, as in Mitsuba's `twosided` BSDF.
-        let normal = scene.shading_normal(hit.prim, b1, b2);
-        let ns = match normal.map(|n| scene.normal_to_world(hit.inst, n)) {
+        let ns = match scene.placed_shading_normal(hit.prim, hit.inst, b1, b2) {
             Some(n) if n.dot(ray.dir) > 0.0 => -n,
             Some(n) => n,
             None => ng,

@@ -373,15 +373,17 @@ impl LightSet {
                         true => u32::MAX,
                         false => emitters.len() as u32,
                     });
-                    // A mirroring placement turns the corners' winding: the front stays the
-                    // prototype's, where its normal carried to world space points.
-                    let mirrors = scene.mirrors(k as u32);
                     for &prim in prims {
                         let corners = scene.placed_positions(prim, k as u32);
                         alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
+                        // The front is where the prototype's normal points once carried to
+                        // world space, as for a hit on it (a mirroring placement winds the
+                        // placed corners the other way).
+                        let [a, b, c] = scene.triangle_positions(prim);
+                        let front = scene.normal_to_world(k as u32, (b - a).cross(c - a));
                         let mut emitter = light(prim, k as u32, corners);
-                        if let (true, Emitter::Triangle(t)) = (mirrors, &mut emitter) {
-                            t.normal = -t.normal;
+                        if let Emitter::Triangle(t) = &mut emitter {
+                            t.normal = front;
                         }
                         emitters.push(emitter);
                         weights.push(power_of(prim, corners));

@@ -491,8 +491,7 @@ impl Materials {
         // The frame in world space: an instance carries the normal by its inverse transpose
         // and the tangent by its linear map, and a mirroring one turns the frame's handedness.
         let n = scene
-            .shading_normal(si.prim, u, v)
-            .map(|n| scene.normal_to_world(si.inst, n))
+            .placed_shading_normal(si.prim, si.inst, u, v)
             .unwrap_or(front_ng);
         let tangent = scene.vector_to_world(si.inst, t4.truncate());
         let t = tangent - n * n.dot(tangent);
