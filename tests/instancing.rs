@@ -12,6 +12,17 @@ use glam::Vec3;
 use serde_json::json;
 use strata::scene::{load, LoadOptions};
 
+/// `parts` laid end to end in one buffer, and a buffer view of each.
+fn buffer_views(parts: &[Vec<u8>]) -> (Vec<u8>, Vec<serde_json::Value>) {
+    let mut bin = Vec::new();
+    let mut views = Vec::new();
+    for p in parts {
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len()}));
+        bin.extend(p);
+    }
+    (bin, views)
+}
+
 /// A triangle with corners (1, 0, 0), (0, 1, 0), (0, 0, 1) on a node translated by
 /// (0, 0, −5), instanced three times: translations (0,0,0), (10,0,0), (0,10,0); rotations
 /// identity, 90° about +z (as normalized shorts), identity; scales 1, 1, 2. `rotation_count`
@@ -29,12 +40,7 @@ fn instanced(dir: &std::path::Path, rotation_count: usize) -> std::path::PathBuf
         rotations,
         f(&[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0]),
     ];
-    let mut bin = Vec::new();
-    let mut views = Vec::new();
-    for p in &parts {
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len()}));
-        bin.extend(p);
-    }
+    let (bin, views) = buffer_views(&parts);
     let doc = json!({
         "asset": {"version": "2.0"},
         "extensionsUsed": ["EXT_mesh_gpu_instancing"],
@@ -530,19 +536,11 @@ fn a_hundred_thousand_instances_render_within_the_memory_of_one() {
         .flat_map(|r| (0..cols).map(move |c| (c, r)))
         .flat_map(|(c, r)| [2.5 * c as f32 - 500.0, 0.0, -2.5 * r as f32])
         .collect();
-    let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    for part in [
-        sphere
-            .iter()
-            .flat_map(|x| x.to_le_bytes())
-            .collect::<Vec<u8>>(),
+    let (bin, views) = buffer_views(&[
+        sphere.iter().flat_map(|x| x.to_le_bytes()).collect(),
         indices.iter().flat_map(|x| x.to_le_bytes()).collect(),
         translations.iter().flat_map(|x| x.to_le_bytes()).collect(),
-    ] {
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": part.len()}));
-        bin.extend(part);
-    }
+    ]);
     std::fs::write(dir.path().join("spheres.bin"), &bin).unwrap();
     let doc = json!({
         "asset": {"version": "2.0"},
@@ -676,12 +674,7 @@ fn glowing_bulbs(dir: &std::path::Path, name: &str, bulbs: usize) -> std::path::
         f(&floor),
         i(&[[0, 1, 2], [0, 2, 3]]),
     ];
-    let mut bin = Vec::new();
-    let mut views = Vec::new();
-    for p in &parts {
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": p.len()}));
-        bin.extend(p);
-    }
+    let (bin, views) = buffer_views(&parts);
     let placements = [
         json!({"mesh": 0, "translation": [-1.5, 1.2, 0.0], "scale": [0.25, 0.25, 0.25]}),
         json!({"mesh": 0, "translation": [1.5, 1.0, -0.5], "scale": [-0.3, 0.3, 0.3]}),
