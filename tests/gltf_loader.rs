@@ -454,7 +454,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     let dir = tempfile::tempdir().unwrap();
     doc["extensionsUsed"] = json!([
         "KHR_materials_emissive_strength",
-        "KHR_materials_anisotropy",
+        "KHR_materials_dispersion",
         "KHR_materials_iridescence"
     ]);
     doc["materials"][0] = json!({
@@ -467,7 +467,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
         "occlusionTexture": {"index": 0},
         "alphaMode": "MASK", "alphaCutoff": 0.3,
         "extensions": {
-            "KHR_materials_anisotropy": {"anisotropyStrength": 0.5},
+            "KHR_materials_dispersion": {"dispersion": 0.5},
             "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}
         }
     });
@@ -493,7 +493,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
             .count()
     };
     assert_eq!(
-        says(&file_level, &["KHR_materials_anisotropy", "ignores"]),
+        says(&file_level, &["KHR_materials_dispersion", "ignores"]),
         1,
         "{file_level:?}"
     );
@@ -522,7 +522,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     for words in [
         &["material 0 'coated'"][..],
         &["occlusion texture"],
-        &["KHR_materials_anisotropy"],
+        &["KHR_materials_dispersion"],
     ] {
         assert_eq!(says(&coated, words), 1, "{words:?} in {coated:?}");
     }
@@ -592,6 +592,82 @@ fn the_index_of_refraction_is_read() {
         s.load_warnings
     );
     assert!(s.material_warnings().iter().all(|w| !w.contains("ior")));
+}
+
+/// KHR_materials_anisotropy: strength, rotation and texture read, honoured when required,
+/// silent when rendered; a strength of 0 is no anisotropy; bad values are refused naming the
+/// file, the material and the property; glass with anisotropy says its glass renders
+/// isotropic.
+#[test]
+fn the_anisotropy_is_read() {
+    let (mut doc, _) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_anisotropy", "KHR_materials_transmission"]);
+    doc["extensionsRequired"] = json!(["KHR_materials_anisotropy"]);
+    let aniso = |name: &str, ext: Value| json!({"name": name, "extensions": {"KHR_materials_anisotropy": ext}});
+    doc["materials"] = json!([
+        aniso(
+            "brushed",
+            json!({"anisotropyStrength": 0.6, "anisotropyRotation": 1.57, "anisotropyTexture": {"index": 0}})
+        ),
+        aniso("none", json!({"anisotropyRotation": 0.5})),
+        {"name": "glass", "extensions": {
+            "KHR_materials_anisotropy": {"anisotropyStrength": 1.0},
+            "KHR_materials_transmission": {"transmissionFactor": 1.0}}},
+    ]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["images"] = json!([{"uri": "tex.png"}]);
+    std::fs::write(dir.path().join("tex.png"), b"not decoded at load").unwrap();
+    let path = dir.path().join("aniso.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let s = load(&path);
+    let named = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name.as_deref() == Some(n))
+            .unwrap()
+    };
+    let brushed = named("brushed").anisotropy.clone().expect("anisotropy");
+    assert_eq!((brushed.strength, brushed.rotation), (0.6, 1.57));
+    assert_eq!(brushed.texture.expect("a texture").image, 0);
+    assert!(named("brushed").needs_tangents());
+    assert_eq!(named("none").anisotropy, None);
+    assert!(!named("none").needs_tangents());
+    assert!(
+        !s.load_warnings.iter().any(|w| w.contains("ignores")),
+        "{:?}",
+        s.load_warnings
+    );
+    assert!(s
+        .material_warnings()
+        .iter()
+        .all(|w| !w.contains("anisotropy")));
+    let glass: Vec<&String> = (s.load_warnings.iter())
+        .filter(|w| w.contains("'glass'") && w.contains("isotropic"))
+        .collect();
+    assert_eq!(glass.len(), 1, "{:?}", s.load_warnings);
+
+    for (ext, words) in [
+        (json!({"anisotropyStrength": 1.5}), "anisotropyStrength 1.5"),
+        (
+            json!({"anisotropyStrength": 0.5, "anisotropyRotation": "up"}),
+            "anisotropyRotation",
+        ),
+        (
+            json!({"anisotropyStrength": 0.5, "anisotropyTexture": {"index": 7}}),
+            "texture 7",
+        ),
+    ] {
+        doc["materials"] = json!([aniso("bad", ext)]);
+        let path = dir.path().join("bad.gltf");
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        let err = scene::load(&path, &LoadOptions::default())
+            .unwrap_err()
+            .to_string();
+        for w in ["bad.gltf", "'bad'", "KHR_materials_anisotropy", words] {
+            assert!(err.contains(w), "{w:?} missing from: {err}");
+        }
+    }
 }
 
 /// KHR_materials_transmission and KHR_materials_volume: read, rendered (no warning); a volume

@@ -516,3 +516,163 @@ fn bent_normals_leave_no_black_and_let_no_light_through() {
         );
     }
 }
+
+/// `material` with KHR_materials_anisotropy's `extension` added.
+fn anisotropic(base: [f32; 3], metallic: f32, roughness: f32, extension: Value) -> Value {
+    let mut m = material(base, metallic, roughness);
+    m["extensions"] = json!({"KHR_materials_anisotropy": extension});
+    m
+}
+
+/// The white furnace with anisotropy: a white metal stretched along its tangent comes within
+/// 7% of white under a sky of radiance 1 with energy compensation (its isotropic tables read
+/// at the α of the same mean square slope: measured 1.024, 0.938 and 0.975 for the three
+/// cases on 28 Nov), where the specification's single scattering keeps 0.85, 0.52 and 0.64.
+/// The tables cannot follow the view's azimuth against the stretch: the compensation of
+/// anisotropic lobes is approximate (ROADMAP.md, issue 32).
+#[test]
+fn anisotropic_white_metals_stay_near_white() {
+    for (roughness, strength) in [(0.3, 0.6), (0.5, 1.0), (0.1, 0.9)] {
+        let m = anisotropic(
+            [1.0; 3],
+            1.0,
+            roughness,
+            json!({"anisotropyStrength": strength}),
+        );
+        let px = render_surface(&plain(m.clone()), 32.0, 256, &[]);
+        let mean = mean(&px);
+        println!("roughness {roughness} strength {strength}: {mean:?}");
+        for c in mean {
+            assert!(
+                (c - 1.0).abs() < 0.07,
+                "roughness {roughness} strength {strength}: mean {mean:?}"
+            );
+        }
+        let off = self::mean(&render_surface(
+            &plain(m),
+            32.0,
+            256,
+            &["--energy-compensation", "off"],
+        ));
+        println!("  single scattering: {off:?}");
+        assert!(
+            (off[0] - 1.0).abs() > 2.0 * (mean[0] - 1.0).abs(),
+            "single scattering keeps {off:?}, compensated {mean:?}"
+        );
+    }
+}
+
+/// The luminance-weighted spread of an image about its centroid, in pixels: (σx, σy).
+fn spread(px: &[[f32; 3]]) -> (f64, f64) {
+    let (mut w, mut mx, mut my) = (0.0f64, 0.0f64, 0.0f64);
+    for (i, p) in px.iter().enumerate() {
+        let l = (p[0] + p[1] + p[2]) as f64;
+        let (x, y) = ((i as u32 % SIZE) as f64, (i as u32 / SIZE) as f64);
+        w += l;
+        mx += l * x;
+        my += l * y;
+    }
+    let (cx, cy) = (mx / w, my / w);
+    let (mut sx, mut sy) = (0.0f64, 0.0f64);
+    for (i, p) in px.iter().enumerate() {
+        let l = (p[0] + p[1] + p[2]) as f64;
+        let (x, y) = ((i as u32 % SIZE) as f64, (i as u32 / SIZE) as f64);
+        sx += l * (x - cx) * (x - cx);
+        sy += l * (y - cy) * (y - cy);
+    }
+    ((sx / w).sqrt(), (sy / w).sqrt())
+}
+
+/// The stretch follows the tangent frame through the whole path: a brushed metal quad lit by
+/// a directional light from its mirror direction shows a highlight drawn out along the
+/// image's x axis when the stretch runs along the tangent (+X, the quad's u), and along y
+/// when `anisotropyRotation` turns it a quarter toward the bitangent. The same turned
+/// highlight comes from an `anisotropyTexture` whose RG say (0, 1) and from MikkTSpace's
+/// tangents where the file gives none; the stretch turned the other way (−π/2) is the same
+/// axis, and strength 0 gives the round highlight.
+#[test]
+fn the_highlight_stretches_along_the_anisotropy_direction() {
+    let pitch = 50.0f32;
+    let p = pitch.to_radians();
+    let lit = |m: Value, tangent: Option<Vec4>, texture: Option<[u8; 4]>| {
+        let surface = Surface {
+            tangent,
+            texture,
+            light_from: Some(Vec3::new(0.0, p.cos(), p.sin())),
+            ..plain(m)
+        };
+        render_with(
+            &surface,
+            pitch,
+            64,
+            // The lobe alone: compensation's multiple scattering spreads evenly.
+            &[
+                "--integrator",
+                "direct",
+                "--background",
+                "0,0,0",
+                "--energy-compensation",
+                "off",
+            ],
+        )
+    };
+    let tangent = Some(Vec4::new(1.0, 0.0, 0.0, 1.0));
+    let brushed = |ext: Value| anisotropic([0.9; 3], 1.0, 0.2, ext);
+    let along_x = lit(brushed(json!({"anisotropyStrength": 0.9})), tangent, None);
+    let quarter =
+        json!({"anisotropyStrength": 0.9, "anisotropyRotation": std::f32::consts::FRAC_PI_2});
+    let along_y = lit(brushed(quarter.clone()), tangent, None);
+    let round = lit(brushed(json!({"anisotropyStrength": 0.0})), tangent, None);
+    let (sx, sy) = spread(&along_x);
+    let (tx, ty) = spread(&along_y);
+    let (rx, ry) = spread(&round);
+    println!("along x: {sx:.2} × {sy:.2}; turned: {tx:.2} × {ty:.2}; round: {rx:.2} × {ry:.2}");
+    assert!(
+        sx / sy > 2.0 * (rx / ry),
+        "not drawn out along x: {sx} × {sy} (round {rx} × {ry})"
+    );
+    assert!(
+        ty / tx > 2.0 * (ry / rx),
+        "not drawn out along y: {tx} × {ty} (round {rx} × {ry})"
+    );
+
+    // The same quarter turn three other ways.
+    let close = |a: &[[f32; 3]], b: &[[f32; 3]], what: &str| {
+        let scale = mean(b).iter().copied().fold(0.0f64, f64::max) as f32;
+        let d = max_abs_diff(a, b);
+        println!("{what}: differs by {d} at most (mean {scale})");
+        // The texture's 128/255 turns its direction by 0.2°: 0.066 at the highlight's edge.
+        assert!(d < 0.15 * scale, "{what}: differs by {d} (mean {scale})");
+        assert!(
+            (mean(a)[0] - mean(b)[0]).abs() < 0.002 * mean(b)[0],
+            "{what}: means {:?} against {:?}",
+            mean(a),
+            mean(b)
+        );
+    };
+    let minus =
+        json!({"anisotropyStrength": 0.9, "anisotropyRotation": -std::f32::consts::FRAC_PI_2});
+    close(
+        &lit(brushed(minus), tangent, None),
+        &along_y,
+        "rotation −π/2",
+    );
+    let textured = brushed(json!({"anisotropyStrength": 0.9, "anisotropyTexture": {"index": 0}}));
+    close(
+        &lit(textured, tangent, Some([128, 255, 255, 255])),
+        &along_y,
+        "texture (0, 1)",
+    );
+    close(
+        &lit(brushed(quarter), None, None),
+        &along_y,
+        "MikkTSpace tangents",
+    );
+    // A control: the unturned stretch is not the turned one.
+    let d = max_abs_diff(&along_x, &along_y);
+    println!("unturned against turned: {d}");
+    assert!(
+        d > 2.0 * mean(&along_y)[0] as f32,
+        "the turn changed nothing: {d}"
+    );
+}

@@ -45,6 +45,7 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
         "bsdf-metal-0.3-grazing",
         "bsdf-metal-0.8",
         "bsdf-plastic-0.5",
+        "bsdf-metal-0.3-anisotropic",
         "environment-studio",
     ];
     assert_eq!(

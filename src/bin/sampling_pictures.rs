@@ -267,16 +267,19 @@ struct BsdfCase {
     base: [f32; 3],
     metallic: f32,
     roughness: f32,
+    /// KHR_materials_anisotropy's strength, the stretch along the frame's x axis (0: none).
+    anisotropy: f32,
     theta_o: f32,
 }
 
-const BSDF_CASES: [BsdfCase; 4] = [
+const BSDF_CASES: [BsdfCase; 5] = [
     BsdfCase {
         name: "bsdf-metal-0.3",
         title: "Metal, roughness 0.3 (GGX visible normals), θo = 34°",
         base: [0.9, 0.9, 0.9],
         metallic: 1.0,
         roughness: 0.3,
+        anisotropy: 0.0,
         theta_o: 0.6,
     },
     BsdfCase {
@@ -285,6 +288,7 @@ const BSDF_CASES: [BsdfCase; 4] = [
         base: [0.9, 0.9, 0.9],
         metallic: 1.0,
         roughness: 0.3,
+        anisotropy: 0.0,
         theta_o: 1.4,
     },
     BsdfCase {
@@ -293,6 +297,7 @@ const BSDF_CASES: [BsdfCase; 4] = [
         base: [0.9, 0.6, 0.3],
         metallic: 1.0,
         roughness: 0.8,
+        anisotropy: 0.0,
         theta_o: 1.2,
     },
     BsdfCase {
@@ -301,6 +306,16 @@ const BSDF_CASES: [BsdfCase; 4] = [
         base: [0.8, 0.5, 0.2],
         metallic: 0.0,
         roughness: 0.5,
+        anisotropy: 0.0,
+        theta_o: 0.6,
+    },
+    BsdfCase {
+        name: "bsdf-metal-0.3-anisotropic",
+        title: "Metal 0.3, anisotropy 0.7 along x, θo = 34°",
+        base: [0.9, 0.9, 0.9],
+        metallic: 1.0,
+        roughness: 0.3,
+        anisotropy: 0.7,
         theta_o: 0.6,
     },
 ];
@@ -327,11 +342,10 @@ fn simpson_2d(f: &dyn Fn(f64, f64) -> f64, x: (f64, f64), y: (f64, f64), n: usiz
 /// declines and those of a delta lobe land in the outside cell, expected to hold what the
 /// pdf leaves outside the hemisphere.
 fn measure_bsdf(case: &BsdfCase, samples: usize, seed: u64) -> Measured {
-    let bsdf = Bsdf::MetallicRoughness(GltfBrdf::new(
-        Vec3::from_array(case.base),
-        case.metallic,
-        case.roughness,
-    ));
+    let bsdf = Bsdf::MetallicRoughness(
+        GltfBrdf::new(Vec3::from_array(case.base), case.metallic, case.roughness)
+            .with_anisotropy(case.anisotropy, Vec3::X),
+    );
     let wo = Vec3::new(case.theta_o.sin(), 0.0, case.theta_o.cos());
     let cells = PHI_BINS * COS_BINS;
     let mut counts = vec![0.0; cells + 1];

@@ -36,6 +36,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_meshopt_compression",
     "KHR_mesh_quantization",
+    "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -50,6 +51,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
 /// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
 /// warning).
 const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -63,7 +65,7 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_iridescence" | "KHR_materials_anisotropy" | "KHR_materials_dispersion" => {
+        "KHR_materials_iridescence" | "KHR_materials_dispersion" => {
             "its materials render without that layer or effect"
         }
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
@@ -917,6 +919,12 @@ impl Loader<'_> {
         };
         let clearcoat = self.clearcoat(m, &label)?;
         let sheen = self.sheen(m, &label)?;
+        let anisotropy = self.anisotropy(m, &label)?;
+        if transmission_factor > 0.0 && anisotropy.is_some() {
+            self.warnings.push(format!(
+                "{label}: its glass (KHR_materials_transmission) renders isotropic; its anisotropy (KHR_materials_anisotropy) stretches only the opaque part's reflection"
+            ));
+        }
         if transmission_factor > 0.0 && (clearcoat.is_some() || sheen.is_some()) {
             self.warnings.push(format!(
                 "{label}: its glass (KHR_materials_transmission) renders without its clear coat and sheen, which only the opaque part shows"
@@ -942,6 +950,7 @@ impl Loader<'_> {
             specular,
             clearcoat,
             sheen,
+            anisotropy,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
@@ -993,6 +1002,35 @@ impl Loader<'_> {
             roughness_texture,
             normal_texture,
             normal_scale,
+        }))
+    }
+
+    /// A material's `KHR_materials_anisotropy`, None without it or where its strength is 0.
+    fn anisotropy(
+        &mut self,
+        m: &gltf::Material,
+        label: &str,
+    ) -> Result<Option<super::AnisotropyLayer>> {
+        let Some(ext) = m.extension_value("KHR_materials_anisotropy") else {
+            return Ok(None);
+        };
+        let what = format!("{label} KHR_materials_anisotropy");
+        let strength = unit_number(ext, "anisotropyStrength", 0.0, &what)?;
+        let rotation = match ext.get("anisotropyRotation") {
+            None => 0.0,
+            Some(r) => (r.as_f64())
+                .filter(|r| r.is_finite())
+                .ok_or_else(|| format!("{what}: anisotropyRotation {r} is not a number"))?
+                as f32,
+        };
+        let texture = self.extension_texture(ext, "anisotropyTexture", &what)?;
+        if strength == 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(super::AnisotropyLayer {
+            strength,
+            rotation,
+            texture,
         }))
     }
 
@@ -1458,16 +1496,21 @@ impl Loader<'_> {
             None => None,
         };
         let material = primitive.material().index().map_or(0, |i| i as u32 + 1);
-        // Tangents matter only under a normal map.
-        let normal_mapped = self.scene.materials[material as usize]
-            .normal_texture
-            .is_some();
+        // Tangents matter only to normal maps and anisotropy.
+        let normal_mapped = self.scene.materials[material as usize].needs_tangents();
         let tangents: Option<Vec<[f32; 4]>> = match &tangent_acc {
             Some(acc) if normal_mapped => {
                 Some(read_floats(acc, buffers).ok_or_else(|| unreadable("TANGENT"))?)
             }
             _ => None,
         };
+        if normal_mapped && tangents.is_none() && uvs.is_none() {
+            // MikkTSpace makes tangents from texture coordinates: without either, the frames
+            // are degenerate and shading falls back to the vertex normal, isotropic.
+            self.warnings.push(format!(
+                "{label}: its material needs tangents (normal map or anisotropy) but it has neither TANGENT nor TEXCOORD_0; it renders without its normal map and anisotropy"
+            ));
+        }
         if normals.as_ref().is_some_and(|v| v.len() != n)
             || uvs.as_ref().is_some_and(|v| v.len() != n)
             || colors.as_ref().is_some_and(|v| v.len() != n)

@@ -93,6 +93,8 @@ pub struct Material {
     pub clearcoat: Option<ClearcoatLayer>,
     /// `KHR_materials_sheen` (None without it, or with a black sheenColorFactor).
     pub sheen: Option<SheenLayer>,
+    /// `KHR_materials_anisotropy` (None without it, or with a strength of 0).
+    pub anisotropy: Option<AnisotropyLayer>,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -139,6 +141,18 @@ pub struct SheenLayer {
     pub color_texture: Option<TextureRef>,
     pub roughness: f32,
     pub roughness_texture: Option<TextureRef>,
+}
+
+/// The specular lobes' anisotropy (`KHR_materials_anisotropy`): `strength` (× the texture's
+/// B) raises the GGX roughness along a direction of the tangent plane to mix(α, 1,
+/// strength²); the direction is the tangent turned by `rotation` radians toward the
+/// bitangent, or the texture's RG (mapped to [−1, 1]², in tangent and bitangent) turned by
+/// it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnisotropyLayer {
+    pub strength: f32,
+    pub rotation: f32,
+    pub texture: Option<TextureRef>,
 }
 
 /// The medium inside a transmissive material's closed surface (`KHR_materials_volume`).
@@ -202,6 +216,7 @@ impl Default for Material {
             specular: None,
             clearcoat: None,
             sheen: None,
+            anisotropy: None,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
@@ -217,6 +232,14 @@ impl Material {
     /// True when any part of the surface can emit light.
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0
+    }
+
+    /// True when shading reads the surface's tangent frames: for its normal map, its clear
+    /// coat's normal map, or its anisotropy's direction.
+    pub fn needs_tangents(&self) -> bool {
+        self.normal_texture.is_some()
+            || (self.clearcoat.as_ref()).is_some_and(|c| c.normal_texture.is_some())
+            || self.anisotropy.is_some()
     }
 
     /// True when alpha may leave holes in the surface (glTF 2.0, "Alpha Coverage"): a MASK

@@ -211,7 +211,7 @@ impl Dielectric {
 
     #[inline]
     fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
+        Ggx::new(self.alpha)
     }
 
     /// f·|cos θi| and the pdf of upright `wo` (wo.z > 0) and `wi` through microfacet normal
@@ -600,7 +600,7 @@ impl ThinDielectric {
 
     #[inline]
     fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
+        Ggx::new(self.alpha)
     }
 
     /// f·|cos θi| and pdf for upright `wo` (wo.z > 0).

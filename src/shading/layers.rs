@@ -79,7 +79,7 @@ impl Coat {
     }
 
     fn ggx(&self) -> Ggx {
-        Ggx { alpha: self.alpha }
+        Ggx::new(self.alpha)
     }
 
     /// A local direction in the coat's frame (built where it is needed: kept, it would more

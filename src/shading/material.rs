@@ -6,6 +6,8 @@
 //! | base colour| baseColorFactor × baseColorTexture (sRGB-decoded) × COLOR_0 | the BSDF      |
 //! | metallic   | metallicFactor × metallicRoughnessTexture.B (linear)       | the BSDF      |
 //! | roughness  | roughnessFactor × metallicRoughnessTexture.G (linear)      | the BSDF      |
+//! | anisotropy | anisotropyStrength × texture B; direction: the tangent, or | the BSDF      |
+//! |            | the texture's RG, turned by anisotropyRotation             |               |
 //! | emission   | emissiveFactor × emissiveTexture × emissive strength;      | lights, paths |
 //! |            | the front face only unless the material is double-sided    |               |
 //!
@@ -113,6 +115,8 @@ struct Prepared {
     specular: Option<PreparedSpecular>,
     coat: Option<PreparedCoat>,
     sheen: Option<PreparedSheen>,
+    /// `KHR_materials_anisotropy` (glTF model only).
+    anisotropy: Option<PreparedAnisotropy>,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -150,6 +154,15 @@ struct PreparedSheen {
     color_texture: Option<Binding>,
     roughness: f32,
     roughness_texture: Option<Binding>,
+}
+
+/// A material's anisotropy: strength (× texture B), its direction in tangent space (the
+/// rotation's (cos, sin)), and the texture whose RG replace the tangent before that rotation.
+#[derive(Clone, Debug)]
+struct PreparedAnisotropy {
+    strength: f32,
+    rotation: Vec2,
+    texture: Option<Binding>,
 }
 
 /// A BSDF type that [`Materials`] can give a surface point as ([`Materials::bsdf_as`]): an
@@ -288,6 +301,14 @@ impl Materials {
                 }),
                 _ => None,
             };
+            let anisotropy = match (&m.anisotropy, is_used && gltf) {
+                (Some(a), true) => Some(PreparedAnisotropy {
+                    strength: a.strength,
+                    rotation: Vec2::new(a.rotation.cos(), a.rotation.sin()),
+                    texture: bind(&a.texture, Encoding::Linear, &mut images)?,
+                }),
+                _ => None,
+            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
                 let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
                 let metallic_roughness = match gltf {
@@ -319,6 +340,7 @@ impl Materials {
                 specular,
                 coat,
                 sheen,
+                anisotropy,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -356,10 +378,11 @@ impl Materials {
                 })
                 || (m.sheen.as_ref())
                     .is_some_and(|s| s.color_texture.is_some() || s.roughness_texture.is_some())
+                || (m.anisotropy.as_ref()).is_some_and(|a| a.texture.is_some())
         });
         let tangents = match materials
             .iter()
-            .any(|m| m.normal_texture.is_some() || coat_normals(m))
+            .any(|m| m.normal_texture.is_some() || coat_normals(m) || m.anisotropy.is_some())
         {
             true => scene.tangent_frames(),
             false => Vec::new(),
@@ -464,6 +487,61 @@ impl Materials {
         SurfaceBsdf::new(local(m, base, shaded), shaded)
     }
 
+    /// The tangent frame [T, B, N] at surface point `si` in world space (glTF 2.0, "Meshes":
+    /// the interpolated vertex normal N, the tangent T made orthogonal to it, B = cross(N, T)
+    /// × the tangent's w), N on the surface's front side; None where the triangle has no
+    /// tangent frame or it is degenerate.
+    fn tangent_frame(&self, scene: &Scene, si: &SurfaceInteraction) -> Option<[Vec3; 3]> {
+        let corners = self.tangents.get(si.prim as usize)?;
+        let (u, v) = (si.u, si.v);
+        let t4 = (1.0 - u - v) * corners[0] + u * corners[1] + v * corners[2];
+        // The surface's own normal, before the two-sided rule turned it toward the ray.
+        let front_ng = if si.front_face { si.ng } else { -si.ng };
+        // The frame in world space: an instance carries the normal by its inverse transpose
+        // and the tangent by its linear map, and a mirroring one turns the frame's handedness.
+        let n = scene
+            .placed_shading_normal(si.prim, si.inst, u, v)
+            .unwrap_or(front_ng);
+        let tangent = scene.vector_to_world(si.inst, t4.truncate());
+        let t = tangent - n * n.dot(tangent);
+        if t.length_squared() < 1e-12 || !t.is_finite() {
+            return None;
+        }
+        let t = t.normalize();
+        let left_handed = (t4.w < 0.0) != scene.mirrors(si.inst);
+        let b = n.cross(t) * if left_handed { -1.0 } else { 1.0 };
+        Some([t, b, n])
+    }
+
+    /// The direction of `anisotropy`'s stretch at surface point `si`, in the shading frame of
+    /// `shaded` (KHR_materials_anisotropy: the texture's RG mapped to [−1, 1]² or else the
+    /// tangent, turned by the rotation, in the tangent frame), and its strength (× the
+    /// texture's B); None without a tangent frame.
+    fn anisotropy_at(
+        &self,
+        scene: &Scene,
+        anisotropy: &PreparedAnisotropy,
+        si: &SurfaceInteraction,
+        shaded: &SurfaceInteraction,
+        uv: Vec2,
+    ) -> Option<(f32, Vec3)> {
+        let [t, b, _] = self.tangent_frame(scene, si)?;
+        let (mut strength, mut direction) = (anisotropy.strength, Vec2::X);
+        if let Some(binding) = &anisotropy.texture {
+            let texel = self.lookup(binding, uv);
+            direction = (Vec2::new(texel.x, texel.y) * 2.0 - Vec2::ONE).normalize_or_zero();
+            strength *= texel.z;
+        }
+        // Turned counter-clockwise from the tangent toward the bitangent.
+        let (c, s) = (anisotropy.rotation.x, anisotropy.rotation.y);
+        let turned = Vec2::new(
+            c * direction.x - s * direction.y,
+            s * direction.x + c * direction.y,
+        );
+        let world = t * turned.x + b * turned.y;
+        Some((strength, Onb::from_normal(shaded.ns).to_local(world)))
+    }
+
     /// The surface point with its shading normal bent by normal map `map` at `uv` (glTF 2.0,
     /// "normalTexture": n = normalize(T x + B y + N z) with (x, y, z) = (2 texel − 1) ×
     /// (scale, scale, 1), B = cross(N, T) w), on the side the ray arrived from. A strongly
@@ -481,26 +559,9 @@ impl Materials {
         scale: f32,
         uv: Vec2,
     ) -> SurfaceInteraction {
-        let Some(corners) = self.tangents.get(si.prim as usize) else {
+        let Some([t, b, n]) = self.tangent_frame(scene, si) else {
             return *si;
         };
-        let (u, v) = (si.u, si.v);
-        let t4 = (1.0 - u - v) * corners[0] + u * corners[1] + v * corners[2];
-        // The surface's own normal, before the two-sided rule turned it toward the ray.
-        let front_ng = if si.front_face { si.ng } else { -si.ng };
-        // The frame in world space: an instance carries the normal by its inverse transpose
-        // and the tangent by its linear map, and a mirroring one turns the frame's handedness.
-        let n = scene
-            .placed_shading_normal(si.prim, si.inst, u, v)
-            .unwrap_or(front_ng);
-        let tangent = scene.vector_to_world(si.inst, t4.truncate());
-        let t = tangent - n * n.dot(tangent);
-        if t.length_squared() < 1e-12 || !t.is_finite() {
-            return *si;
-        }
-        let t = t.normalize();
-        let left_handed = (t4.w < 0.0) != scene.mirrors(si.inst);
-        let b = n.cross(t) * if left_handed { -1.0 } else { 1.0 };
         let texel = self.lookup(map, uv);
         let m = Vec3::new(
             (2.0 * texel.x - 1.0) * scale,
@@ -586,12 +647,20 @@ impl Materials {
             }
         }
         let brdf = self.bsdf_with(base, metallic, roughness, m.ior);
-        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
+        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() && m.anisotropy.is_none() {
             return brdf;
         }
         let Bsdf::MetallicRoughness(mut brdf) = brdf else {
             return brdf;
         };
+        if let Some(a) = &m.anisotropy {
+            if let Some((strength, direction)) = self.anisotropy_at(scene, a, si, shaded, uv) {
+                brdf = brdf.with_anisotropy(strength, direction);
+            }
+            if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
+                return Bsdf::MetallicRoughness(brdf);
+            }
+        }
         if let Some(sp) = &m.specular {
             let (mut weight, mut color) = (sp.factor, sp.color);
             if let Some(b) = &sp.texture {

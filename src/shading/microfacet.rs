@@ -1,23 +1,33 @@
-//! The Trowbridge-Reitz (GGX) microfacet distribution, isotropic, in the shading frame
-//! (z along the normal): the normal distribution D, Smith's masking and height-correlated
-//! masking-shadowing, and sampling of the normals visible from a direction.
+//! The Trowbridge-Reitz (GGX) microfacet distribution in the shading frame (z along the
+//! normal), isotropic or anisotropic along the frame's x and y axes: the normal distribution
+//! D, Smith's masking and height-correlated masking-shadowing, and sampling of the normals
+//! visible from a direction.
 //!
-//! - D(h) = α² / (π ((h·n)²(α² − 1) + 1)²) (Walter et al. 2007, eq. 33; glTF 2.0 Appendix B).
-//! - Λ(w) = (√(1 + α² tan²θ) − 1) / 2, G1(w) = 1 / (1 + Λ(w)) (Heitz 2014, eq. 86).
+//! - D(h) = 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²) (Heitz 2014, "Understanding the
+//!   Masking-Shadowing Function", eq. 85), which is α² / (π ((h·n)²(α² − 1) + 1)²) when
+//!   αx = αy = α (Walter et al. 2007, eq. 33; glTF 2.0 Appendix B).
+//! - Λ(w) = (√(1 + (αx² wx² + αy² wy²) / wz²) − 1) / 2, G1(w) = 1 / (1 + Λ(w)) (Heitz 2014,
+//!   eq. 86, with the roughness of w's azimuth); isotropic: √(1 + α² tan²θ).
 //! - V(wo, wi) = G2 / (4 |n·wo| |n·wi|) with the height-correlated G2 = 1 / (1 + Λo + Λi), in
 //!   the form glTF 2.0 Appendix B writes it:
-//!   0.5 / (n·wi √((n·wo)²(1 − α²) + α²) + n·wo √((n·wi)²(1 − α²) + α²)).
+//!   0.5 / (n·wi √((n·wo)²(1 − α²) + α²) + n·wo √((n·wi)²(1 − α²) + α²)), and
+//!   KHR_materials_anisotropy's with √(αx² wx² + αy² wy² + wz²) for each square root.
 //! - Visible normals D_wo(h) = G1(wo) max(0, wo·h) D(h) / (n·wo), sampled as Heitz 2018
 //!   ("Sampling the GGX Distribution of Visible Normals", JCGT 7(4)) describes; reflected
 //!   about h, the direction wi = 2(wo·h)h − wo has the density D_wo(h) / (4 wo·h)
 //!   = G1(wo) D(h) / (4 n·wo).
+//!
+//! The isotropic forms are kept for αx = αy (the same values up to rounding): every material
+//! without `KHR_materials_anisotropy` keeps the bits its references were made with.
 
 use glam::{Vec2, Vec3};
 
-/// An isotropic Trowbridge-Reitz (GGX) distribution of roughness α (glTF: α = roughness²).
+/// A Trowbridge-Reitz (GGX) distribution of roughness `alpha_x` along the shading frame's x
+/// axis and `alpha_y` along its y axis (glTF: α = roughness²; the same for an isotropic one).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ggx {
-    pub alpha: f32,
+    pub alpha_x: f32,
+    pub alpha_y: f32,
 }
 
 impl Ggx {
@@ -25,10 +35,42 @@ impl Ggx {
     /// no longer evaluate D near its peak (pbrt-v4 uses the same bound).
     pub const SMOOTH_ALPHA: f32 = 1e-3;
 
+    /// The isotropic distribution of roughness α.
+    #[inline]
+    pub fn new(alpha: f32) -> Ggx {
+        Ggx {
+            alpha_x: alpha,
+            alpha_y: alpha,
+        }
+    }
+
+    /// The distribution of roughness `alpha_x` along x and `alpha_y` along y.
+    #[inline]
+    pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Ggx {
+        Ggx { alpha_x, alpha_y }
+    }
+
+    #[inline(always)]
+    fn isotropic(&self) -> bool {
+        self.alpha_x == self.alpha_y
+    }
+
     /// True when the surface is a perfect mirror for rendering purposes.
     #[inline]
     pub fn is_smooth(&self) -> bool {
-        self.alpha < Self::SMOOTH_ALPHA
+        self.alpha_x.max(self.alpha_y) < Self::SMOOTH_ALPHA
+    }
+
+    /// αx² wx² + αy² wy², the numerator of tan²θ α(φ)² (α² (1 − wz²) when isotropic).
+    #[inline(always)]
+    fn stretched_sin2(&self, w: Vec3) -> f32 {
+        match self.isotropic() {
+            true => self.alpha_x * self.alpha_x * (1.0 - w.z * w.z).max(0.0),
+            false => {
+                let (x, y) = (self.alpha_x * w.x, self.alpha_y * w.y);
+                x * x + y * y
+            }
+        }
     }
 
     /// D(h) for a unit microfacet normal `h` (0 below the surface).
@@ -37,29 +79,49 @@ impl Ggx {
         if h.z <= 0.0 {
             return 0.0;
         }
-        let a2 = self.alpha * self.alpha;
-        let t = h.z * h.z * (a2 - 1.0) + 1.0;
-        a2 / (std::f32::consts::PI * t * t)
+        if self.isotropic() {
+            let a2 = self.alpha_x * self.alpha_x;
+            let t = h.z * h.z * (a2 - 1.0) + 1.0;
+            return a2 / (std::f32::consts::PI * t * t);
+        }
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let (x, y) = (h.x / ax, h.y / ay);
+        let t = x * x + y * y + h.z * h.z;
+        1.0 / (std::f32::consts::PI * ax * ay * t * t)
     }
 
-    /// Smith's masking G1(w) = 2 (n·w) / (n·w + √(α² (1 − (n·w)²) + (n·w)²)).
+    /// Smith's masking G1(w) = 2 (n·w) / (n·w + √(αx² wx² + αy² wy² + (n·w)²)).
     #[inline]
     pub fn g1(&self, w: Vec3) -> f32 {
         let c = w.z.abs();
         if c == 0.0 {
             return 0.0;
         }
-        let a2 = self.alpha * self.alpha;
-        2.0 * c / (c + (a2 * (1.0 - c * c) + c * c).max(0.0).sqrt())
+        let spread = match self.isotropic() {
+            true => {
+                let a2 = self.alpha_x * self.alpha_x;
+                a2 * (1.0 - c * c) + c * c
+            }
+            false => self.stretched_sin2(w) + c * c,
+        };
+        2.0 * c / (c + spread.max(0.0).sqrt())
     }
 
-    /// The visibility term V = G2 / (4 |n·wo| |n·wi|), height-correlated (glTF 2.0 Appendix B).
+    /// The visibility term V = G2 / (4 |n·wo| |n·wi|), height-correlated (glTF 2.0 Appendix
+    /// B; KHR_materials_anisotropy).
     #[inline]
     pub fn v(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (no, ni) = (wo.z.abs(), wi.z.abs());
-        let a2 = self.alpha * self.alpha;
-        let denominator =
-            ni * (no * no * (1.0 - a2) + a2).sqrt() + no * (ni * ni * (1.0 - a2) + a2).sqrt();
+        let denominator = match self.isotropic() {
+            true => {
+                let a2 = self.alpha_x * self.alpha_x;
+                ni * (no * no * (1.0 - a2) + a2).sqrt() + no * (ni * ni * (1.0 - a2) + a2).sqrt()
+            }
+            false => {
+                ni * (self.stretched_sin2(wo) + no * no).sqrt()
+                    + no * (self.stretched_sin2(wi) + ni * ni).sqrt()
+            }
+        };
         if denominator > 0.0 {
             0.5 / denominator
         } else {
@@ -68,12 +130,12 @@ impl Ggx {
     }
 
     /// A microfacet normal visible from `wo` (n·wo > 0), drawn with density D_wo(h) from
-    /// `u` (Heitz 2018, listing 1, isotropic).
+    /// `u` (Heitz 2018, listing 1).
     #[inline]
     pub fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        let a = self.alpha;
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
         // The view direction in the hemisphere configuration (α stretched to 1).
-        let vh = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize();
+        let vh = Vec3::new(ax * wo.x, ay * wo.y, wo.z).normalize();
         // An orthonormal basis around it (T1 = z × vh, or x when vh is the pole).
         let lensq = vh.x * vh.x + vh.y * vh.y;
         let t1 = if lensq > 0.0 {
@@ -92,7 +154,7 @@ impl Ggx {
         let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * sin_phi);
         // Back onto the hemisphere, then unstretched.
         let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
-        Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).normalize()
+        Vec3::new(ax * nh.x, ay * nh.y, nh.z.max(0.0)).normalize()
     }
 
     /// The density of reflection directions drawn by [`Ggx::sample_visible_normal`] given
@@ -148,7 +210,7 @@ impl AlbedoTable {
         {
             // Roughness √α on [0, 1], from a little above 0 (the smooth end is 1 anyway).
             let r = (i as f32 / (n - 1) as f32).max(0.02);
-            let ggx = Ggx { alpha: r * r };
+            let ggx = Ggx::new(r * r);
             for j in 0..n {
                 let mu = (j as f32 / (n - 1) as f32).max(1e-3);
                 let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
@@ -274,7 +336,7 @@ mod tests {
     #[test]
     fn the_projected_microfacet_area_is_one() {
         for alpha in [0.05f32, 0.2, 0.5, 1.0] {
-            let ggx = Ggx { alpha };
+            let ggx = Ggx::new(alpha);
             let n = 20_000;
             let mut sum = 0.0f64;
             for i in 0..n {
@@ -292,10 +354,10 @@ mod tests {
     /// reflected directions' pdf by the χ² tests in tests/sampling.rs.
     #[test]
     fn visible_normals_face_the_viewer() {
-        for alpha in [0.01f32, 0.3, 1.0] {
-            let ggx = Ggx { alpha };
+        for (alpha, alpha_y) in [(0.01f32, 0.01f32), (0.3, 0.3), (1.0, 1.0), (0.6, 0.05)] {
+            let ggx = Ggx::anisotropic(alpha, alpha_y);
             for theta in [0.0f32, 0.7, 1.4, 1.55] {
-                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let wo = Vec3::new(theta.sin() * 0.8, theta.sin() * 0.6, theta.cos());
                 for i in 0..32 {
                     for j in 0..32 {
                         let u = Vec2::new((i as f32 + 0.5) / 32.0, (j as f32 + 0.5) / 32.0);
@@ -317,7 +379,7 @@ mod tests {
             ((1.0 + alpha * alpha * tan2).sqrt() - 1.0) / 2.0
         };
         for alpha in [0.1f32, 0.4, 1.0] {
-            let ggx = Ggx { alpha };
+            let ggx = Ggx::new(alpha);
             for (co, ci) in [(0.9f32, 0.3f32), (0.2, 0.8), (0.5, 0.5), (0.05, 0.99)] {
                 let wo = Vec3::new((1.0 - co * co).sqrt(), 0.0, co);
                 let wi = Vec3::new(0.0, (1.0 - ci * ci).sqrt(), ci);
@@ -338,6 +400,102 @@ mod tests {
         }
     }
 
+    /// The anisotropic D, V and G1 against KHR_materials_anisotropy's own forms in f64:
+    /// D = a² w² w² / π with a² = αt αb, w² = a² / |(αb h·t, αt h·b, a² h·n)|², and
+    /// V = 0.5 / (n·wi |(αt wo·t, αb wo·b, n·wo)| + n·wo |(αt wi·t, αb wi·b, n·wi)|); G1 as
+    /// 1 / (1 + Λ) with Λ's roughness of the azimuth, α(φ)² = cos²φ αx² + sin²φ αy².
+    #[test]
+    fn anisotropic_terms_follow_the_extension() {
+        let unit = |theta: f64, phi: f64| {
+            Vec3::new(
+                (theta.sin() * phi.cos()) as f32,
+                (theta.sin() * phi.sin()) as f32,
+                theta.cos() as f32,
+            )
+        };
+        for (at, ab) in [(0.5f32, 0.1f32), (0.05, 0.6), (1.0, 0.2)] {
+            let ggx = Ggx::anisotropic(at, ab);
+            let (at64, ab64) = (at as f64, ab as f64);
+            for (theta_o, phi_o, theta_i, phi_i) in [
+                (0.3, 0.2, 0.9, 2.5),
+                (1.2, 1.0, 0.4, -0.7),
+                (0.05, 3.0, 1.45, 0.4),
+                (0.8, -1.4, 0.8, 1.7),
+            ] {
+                let (wo, wi) = (unit(theta_o, phi_o), unit(theta_i, phi_i));
+                let h = (wo + wi).normalize();
+                let (hx, hy, hz) = (h.x as f64, h.y as f64, h.z as f64);
+                let a2 = at64 * ab64;
+                let f = [ab64 * hx, at64 * hy, a2 * hz];
+                let w2 = a2 / (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+                let d = a2 * w2 * w2 / std::f64::consts::PI;
+                let got = ggx.d(h) as f64;
+                assert!(
+                    (got - d).abs() < 2e-5 * d.max(1.0),
+                    "D ({at}, {ab}): {got} against {d}"
+                );
+                let length = |w: Vec3| {
+                    let (x, y, z) = (at64 * w.x as f64, ab64 * w.y as f64, w.z as f64);
+                    (x * x + y * y + z * z).sqrt()
+                };
+                let v = 0.5 / (wi.z as f64 * length(wo) + wo.z as f64 * length(wi));
+                let got = ggx.v(wo, wi) as f64;
+                assert!(
+                    (got - v).abs() < 2e-5 * v.max(1.0),
+                    "V ({at}, {ab}): {got} against {v}"
+                );
+                let alpha2 = phi_o.cos().powi(2) * at64 * at64 + phi_o.sin().powi(2) * ab64 * ab64;
+                let tan2 = theta_o.tan().powi(2);
+                let lambda = ((1.0 + alpha2 * tan2).sqrt() - 1.0) / 2.0;
+                let got = ggx.g1(wo) as f64;
+                assert!(
+                    (got - 1.0 / (1.0 + lambda)).abs() < 2e-5,
+                    "G1 ({at}, {ab}) θ {theta_o}: {got}"
+                );
+            }
+        }
+    }
+
+    /// ∫ D(h) (n·h) dh = 1 for anisotropic distributions too, by a midpoint rule in
+    /// (cos θ, φ) fine enough for the narrow axis; and the isotropic forms kept for αx = αy
+    /// agree with the general ones.
+    #[test]
+    fn anisotropic_projected_area_is_one() {
+        for (ax, ay) in [(0.3f32, 0.08f32), (0.05, 0.5), (1.0, 0.25)] {
+            let ggx = Ggx::anisotropic(ax, ay);
+            let (nt, np) = (4000, 2000);
+            let mut sum = 0.0f64;
+            for i in 0..nt {
+                // μ = cos θ packed toward the pole, where the narrow lobe's mass is: μ = 1 − s².
+                let s = (i as f64 + 0.5) / nt as f64;
+                let mu = 1.0 - s * s;
+                let dmu = 2.0 * s / nt as f64;
+                let sin = (1.0 - mu * mu).max(0.0).sqrt();
+                for j in 0..np {
+                    let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
+                    let h = Vec3::new(
+                        (sin * phi.cos()) as f32,
+                        (sin * phi.sin()) as f32,
+                        mu as f32,
+                    );
+                    sum += ggx.d(h) as f64 * mu * dmu * std::f64::consts::TAU / np as f64;
+                }
+            }
+            assert!((sum - 1.0).abs() < 3e-3, "α ({ax}, {ay}): ∫D cos = {sum}");
+        }
+        // Nearly isotropic through the general forms against exactly isotropic.
+        let (iso, near) = (Ggx::new(0.3), Ggx::anisotropic(0.3, 0.3 * (1.0 + 1e-6)));
+        let (wo, wi) = (Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.36, 0.48, 0.8));
+        let h = (wo + wi).normalize();
+        for (a, b) in [
+            (iso.d(h), near.d(h)),
+            (iso.v(wo, wi), near.v(wo, wi)),
+            (iso.g1(wo), near.g1(wo)),
+        ] {
+            assert!((a - b).abs() < 1e-4 * a, "{a} against {b}");
+        }
+    }
+
     /// The tables against quadrature of ∫ D V cos dωi and ∫ (1 − |wo·h|)⁵ D V cos dωi (a
     /// 1000 × 600 midpoint rule in (cos θ, φ)), and E → 1 as the surface becomes smooth.
     #[test]
@@ -350,9 +508,7 @@ mod tests {
             (0.4, 0.3),
             (0.8, 0.15),
         ] {
-            let ggx = Ggx {
-                alpha: roughness * roughness,
-            };
+            let ggx = Ggx::new(roughness * roughness);
             let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
             let (nt, np) = (1000, 600);
             let (mut sum, mut sum_s) = (0.0f64, 0.0f64);
@@ -369,13 +525,13 @@ mod tests {
                 }
             }
             let quadrature = sum * std::f64::consts::TAU / (nt * np) as f64;
-            let tabulated = table.e(mu, ggx.alpha) as f64;
+            let tabulated = table.e(mu, ggx.alpha_x) as f64;
             assert!(
                 (tabulated - quadrature).abs() < 0.01,
                 "roughness {roughness} μ {mu}: table {tabulated}, quadrature {quadrature}"
             );
             let quadrature_s = sum_s * std::f64::consts::TAU / (nt * np) as f64;
-            let tabulated_s = table.e_s(mu, ggx.alpha) as f64;
+            let tabulated_s = table.e_s(mu, ggx.alpha_x) as f64;
             assert!(
                 (tabulated_s - quadrature_s).abs() < 0.005,
                 "E_s, roughness {roughness} μ {mu}: table {tabulated_s}, quadrature {quadrature_s}"
