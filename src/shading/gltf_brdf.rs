@@ -59,7 +59,7 @@
 //! `KHR_materials_anisotropy` ([`GltfBrdf::with_anisotropy`]) stretches both specular lobes
 //! along a direction of the tangent plane: α_t = mix(α, 1, strength²) along it, α along the
 //! direction across it (the extension's `BRDF_specularAnisotropicGGX`). D, V and the visible
-//! normals are GGX's anisotropic forms ([`Ggx::anisotropic`]) in a frame turned about the
+//! normals are GGX's anisotropic forms ([`AnisotropicGgx`]) in a frame turned about the
 //! normal so that its x axis is the direction; the Fresnel terms and the compensation read
 //! cosines with the normal alone, which the turn keeps. The compensation's tables are read at
 //! the isotropic α of the same mean square slope, √((α_t² + α²) / 2). Over 72 views and
@@ -79,7 +79,7 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::{BsdfFlags, BsdfSample};
 use super::environment::luminance;
-use super::microfacet::{AlbedoRow, AlbedoTable, Ggx};
+use super::microfacet::{AlbedoRow, AlbedoTable, AnisotropicGgx, Ggx, Microfacet};
 use crate::sampling::warps::square_to_cosine_hemisphere;
 
 /// The dielectric's reflectance at normal incidence without `KHR_materials_ior`: IOR 1.5,
@@ -128,6 +128,28 @@ struct Anisotropy {
     alpha_t: f32,
     alpha_b: f32,
     direction: Vec2,
+}
+
+impl Anisotropy {
+    /// The stretched distribution, in the frame of [`Anisotropy::turn`].
+    #[inline(always)]
+    fn ggx(&self) -> AnisotropicGgx {
+        AnisotropicGgx::new(self.alpha_t, self.alpha_b)
+    }
+
+    /// Local direction `w` in the frame whose x axis is the stretch's direction.
+    #[inline(always)]
+    fn turn(&self, w: Vec3) -> Vec3 {
+        let (c, s) = (self.direction.x, self.direction.y);
+        Vec3::new(c * w.x + s * w.y, c * w.y - s * w.x, w.z)
+    }
+
+    /// The inverse of [`Anisotropy::turn`].
+    #[inline(always)]
+    fn turn_back(&self, w: Vec3) -> Vec3 {
+        let (c, s) = (self.direction.x, self.direction.y);
+        Vec3::new(c * w.x - s * w.y, s * w.x + c * w.y, w.z)
+    }
 }
 
 /// The parts of the BRDF that read wo alone.
@@ -218,31 +240,6 @@ impl GltfBrdf {
         }
     }
 
-    /// Local direction `w` in the anisotropy's frame (x along its direction): itself when
-    /// isotropic.
-    #[inline(always)]
-    fn in_stretch_frame(&self, w: Vec3) -> Vec3 {
-        match &self.anisotropy {
-            None => w,
-            Some(a) => {
-                let (c, s) = (a.direction.x, a.direction.y);
-                Vec3::new(c * w.x + s * w.y, c * w.y - s * w.x, w.z)
-            }
-        }
-    }
-
-    /// The inverse of [`GltfBrdf::in_stretch_frame`].
-    #[inline(always)]
-    fn out_of_stretch_frame(&self, w: Vec3) -> Vec3 {
-        match &self.anisotropy {
-            None => w,
-            Some(a) => {
-                let (c, s) = (a.direction.x, a.direction.y);
-                Vec3::new(c * w.x - s * w.y, s * w.x + c * w.y, w.z)
-            }
-        }
-    }
-
     /// The same BRDF without energy compensation: the specification's model exactly.
     pub fn single_scattering(self) -> GltfBrdf {
         GltfBrdf {
@@ -325,7 +322,7 @@ impl GltfBrdf {
     /// F_avg = f0 + (1 − f0)/21 and F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)); zero for a
     /// mirror (its delta lobe loses nothing) or a dielectric.
     fn multiple_scattering(&self, table: &AlbedoTable, e_o: f32) -> Vec3 {
-        if self.metallic <= 0.0 || self.ggx().is_smooth() {
+        if self.metallic <= 0.0 || self.smooth() {
             return Vec3::ZERO;
         }
         let e_avg = table.averages_in(self.row)[0];
@@ -335,13 +332,17 @@ impl GltfBrdf {
             / (1.0 - e_avg).max(1e-4))
     }
 
-    /// The specular lobes' distribution, in the anisotropy's frame.
+    /// The isotropic specular lobes' distribution (see [`Anisotropy::ggx`]).
     #[inline(always)]
     fn ggx(&self) -> Ggx {
-        match &self.anisotropy {
-            None => Ggx::new(self.alpha),
-            Some(a) => Ggx::anisotropic(a.alpha_t, a.alpha_b),
-        }
+        Ggx::new(self.alpha)
+    }
+
+    /// True when the specular lobe is a perfect mirror (never once stretched:
+    /// [`GltfBrdf::with_anisotropy`] keeps mirrors isotropic).
+    #[inline(always)]
+    fn smooth(&self) -> bool {
+        self.anisotropy.is_none() && self.ggx().is_smooth()
     }
 
     /// c_diff, the diffuse lobe's colour.
@@ -388,7 +389,7 @@ impl GltfBrdf {
     }
 
     pub fn flags(&self) -> BsdfFlags {
-        let specular = match self.ggx().is_smooth() {
+        let specular = match self.smooth() {
             true => BsdfFlags::SPECULAR_REFLECTION,
             false => BsdfFlags::GLOSSY_REFLECTION,
         };
@@ -404,9 +405,17 @@ impl GltfBrdf {
             return Vec3::ZERO;
         }
         let o = self.terms(wo);
-        let (wo, wi) = (self.in_stretch_frame(wo), self.in_stretch_frame(wi));
+        match &self.anisotropy {
+            None => self.eval_in(&o, &self.ggx(), wo, wi),
+            Some(a) => self.eval_in(&o, &a.ggx(), a.turn(wo), a.turn(wi)),
+        }
+    }
+
+    /// [`GltfBrdf::eval`] with distribution `m`, wo and wi in its frame.
+    #[inline(always)]
+    fn eval_in<M: Microfacet>(&self, o: &Outgoing, m: &M, wo: Vec3, wi: Vec3) -> Vec3 {
         let h = (wo + wi).normalize();
-        self.eval_at(&o, wo, wi, h, self.ggx().d(h))
+        self.eval_at(o, m, wo, wi, h, m.d(h))
     }
 
     /// [`GltfBrdf::eval`] and [`GltfBrdf::pdf`] together, the half vector and D computed
@@ -417,16 +426,35 @@ impl GltfBrdf {
             return (Vec3::ZERO, 0.0);
         }
         let o = self.terms(wo);
-        let (wo, wi) = (self.in_stretch_frame(wo), self.in_stretch_frame(wi));
-        let h = (wo + wi).normalize();
-        let d = self.ggx().d(h);
-        (self.eval_at(&o, wo, wi, h, d), self.pdf_at(&o, wo, wi, d))
+        match &self.anisotropy {
+            None => self.eval_pdf_in(&o, &self.ggx(), wo, wi),
+            Some(a) => self.eval_pdf_in(&o, &a.ggx(), a.turn(wo), a.turn(wi)),
+        }
     }
 
-    /// [`GltfBrdf::eval`] for wo and wi above the surface (in the anisotropy's frame), given
-    /// wo's terms, the half vector and D(h).
+    /// [`GltfBrdf::eval_pdf`] with distribution `m`, wo and wi in its frame.
+    #[inline(always)]
+    fn eval_pdf_in<M: Microfacet>(&self, o: &Outgoing, m: &M, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let h = (wo + wi).normalize();
+        let d = m.d(h);
+        (
+            self.eval_at(o, m, wo, wi, h, d),
+            self.pdf_at(o, m, wo, wi, d),
+        )
+    }
+
+    /// [`GltfBrdf::eval`] for wo and wi above the surface (in the frame of distribution `m`),
+    /// given wo's terms, the half vector and D(h).
     #[inline]
-    fn eval_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, h: Vec3, d: f32) -> Vec3 {
+    fn eval_at<M: Microfacet>(
+        &self,
+        o: &Outgoing,
+        m: &M,
+        wo: Vec3,
+        wi: Vec3,
+        h: Vec3,
+        d: f32,
+    ) -> Vec3 {
         let wo_h = wo.dot(h).abs();
         let f_d = schlick(self.specular_f0, wo_h);
         let f_metal = schlick(self.base_color, wo_h);
@@ -443,8 +471,7 @@ impl GltfBrdf {
                 o.diffuse * (1.0 - a_i).max(0.0) + o.multiple * (1.0 - e_i).max(0.0)
             }
         };
-        let ggx = self.ggx();
-        let specular = match ggx.is_smooth() {
+        let specular = match m.is_smooth() {
             true => Vec3::ZERO,
             false => {
                 // The dielectric's Fresnel weight w F_c scaled by Turquin's 1 + f0 (1 − E(μo)) /
@@ -452,7 +479,7 @@ impl GltfBrdf {
                 // by metallic: F of the mixed f0 when uncompensated and w = 1. (The metal's
                 // compensation is its own lobe.)
                 let dielectric = f_d * o.specular_scale;
-                dielectric.lerp(f_metal, self.metallic) * (d * ggx.v(wo, wi))
+                dielectric.lerp(f_metal, self.metallic) * (d * m.v(wo, wi))
             }
         };
         (diffuse + specular) * wi.z
@@ -486,22 +513,28 @@ impl GltfBrdf {
             return 0.0;
         }
         let o = self.terms(wo);
-        let (wo, wi) = (self.in_stretch_frame(wo), self.in_stretch_frame(wi));
-        let h = (wo + wi).normalize();
-        self.pdf_at(&o, wo, wi, self.ggx().d(h))
+        match &self.anisotropy {
+            None => self.pdf_in(&o, &self.ggx(), wo, wi),
+            Some(a) => self.pdf_in(&o, &a.ggx(), a.turn(wo), a.turn(wi)),
+        }
     }
 
-    /// [`GltfBrdf::pdf`] for wo and wi above the surface (in the anisotropy's frame), given
-    /// wo's terms and D(h): the
-    /// visible-normal reflection's density ([`Ggx::reflection_pdf`]) and the cosine's,
-    /// mixed by the lobe probability.
+    /// [`GltfBrdf::pdf`] with distribution `m`, wo and wi in its frame.
+    #[inline(always)]
+    fn pdf_in<M: Microfacet>(&self, o: &Outgoing, m: &M, wo: Vec3, wi: Vec3) -> f32 {
+        let h = (wo + wi).normalize();
+        self.pdf_at(o, m, wo, wi, m.d(h))
+    }
+
+    /// [`GltfBrdf::pdf`] for wo and wi above the surface (in the frame of distribution `m`),
+    /// given wo's terms and D(h): the visible-normal reflection's density
+    /// ([`Microfacet::reflection_pdf`]) and the cosine's, mixed by the lobe probability.
     #[inline]
-    fn pdf_at(&self, o: &Outgoing, wo: Vec3, wi: Vec3, d: f32) -> f32 {
+    fn pdf_at<M: Microfacet>(&self, o: &Outgoing, m: &M, wo: Vec3, wi: Vec3, d: f32) -> f32 {
         let p_specular = o.p_specular;
-        let ggx = self.ggx();
-        let specular = match ggx.is_smooth() {
+        let specular = match m.is_smooth() {
             true => 0.0,
-            false => p_specular * ggx.reflection_pdf(wo, d),
+            false => p_specular * m.reflection_pdf(wo, d),
         };
         specular + (1.0 - p_specular) * wi.z * std::f32::consts::FRAC_1_PI
     }
@@ -516,15 +549,18 @@ impl GltfBrdf {
         let p_specular = self.specular_probability(wo);
         if u.x < p_specular {
             let u = Vec2::new((u.x / p_specular).min(BELOW_ONE), u.y);
-            let ggx = self.ggx();
-            if ggx.is_smooth() {
-                let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some((mirror, BsdfFlags::SPECULAR_REFLECTION));
-            }
-            let wo = self.in_stretch_frame(wo);
-            let h = ggx.sample_visible_normal(wo, u);
-            let wi = 2.0 * wo.dot(h) * h - wo;
-            (wi.z > 0.0).then_some((self.out_of_stretch_frame(wi), BsdfFlags::GLOSSY_REFLECTION))
+            let wi = match &self.anisotropy {
+                None => {
+                    let ggx = self.ggx();
+                    if ggx.is_smooth() {
+                        let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+                        return Some((mirror, BsdfFlags::SPECULAR_REFLECTION));
+                    }
+                    reflect_visible_normal(&ggx, wo, u)
+                }
+                Some(a) => a.turn_back(reflect_visible_normal(&a.ggx(), a.turn(wo), u)),
+            };
+            (wi.z > 0.0).then_some((wi, BsdfFlags::GLOSSY_REFLECTION))
         } else {
             let v = ((u.x - p_specular) / (1.0 - p_specular)).min(BELOW_ONE);
             let wi = square_to_cosine_hemisphere(Vec2::new(v, u.y));
@@ -543,6 +579,13 @@ impl GltfBrdf {
             flags,
         })
     }
+}
+
+/// `wo` reflected about a normal of `m` visible from it, drawn from `u` (Heitz 2018).
+#[inline(always)]
+fn reflect_visible_normal<M: Microfacet>(m: &M, wo: Vec3, u: Vec2) -> Vec3 {
+    let h = m.sample_visible_normal(wo, u);
+    2.0 * wo.dot(h) * h - wo
 }
 
 /// Schlick's Fresnel approximation F = f0 + (1 − f0)(1 − cos)⁵.
