@@ -454,7 +454,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     let dir = tempfile::tempdir().unwrap();
     doc["extensionsUsed"] = json!([
         "KHR_materials_emissive_strength",
-        "KHR_materials_dispersion",
+        "KHR_materials_diffuse_transmission",
         "KHR_materials_iridescence"
     ]);
     doc["materials"][0] = json!({
@@ -467,7 +467,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
         "occlusionTexture": {"index": 0},
         "alphaMode": "MASK", "alphaCutoff": 0.3,
         "extensions": {
-            "KHR_materials_dispersion": {"dispersion": 0.5},
+            "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.5},
             "KHR_materials_emissive_strength": {"emissiveStrength": 2.0}
         }
     });
@@ -493,7 +493,10 @@ fn what_is_not_rendered_gets_one_warning_each() {
             .count()
     };
     assert_eq!(
-        says(&file_level, &["KHR_materials_dispersion", "ignores"]),
+        says(
+            &file_level,
+            &["KHR_materials_diffuse_transmission", "ignores"]
+        ),
         1,
         "{file_level:?}"
     );
@@ -522,7 +525,7 @@ fn what_is_not_rendered_gets_one_warning_each() {
     for words in [
         &["material 0 'coated'"][..],
         &["occlusion texture"],
-        &["KHR_materials_dispersion"],
+        &["KHR_materials_diffuse_transmission"],
     ] {
         assert_eq!(says(&coated, words), 1, "{words:?} in {coated:?}");
     }
@@ -667,6 +670,65 @@ fn the_anisotropy_is_read() {
         for w in ["bad.gltf", "'bad'", "KHR_materials_anisotropy", words] {
             assert!(err.contains(w), "{w:?} missing from: {err}");
         }
+    }
+}
+
+/// KHR_materials_dispersion: read, honoured when required, silent on a refracting volume;
+/// on a material without one it warns that there is nothing to disperse; a negative value is
+/// refused naming the file and the material.
+#[test]
+fn the_dispersion_is_read() {
+    let (mut doc, _) = hierarchy_parts();
+    let dir = tempfile::tempdir().unwrap();
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_dispersion",
+        "KHR_materials_transmission",
+        "KHR_materials_volume"
+    ]);
+    doc["extensionsRequired"] = json!(["KHR_materials_dispersion"]);
+    let material = |name: &str, dispersion: Value, volume: bool| {
+        let mut ext = json!({"KHR_materials_dispersion": {"dispersion": dispersion}});
+        if volume {
+            ext["KHR_materials_transmission"] = json!({"transmissionFactor": 1.0});
+            ext["KHR_materials_volume"] = json!({"thicknessFactor": 1.0});
+        }
+        json!({"name": name, "extensions": ext})
+    };
+    doc["materials"] = json!([
+        material("prism", json!(0.6), true),
+        material("painted", json!(0.6), false),
+    ]);
+    let path = dir.path().join("dispersion.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let s = load(&path);
+    let named = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name.as_deref() == Some(n))
+            .unwrap()
+    };
+    assert_eq!(named("prism").dispersion, 0.6);
+    let said = |n: &str| {
+        (s.load_warnings.iter())
+            .filter(|w| w.contains(n) && w.contains("KHR_materials_dispersion"))
+            .count()
+    };
+    assert_eq!(
+        (said("'prism'"), said("'painted'")),
+        (0, 1),
+        "{:?}",
+        s.load_warnings
+    );
+    assert!(!s.load_warnings.iter().any(|w| w.contains("ignores")));
+
+    doc["materials"] = json!([material("bad", json!(-0.5), true)]);
+    let path = dir.path().join("bad.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    for w in ["bad.gltf", "'bad'", "KHR_materials_dispersion", "-0.5"] {
+        assert!(err.contains(w), "{w:?} missing from: {err}");
     }
 }
 

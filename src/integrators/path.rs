@@ -25,7 +25,8 @@
 //! (glass: [`crate::shading::LocalBsdf::reads_lobe_number`]; the slot is then computed at
 //! every bounce). The light is chosen with the point's first dimension, which is then
 //! reused for the point. All slots are drawn whether used or not, so a pixel's dimensions do
-//! not shift between strategies.
+//! not shift between strategies. A path that meets a dispersive interface
+//! (`KHR_materials_dispersion`) draws its wavelength there from one more dimension.
 //!
 //! Each light point is thus stratified jointly with what its light depends on most: the
 //! first with where in the pixel the sample lies (an edge or a penumbra in the pixel: 66%
@@ -40,8 +41,8 @@
 //! own, Burley 2020) but are dimensions of one Sobol sequence, bounce k taking dimensions
 //! 4(k − 1) to 4k − 1 ([`PixelSampler::next_bounce_2x2d`], up to 8 bounces): the two-bounce
 //! light, which depends on two bounces' points at once, is then stratified too. On the
-//! Cornell box this takes 7% off the squared error at 256 spp and 16% at 1024 (BENCHMARKS.md,
-//! "Bounces stratified jointly"). The film position's slot stays apart: joined to the
+//! Cornell box this takes 7% off the squared error at 256 spp and 16% at 1024
+//! (docs/journal/benchmarks-2026-11.md, "Bounces stratified jointly"). The film position's slot stays apart: joined to the
 //! bounces, it would push the first bounce off dimensions 0–1, the best-stratified pair.
 //! `Experiments::joint_bounces` = false pads them, for comparisons.
 
@@ -50,6 +51,7 @@ use glam::{Vec2, Vec3};
 use super::{Context, RayCounts};
 use crate::accel::{Hit, Ray};
 use crate::sampling::PixelSampler;
+use crate::shading::spectrum::Response;
 use crate::shading::{Bsdf, Lambertian, ShadeAs, SurfaceInteraction};
 
 /// Which sampling techniques contribute direct light.
@@ -145,6 +147,8 @@ fn li_as<B: ShadeAs>(
     // The light point of the current vertex (when bounces are paired, drawn by the bounce
     // that reached it).
     let mut u_light = Vec2::ZERO;
+    // The path's wavelength in nm, once it has met a dispersive interface.
+    let mut wavelength: Option<f32> = None;
     loop {
         let Some(hit) = next_hit else {
             // Possibly add the environment, weighted against sampling it as a light (the
@@ -230,6 +234,20 @@ fn li_as<B: ShadeAs>(
             (false, false) => {
                 sampler.skip_slot();
                 (1.0, 0.0)
+            }
+        };
+        // Dispersion: the path's wavelength, drawn at its first dispersive interface (one
+        // more dimension, after this bounce's slots), weights its throughput by the channels'
+        // responses over its density ([`Response::sample`]) and holds from then on.
+        let bsdf = match bsdf.disperses() {
+            false => bsdf,
+            true => {
+                let lambda = *wavelength.get_or_insert_with(|| {
+                    let (lambda, weight) = Response::get().sample(sampler.next_1d());
+                    beta *= weight;
+                    lambda
+                });
+                bsdf.at_wavelength(lambda)
             }
         };
 

@@ -38,6 +38,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
+    "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_sheen",
@@ -53,6 +54,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
 const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
+    "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_sheen",
@@ -65,9 +67,7 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_iridescence" | "KHR_materials_dispersion" => {
-            "its materials render without that layer or effect"
-        }
+        "KHR_materials_iridescence" => "its materials render without that layer or effect",
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
         "KHR_materials_variants" => "each mesh renders its default material",
         "EXT_texture_avif" => {
@@ -920,6 +920,20 @@ impl Loader<'_> {
         let clearcoat = self.clearcoat(m, &label)?;
         let sheen = self.sheen(m, &label)?;
         let anisotropy = self.anisotropy(m, &label)?;
+        let dispersion = match m.extension_value("KHR_materials_dispersion") {
+            None => 0.0,
+            Some(ext) => match ext.get("dispersion") {
+                None => 0.0,
+                Some(d) => (d.as_f64()).filter(|d| d.is_finite() && *d >= 0.0).ok_or_else(|| {
+                    format!("{label} KHR_materials_dispersion: dispersion {d} is not a number of at least 0")
+                })? as f32,
+            },
+        };
+        if dispersion > 0.0 && !(transmission_factor > 0.0 && volume.is_some()) {
+            self.warnings.push(format!(
+                "{label}: KHR_materials_dispersion needs a refracting volume (KHR_materials_transmission with KHR_materials_volume); without one it has nothing to disperse and is not rendered"
+            ));
+        }
         if transmission_factor > 0.0 && anisotropy.is_some() {
             self.warnings.push(format!(
                 "{label}: its glass (KHR_materials_transmission) renders isotropic; its anisotropy (KHR_materials_anisotropy) stretches only the opaque part's reflection"
@@ -951,6 +965,7 @@ impl Loader<'_> {
             clearcoat,
             sheen,
             anisotropy,
+            dispersion,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,

@@ -95,6 +95,8 @@ pub struct Material {
     pub sheen: Option<SheenLayer>,
     /// `KHR_materials_anisotropy` (None without it, or with a strength of 0).
     pub anisotropy: Option<AnisotropyLayer>,
+    /// `KHR_materials_dispersion`'s 20 / Abbe number of the volume's index (0: none).
+    pub dispersion: f32,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -217,6 +219,7 @@ impl Default for Material {
             clearcoat: None,
             sheen: None,
             anisotropy: None,
+            dispersion: 0.0,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,

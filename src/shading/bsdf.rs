@@ -154,6 +154,20 @@ pub trait LocalBsdf: Copy {
     /// comes from, before its value and pdf are known to be non-zero.
     fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)>;
 
+    /// True when the BSDF depends on the wavelength (`KHR_materials_dispersion`): a path
+    /// then carries one ([`LocalBsdf::at_wavelength`]).
+    #[inline(always)]
+    fn disperses(&self) -> bool {
+        false
+    }
+
+    /// The BSDF at wavelength `lambda` nm, its terms of wo not yet made; itself for one that
+    /// does not disperse.
+    #[inline(always)]
+    fn at_wavelength(self, _lambda: f32) -> Self {
+        self
+    }
+
     /// The sample of a delta lobe in direction `wi`, with its weight and the probability of
     /// having chosen the lobe.
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample>;
@@ -358,6 +372,19 @@ impl LocalBsdf for Bsdf {
         }
     }
 
+    #[inline(always)]
+    fn disperses(&self) -> bool {
+        matches!(self, Bsdf::Glass(g) if g.dispersion > 0.0)
+    }
+
+    #[inline]
+    fn at_wavelength(self, lambda: f32) -> Bsdf {
+        match self {
+            Bsdf::Glass(g) => Bsdf::Glass(g.at_wavelength(lambda)),
+            other => other,
+        }
+    }
+
     #[inline]
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
         match self {
@@ -403,6 +430,21 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
             frame,
             ng: si.ng,
             wo,
+        }
+    }
+
+    /// True when the BSDF depends on the wavelength ([`LocalBsdf::disperses`]).
+    #[inline(always)]
+    pub fn disperses(&self) -> bool {
+        self.bsdf.disperses()
+    }
+
+    /// The BSDF at wavelength `lambda` nm, its terms of wo made again.
+    #[inline]
+    pub fn at_wavelength(self, lambda: f32) -> SurfaceBsdf<B> {
+        SurfaceBsdf {
+            bsdf: self.bsdf.at_wavelength(lambda).at(self.wo),
+            ..self
         }
     }
 

@@ -174,6 +174,9 @@ pub struct Dielectric {
     /// The compensation's factor 1 / E(μo) for the wo of [`LocalBsdf::at`] (1 before, or
     /// without compensation).
     scale: f32,
+    /// `KHR_materials_dispersion`'s 20 / Abbe number (0: none): `eta` is then the index at
+    /// 587.6 nm, until [`Dielectric::at_wavelength`] gives the one of a path's wavelength.
+    pub dispersion: f32,
 }
 
 impl Dielectric {
@@ -187,6 +190,34 @@ impl Dielectric {
             tint,
             compensated: false,
             scale: 1.0,
+            dispersion: 0.0,
+        }
+    }
+
+    /// The same interface with `KHR_materials_dispersion`'s `dispersion` (20 / Abbe number).
+    pub fn with_dispersion(self, dispersion: f32) -> Dielectric {
+        Dielectric {
+            dispersion: dispersion.max(0.0),
+            ..self
+        }
+    }
+
+    /// The interface at wavelength `lambda` nm: the index n(λ) by Cauchy's law from the one
+    /// at 587.6 nm ([`super::spectrum::dispersed_ior`]), on the side `eta` was given for (η
+    /// below 1: leaving the medium). Itself without dispersion. Its terms of wo are to be
+    /// made again ([`LocalBsdf::at`]).
+    pub fn at_wavelength(self, lambda: f32) -> Dielectric {
+        if self.dispersion <= 0.0 {
+            return self;
+        }
+        let leaving = self.eta < 1.0;
+        let n_d = if leaving { 1.0 / self.eta } else { self.eta };
+        let n = super::spectrum::dispersed_ior(n_d, self.dispersion, lambda);
+        Dielectric {
+            eta: if leaving { 1.0 / n } else { n },
+            dispersion: 0.0,
+            scale: 1.0,
+            ..self
         }
     }
 

@@ -117,6 +117,8 @@ struct Prepared {
     sheen: Option<PreparedSheen>,
     /// `KHR_materials_anisotropy` (glTF model only).
     anisotropy: Option<PreparedAnisotropy>,
+    /// `KHR_materials_dispersion` of the volume (0: none).
+    dispersion: f32,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -341,6 +343,7 @@ impl Materials {
                 coat,
                 sheen,
                 anisotropy,
+                dispersion: m.dispersion,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -627,7 +630,7 @@ impl Materials {
                 return match m.volume {
                     Some(_) => {
                         let eta = if si.front_face { m.ior } else { 1.0 / m.ior };
-                        let glass = Dielectric::new(eta, alpha, base);
+                        let glass = Dielectric::new(eta, alpha, base).with_dispersion(m.dispersion);
                         Bsdf::Glass(match compensated {
                             true => glass.with_energy_compensation(),
                             false => glass,

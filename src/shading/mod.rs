@@ -12,6 +12,7 @@
 //! | [`layers`]      | sheen and clear coat over it (`KHR_materials_sheen`, `_clearcoat`)    |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
 //! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
+//! | [`spectrum`]    | wavelengths for dispersion: the channels' responses, Cauchy's index   |
 //! | [`texture`]     | decoded images and their lookups                                      |
 //! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
 //! |                 | sampled by power                                                      |
@@ -29,6 +30,7 @@ pub mod layers;
 pub mod lights;
 pub mod material;
 pub mod microfacet;
+pub mod spectrum;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};
