@@ -299,7 +299,9 @@ impl Dielectric {
     }
 
     /// An upright direction from upright `wo`: h from `u`, the lobe from `uc`. Also returns h.
-    #[inline]
+    /// Always inlined: where the compiler chose not to, the albedo table's 0.17 s took 30%
+    /// more instructions (its closure and `fract` no longer inlined either).
+    #[inline(always)]
     fn sample_upright(&self, wo: Vec3, uc: f32, u: Vec2, eta: f32) -> Option<(Vec3, Vec3)> {
         let h = self.ggx().sample_visible_normal(wo, u);
         let wo_h = wo.dot(h);
