@@ -676,3 +676,71 @@ fn the_highlight_stretches_along_the_anisotropy_direction() {
         "the turn changed nothing: {d}"
     );
 }
+
+/// KHR_materials_iridescence through the renderer: a grey plastic under a white sky turns
+/// coloured under a 300 nm film of index 1.3 (its channels part where without the film they
+/// are equal); half the factor lands between (each channel's mean within a quarter of the
+/// way of the halfway point); and a thickness texture of G = 0 gives the film its minimum
+/// thickness: the same image as a film of that thickness without the texture.
+#[test]
+fn a_thin_film_colours_a_grey_surface() {
+    let film = |ext: Value| {
+        let mut m = material([0.2; 3], 0.0, 0.2);
+        m["extensions"] = json!({"KHR_materials_iridescence": ext});
+        m
+    };
+    let grey = mean(&render_surface(
+        &plain(material([0.2; 3], 0.0, 0.2)),
+        32.0,
+        64,
+        &[],
+    ));
+    let full = mean(&render_surface(
+        &plain(film(
+            json!({"iridescenceFactor": 1.0, "iridescenceThicknessMaximum": 300.0}),
+        )),
+        32.0,
+        64,
+        &[],
+    ));
+    let half = mean(&render_surface(
+        &plain(film(
+            json!({"iridescenceFactor": 0.5, "iridescenceThicknessMaximum": 300.0}),
+        )),
+        32.0,
+        64,
+        &[],
+    ));
+    println!("grey {grey:?}, filmed {full:?}, half {half:?}");
+    let spread = |m: [f64; 3]| {
+        m.iter().copied().fold(f64::MIN, f64::max) - m.iter().copied().fold(f64::MAX, f64::min)
+    };
+    assert!(spread(grey) < 1e-4, "{grey:?}");
+    assert!(spread(full) > 0.01, "no colour: {full:?}");
+    for c in 0..3 {
+        let mid = (grey[c] + full[c]) / 2.0;
+        assert!(
+            (half[c] - mid).abs() < 0.25 * (full[c] - grey[c]).abs().max(1e-3),
+            "channel {c}: {} against the midpoint {mid}",
+            half[c]
+        );
+    }
+    let textured = Surface {
+        texture: Some([0, 0, 0, 255]),
+        ..plain(film(
+            json!({"iridescenceFactor": 1.0, "iridescenceThicknessMinimum": 300.0,
+                            "iridescenceThicknessMaximum": 800.0,
+                            "iridescenceThicknessTexture": {"index": 0}}),
+        ))
+    };
+    let px_textured = render_surface(&textured, 32.0, 16, &[]);
+    let px_minimum = render_surface(
+        &plain(film(
+            json!({"iridescenceFactor": 1.0, "iridescenceThicknessMaximum": 300.0}),
+        )),
+        32.0,
+        16,
+        &[],
+    );
+    assert_eq!(max_abs_diff(&px_textured, &px_minimum), 0.0);
+}

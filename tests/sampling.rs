@@ -1938,6 +1938,70 @@ fn anisotropic_brdf_values_follow_the_extension() {
     }
 }
 
+/// KHR_materials_iridescence through the BRDF: with the film, a metal's value is
+/// mix(Schlick's F, the film's reflectance, factor) · D V cos at the microfacet's angle (the
+/// film's own values are tested against a spectral Airy sum in `shading::thin_film`); a
+/// factor of 0 is the plain BRDF; and sampling still matches the pdf (χ², a plastic and an
+/// anisotropic metal under films, the lobe choice now reading the film's Fresnel).
+#[test]
+fn iridescent_brdfs_mix_the_film_into_fresnel_and_sample_their_pdf() {
+    use strata::shading::microfacet::Ggx;
+    use strata::shading::thin_film::ThinFilm;
+    use strata::shading::GltfBrdf;
+    let base = Vec3::new(0.9, 0.6, 0.3);
+    let (factor, ior, thickness) = (0.7f32, 1.3f32, 350.0f32);
+    let plain = GltfBrdf::new(base, 1.0, 0.4).single_scattering();
+    let filmed = plain.with_iridescence(factor, ior, thickness, 1.0);
+    assert_eq!(plain.with_iridescence(0.0, ior, thickness, 1.0), plain);
+    let film = ThinFilm { ior, thickness };
+    let ggx = Ggx::new(0.16);
+    for (to, po, ti, pi) in [
+        (0.3, 0.0, 0.5, 2.8),
+        (1.0, 1.0, 0.6, -2.0),
+        (0.1, 0.5, 1.2, 3.0),
+    ] {
+        let (wo, wi) = (from_theta_phi(to, po), from_theta_phi(ti, pi));
+        let h = (wo + wi).normalize();
+        let cos = wo.dot(h);
+        let schlick = base + (Vec3::ONE - base) * (1.0 - cos).powi(5);
+        let f = schlick.lerp(film.reflectance(1.0, base, cos), factor);
+        let want = f * ggx.d(h) * ggx.v(wo, wi) * wi.z;
+        let got = filmed.eval(wo, wi);
+        assert!(
+            (got - want).abs().max_element() < 1e-5 * want.max_element().max(1.0),
+            "{got} against {want}"
+        );
+        // The film changes the colour, not nothing.
+        assert!((got - plain.eval(wo, wi)).abs().max_element() > 1e-3 * got.max_element());
+    }
+    let cases = [
+        (
+            strata::shading::Bsdf::MetallicRoughness(
+                GltfBrdf::new(Vec3::new(0.3, 0.3, 0.3), 0.0, 0.3)
+                    .with_iridescence(1.0, 1.8, 280.0, 1.0),
+            ),
+            from_theta_phi(0.7, 0.0),
+        ),
+        (
+            strata::shading::Bsdf::MetallicRoughness(
+                GltfBrdf::new(base, 1.0, 0.3)
+                    .with_anisotropy(0.6, Vec3::new(0.6, 0.8, 0.0))
+                    .with_iridescence(0.8, 1.3, 500.0, 1.5),
+            ),
+            from_theta_phi(0.5, 1.0),
+        ),
+    ];
+    for (k, (bsdf, wo)) in cases.iter().enumerate() {
+        let pdf = |wi: Vec3| bsdf.pdf(*wo, wi) as f64;
+        let result = bsdf_chi2(bsdf, *wo, &pdf, 64, 500 + k as u64);
+        println!("iridescent case {k}: {result:?}");
+        match result {
+            Ok(o) => assert!(o.p_value >= 0.01 / 2.0, "case {k}: p = {:e}", o.p_value),
+            Err(e) => panic!("case {k}: {e}"),
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // χ² goodness of fit of the environment map's sampler: `EnvMap::sample` against `EnvMap::pdf`.
 // ---------------------------------------------------------------------------------------------

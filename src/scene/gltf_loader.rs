@@ -41,6 +41,7 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -57,6 +58,7 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -67,7 +69,6 @@ const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
 /// about a file that uses it.
 fn ignored_extension_effect(ext: &str) -> &'static str {
     match ext {
-        "KHR_materials_iridescence" => "its materials render without that layer or effect",
         "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
         "KHR_materials_variants" => "each mesh renders its default material",
         "EXT_texture_avif" => {
@@ -920,6 +921,12 @@ impl Loader<'_> {
         let clearcoat = self.clearcoat(m, &label)?;
         let sheen = self.sheen(m, &label)?;
         let anisotropy = self.anisotropy(m, &label)?;
+        let iridescence = self.iridescence(m, &label)?;
+        if transmission_factor > 0.0 && iridescence.is_some() {
+            self.warnings.push(format!(
+                "{label}: its glass (KHR_materials_transmission) renders without its thin film (KHR_materials_iridescence), which only the opaque part shows"
+            ));
+        }
         let dispersion = match m.extension_value("KHR_materials_dispersion") {
             None => 0.0,
             Some(ext) => match ext.get("dispersion") {
@@ -966,6 +973,7 @@ impl Loader<'_> {
             sheen,
             anisotropy,
             dispersion,
+            iridescence,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
@@ -1046,6 +1054,47 @@ impl Loader<'_> {
             strength,
             rotation,
             texture,
+        }))
+    }
+
+    /// A material's `KHR_materials_iridescence`, None without it or where its factor is 0.
+    fn iridescence(
+        &mut self,
+        m: &gltf::Material,
+        label: &str,
+    ) -> Result<Option<super::IridescenceLayer>> {
+        let Some(ext) = m.extension_value("KHR_materials_iridescence") else {
+            return Ok(None);
+        };
+        let what = format!("{label} KHR_materials_iridescence");
+        let factor = unit_number(ext, "iridescenceFactor", 0.0, &what)?;
+        let number = |key: &str, default: f64, least: f64| -> Result<f32> {
+            match ext.get(key) {
+                None => Ok(default as f32),
+                Some(v) => (v.as_f64())
+                    .filter(|x| x.is_finite() && *x >= least)
+                    .map(|x| x as f32)
+                    .ok_or_else(|| {
+                        format!("{what}: {key} {v} is not a number of at least {least}")
+                    }),
+            }
+        };
+        let ior = number("iridescenceIOR", 1.3, 1.0)?;
+        let thickness_min = number("iridescenceThicknessMinimum", 100.0, 0.0)?;
+        let thickness_max = number("iridescenceThicknessMaximum", 400.0, 0.0)?;
+        let texture = self.extension_texture(ext, "iridescenceTexture", &what)?;
+        let thickness_texture =
+            self.extension_texture(ext, "iridescenceThicknessTexture", &what)?;
+        if factor == 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(super::IridescenceLayer {
+            factor,
+            texture,
+            ior,
+            thickness_min,
+            thickness_max,
+            thickness_texture,
         }))
     }
 

@@ -97,6 +97,8 @@ pub struct Material {
     pub anisotropy: Option<AnisotropyLayer>,
     /// `KHR_materials_dispersion`'s 20 / Abbe number of the volume's index (0: none).
     pub dispersion: f32,
+    /// `KHR_materials_iridescence` (None without it, or with a factor of 0).
+    pub iridescence: Option<IridescenceLayer>,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -155,6 +157,19 @@ pub struct AnisotropyLayer {
     pub strength: f32,
     pub rotation: f32,
     pub texture: Option<TextureRef>,
+}
+
+/// A thin film over the specular lobes (`KHR_materials_iridescence`): its strength,
+/// iridescenceFactor × the texture's R; its index of refraction; its thickness in nm,
+/// `thickness_max`, or mix(`thickness_min`, `thickness_max`, the thickness texture's G).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IridescenceLayer {
+    pub factor: f32,
+    pub texture: Option<TextureRef>,
+    pub ior: f32,
+    pub thickness_min: f32,
+    pub thickness_max: f32,
+    pub thickness_texture: Option<TextureRef>,
 }
 
 /// The medium inside a transmissive material's closed surface (`KHR_materials_volume`).
@@ -220,6 +235,7 @@ impl Default for Material {
             sheen: None,
             anisotropy: None,
             dispersion: 0.0,
+            iridescence: None,
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,

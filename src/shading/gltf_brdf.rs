@@ -70,6 +70,14 @@
 //! stretch: white metals stay within 7% of white in the furnace (`tests/materials.rs`),
 //! against 15–48% lost without compensation.
 //!
+//! `KHR_materials_iridescence` ([`GltfBrdf::with_iridescence`]) puts a thin film over the
+//! specular lobes: each lobe's Fresnel term F becomes mix(F, F_film, iridescence), F_film the
+//! film's interference reflectance over that lobe's f0 ([`ThinFilm`], Belcour & Barla 2017)
+//! at the microfacet's angle, as the extension's notes mix them. Without compensation the
+//! diffuse lobe below takes 1 − the dielectric's mixed F; with it, the compensation and the
+//! diffuse layering keep reading the film-free tables (an approximation: the film moves
+//! energy between colours more than it adds or removes).
+//!
 //! Below [`Ggx::SMOOTH_ALPHA`] the specular lobe is a perfect mirror: a delta lobe of weight
 //! F(n·wo) that only sampling finds. Directions come from the specular lobe (the visible
 //! normals, Heitz 2018) or the cosine, chosen with probability proportional to their
@@ -80,6 +88,7 @@ use glam::{Vec2, Vec3};
 use super::bsdf::{BsdfFlags, BsdfSample};
 use super::environment::luminance;
 use super::microfacet::{AlbedoRow, AlbedoTable, AnisotropicGgx, Ggx, Microfacet};
+use super::thin_film::ThinFilm;
 use crate::sampling::warps::square_to_cosine_hemisphere;
 
 /// The dielectric's reflectance at normal incidence without `KHR_materials_ior`: IOR 1.5,
@@ -113,6 +122,8 @@ pub struct GltfBrdf {
     pub energy_compensation: bool,
     /// `KHR_materials_anisotropy`'s stretch of the specular lobes (None: isotropic).
     anisotropy: Option<Anisotropy>,
+    /// `KHR_materials_iridescence`'s thin film over the specular lobes (None: no film).
+    iridescence: Option<Iridescence>,
     /// Where α falls in the albedo table's rows.
     row: AlbedoRow,
     /// The terms that depend on the outgoing direction alone, for the one they were computed
@@ -152,6 +163,15 @@ impl Anisotropy {
     }
 }
 
+/// A thin film over the specular lobes: its share of their Fresnel term, the film, and the
+/// index of the medium above it (air, or a clear coat's 1.5).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Iridescence {
+    factor: f32,
+    film: ThinFilm,
+    outside: f32,
+}
+
 /// The parts of the BRDF that read wo alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Outgoing {
@@ -183,6 +203,7 @@ impl GltfBrdf {
             specular_weight: 1.0,
             energy_compensation: true,
             anisotropy: None,
+            iridescence: None,
             row: AlbedoRow::new(alpha),
             outgoing: None,
         }
@@ -237,6 +258,52 @@ impl GltfBrdf {
             row: AlbedoRow::new(((alpha_t * alpha_t + alpha_b * alpha_b) / 2.0).sqrt()),
             outgoing: None,
             ..self
+        }
+    }
+
+    /// The same BRDF under `KHR_materials_iridescence`'s thin film: each specular lobe's
+    /// Fresnel term F becomes mix(F, F_film, `factor`), F_film the film's reflectance over
+    /// that lobe's f0 ([`ThinFilm::reflectance`]; index `ior`, `thickness` nm) seen from a
+    /// medium of index `outside` at the microfacet's angle. Unchanged where the factor is 0.
+    /// Energy compensation keeps reading the film-free lobes' tables: an approximation.
+    pub fn with_iridescence(self, factor: f32, ior: f32, thickness: f32, outside: f32) -> GltfBrdf {
+        let factor = factor.clamp(0.0, 1.0);
+        if factor == 0.0 {
+            return self;
+        }
+        GltfBrdf {
+            iridescence: Some(Iridescence {
+                factor,
+                film: ThinFilm {
+                    ior,
+                    thickness: thickness.max(0.0),
+                },
+                outside,
+            }),
+            outgoing: None,
+            ..self
+        }
+    }
+
+    /// The dielectric's and the metal's Fresnel terms at cosine `cos` between the view and
+    /// the microfacet normal: Schlick's of f0_c and of the base colour, each mixed with the
+    /// film's reflectance over it under iridescence.
+    #[inline(always)]
+    fn fresnel_pair(&self, cos: f32) -> (Vec3, Vec3) {
+        let (f_d, f_metal) = (
+            schlick(self.specular_f0, cos),
+            schlick(self.base_color, cos),
+        );
+        match &self.iridescence {
+            None => (f_d, f_metal),
+            Some(i) => {
+                let film = |f0: Vec3| i.film.reflectance(i.outside, f0, cos);
+                let f_metal = match self.metallic > 0.0 {
+                    true => f_metal.lerp(film(self.base_color), i.factor),
+                    false => f_metal,
+                };
+                (f_d.lerp(film(self.specular_f0), i.factor), f_metal)
+            }
         }
     }
 
@@ -356,6 +423,10 @@ impl GltfBrdf {
     /// without KHR_materials_specular this is F of the mixed f0.)
     #[inline(always)]
     fn specular_fresnel(&self, cos: f32) -> Vec3 {
+        if self.iridescence.is_some() {
+            let (f_d, f_metal) = self.fresnel_pair(cos);
+            return (self.specular_weight * f_d).lerp(f_metal, self.metallic);
+        }
         let f0 = self.specular_f0.lerp(self.base_color, self.metallic);
         match self.specular_weight == 1.0 {
             true => schlick(f0, cos),
@@ -456,8 +527,7 @@ impl GltfBrdf {
         d: f32,
     ) -> Vec3 {
         let wo_h = wo.dot(h).abs();
-        let f_d = schlick(self.specular_f0, wo_h);
-        let f_metal = schlick(self.base_color, wo_h);
+        let (f_d, f_metal) = self.fresnel_pair(wo_h);
         let w = self.specular_weight;
         let diffuse = match self.energy_compensation {
             false => {

@@ -6,6 +6,8 @@
 //! | base colour| baseColorFactor × baseColorTexture (sRGB-decoded) × COLOR_0 | the BSDF      |
 //! | metallic   | metallicFactor × metallicRoughnessTexture.B (linear)       | the BSDF      |
 //! | roughness  | roughnessFactor × metallicRoughnessTexture.G (linear)      | the BSDF      |
+//! | iridescence| iridescenceFactor × texture R; film thickness: maximum, or| the BSDF      |
+//! |            | mix(minimum, maximum, thickness texture G); film IOR       |               |
 //! | anisotropy | anisotropyStrength × texture B; direction: the tangent, or | the BSDF      |
 //! |            | the texture's RG, turned by anisotropyRotation             |               |
 //! | emission   | emissiveFactor × emissiveTexture × emissive strength;      | lights, paths |
@@ -119,6 +121,8 @@ struct Prepared {
     anisotropy: Option<PreparedAnisotropy>,
     /// `KHR_materials_dispersion` of the volume (0: none).
     dispersion: f32,
+    /// `KHR_materials_iridescence` (glTF model only).
+    iridescence: Option<PreparedIridescence>,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -165,6 +169,18 @@ struct PreparedAnisotropy {
     strength: f32,
     rotation: Vec2,
     texture: Option<Binding>,
+}
+
+/// A material's thin film: strength (× texture R), index, thickness range in nm (the maximum,
+/// or mixed by the thickness texture's G).
+#[derive(Clone, Debug)]
+struct PreparedIridescence {
+    factor: f32,
+    texture: Option<Binding>,
+    ior: f32,
+    thickness_min: f32,
+    thickness_max: f32,
+    thickness_texture: Option<Binding>,
 }
 
 /// A BSDF type that [`Materials`] can give a surface point as ([`Materials::bsdf_as`]): an
@@ -311,6 +327,17 @@ impl Materials {
                 }),
                 _ => None,
             };
+            let iridescence = match (&m.iridescence, is_used && gltf) {
+                (Some(i), true) => Some(PreparedIridescence {
+                    factor: i.factor,
+                    texture: bind(&i.texture, Encoding::Linear, &mut images)?,
+                    ior: i.ior,
+                    thickness_min: i.thickness_min,
+                    thickness_max: i.thickness_max,
+                    thickness_texture: bind(&i.thickness_texture, Encoding::Linear, &mut images)?,
+                }),
+                _ => None,
+            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
                 let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
                 let metallic_roughness = match gltf {
@@ -344,6 +371,7 @@ impl Materials {
                 sheen,
                 anisotropy,
                 dispersion: m.dispersion,
+                iridescence,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -382,6 +410,8 @@ impl Materials {
                 || (m.sheen.as_ref())
                     .is_some_and(|s| s.color_texture.is_some() || s.roughness_texture.is_some())
                 || (m.anisotropy.as_ref()).is_some_and(|a| a.texture.is_some())
+                || (m.iridescence.as_ref())
+                    .is_some_and(|i| i.texture.is_some() || i.thickness_texture.is_some())
         });
         let tangents = match materials
             .iter()
@@ -650,7 +680,12 @@ impl Materials {
             }
         }
         let brdf = self.bsdf_with(base, metallic, roughness, m.ior);
-        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() && m.anisotropy.is_none() {
+        if m.specular.is_none()
+            && m.coat.is_none()
+            && m.sheen.is_none()
+            && m.anisotropy.is_none()
+            && m.iridescence.is_none()
+        {
             return brdf;
         }
         let Bsdf::MetallicRoughness(mut brdf) = brdf else {
@@ -660,9 +695,26 @@ impl Materials {
             if let Some((strength, direction)) = self.anisotropy_at(scene, a, si, shaded, uv) {
                 brdf = brdf.with_anisotropy(strength, direction);
             }
-            if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
-                return Bsdf::MetallicRoughness(brdf);
+        }
+        if let Some(i) = &m.iridescence {
+            let mut factor = i.factor;
+            if let Some(b) = &i.texture {
+                factor *= self.lookup(b, uv).x;
             }
+            let thickness = match &i.thickness_texture {
+                None => i.thickness_max,
+                Some(b) => {
+                    let g = self.lookup(b, uv).y;
+                    i.thickness_min + (i.thickness_max - i.thickness_min) * g
+                }
+            };
+            // Under a clear coat the film's outside is the coat (KHR_materials_iridescence,
+            // "Clearcoat": index 1.5).
+            let outside = if m.coat.is_some() { 1.5 } else { 1.0 };
+            brdf = brdf.with_iridescence(factor, i.ior, thickness, outside);
+        }
+        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
+            return Bsdf::MetallicRoughness(brdf);
         }
         if let Some(sp) = &m.specular {
             let (mut weight, mut color) = (sp.factor, sp.color);

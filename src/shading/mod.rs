@@ -13,6 +13,7 @@
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
 //! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
 //! | [`spectrum`]    | wavelengths for dispersion: the channels' responses, Cauchy's index   |
+//! | [`thin_film`]   | thin-film interference: iridescent Fresnel (Belcour & Barla 2017)     |
 //! | [`texture`]     | decoded images and their lookups                                      |
 //! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
 //! |                 | sampled by power                                                      |
@@ -32,6 +33,7 @@ pub mod material;
 pub mod microfacet;
 pub mod spectrum;
 pub mod texture;
+pub mod thin_film;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};
 pub use dielectric::{fresnel_dielectric, refract, Dielectric, ThinDielectric};
