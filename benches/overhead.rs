@@ -171,8 +171,8 @@ fn raw(rays: &[Ray]) -> Vec<RawRay> {
 }
 
 /// A ray as the packet calls of the Embree module take it.
-fn lanes(r: &Ray) -> ([f32; 3], [f32; 3], f32, f32) {
-    (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max)
+fn lanes(r: &Ray) -> strata::embree::Lane {
+    (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max, 0)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

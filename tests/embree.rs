@@ -517,7 +517,7 @@ fn instances_report_their_geometry_id_and_the_child_primitive() {
     let mut packed = vec![None; rays.len()];
     scene.intersect_packet(
         &rays,
-        |r| (r.0, r.1, 0.0, f32::INFINITY),
+        |r| (r.0, r.1, 0.0, f32::INFINITY, 0),
         |i, h| packed[i] = h,
     );
     for (single, packed) in singles.iter().zip(&packed) {
@@ -527,6 +527,89 @@ fn instances_report_their_geometry_id_and_the_child_primitive() {
     assert!(scene
         .intersect([0.25, 0.25, -10.0], down, 0.0, f32::INFINITY)
         .is_none());
+}
+
+/// A hit filter inside an instance hears of the instance and of the ray's id: a filter on the
+/// child's geometry records (instance, primitive, ray id) of every candidate hit and lets
+/// only primitive 1 through. Traced with ids through two instances, single rays and
+/// packets, each record names the instance the ray went through and the id it was traced
+/// with (Embree hands the filter the ray in the instance's space: the id is what survives
+/// the change of space), and the filter's answer decides the hit.
+#[test]
+fn hit_filters_hear_the_instance_and_the_ray_id() {
+    use std::sync::{Arc, Mutex};
+    struct Recorder(Mutex<Vec<(u32, u32, u32)>>);
+    impl embree::HitFilter for Recorder {
+        fn accept(&self, prim: u32, inst: u32, _u: f32, _v: f32, ray_id: u32) -> bool {
+            self.0.lock().unwrap().push((inst, prim, ray_id));
+            prim == 1
+        }
+    }
+    let device = Device::new("verbose=0").expect("Embree device");
+    let options = SceneOptions {
+        quality: BuildQuality::Medium,
+        robust: true,
+        compact: false,
+    };
+    let recorder = Arc::new(Recorder(Mutex::new(Vec::new())));
+    let mut child = SceneBuilder::new(&device, options).expect("scene");
+    let (p, i) = two_triangles();
+    child
+        .attach_filtered_triangles(&p, &i, recorder.clone())
+        .expect("attach");
+    let child = Arc::new(child.commit().expect("commit"));
+    let mut top = SceneBuilder::new(&device, options).expect("scene");
+    let up = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 3.0];
+    let aside = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 20.0, 0.0, 0.0];
+    let a = top.attach_instance(&child, &up).expect("instance");
+    let b = top.attach_instance(&child, &aside).expect("instance");
+    let scene = top.commit().expect("commit");
+    let down = [0.0, 0.0, -1.0];
+    // Through instance a at child (0.25, 0.25): triangle 0 (rejected) above triangle 1.
+    let h = scene
+        .intersect_id([0.25, 0.25, 10.0], down, 0.0, f32::INFINITY, 0xabcd_1234)
+        .expect("a hit on triangle 1");
+    assert_eq!((h.inst_id, h.prim_id), (a, 1));
+    assert!((h.t - 8.0).abs() < 1e-4, "{h:?}");
+    let heard = std::mem::take(&mut *recorder.0.lock().unwrap());
+    assert!(heard.contains(&(a, 0, 0xabcd_1234)), "{heard:?}");
+    assert!(
+        heard
+            .iter()
+            .all(|&(inst, _, id)| inst == a && id == 0xabcd_1234),
+        "{heard:?}"
+    );
+    // Occlusion through instance b with another id.
+    assert!(scene.occluded_id([20.25, 0.25, 10.0], down, 0.0, f32::INFINITY, 77));
+    let heard = std::mem::take(&mut *recorder.0.lock().unwrap());
+    assert!(
+        !heard.is_empty() && heard.iter().all(|&(inst, _, id)| inst == b && id == 77),
+        "{heard:?}"
+    );
+    // A packet: each lane's id reaches the filter with its own instance.
+    let rays = [
+        ([0.25f32, 0.25, 10.0], 5u32),
+        ([20.25, 0.25, 10.0], 6),
+        ([0.3, 0.3, 10.0], 7),
+    ];
+    scene.intersect_packet(
+        &rays,
+        |r| (r.0, down, 0.0, f32::INFINITY, r.1),
+        |_, h| {
+            assert_eq!(h.map(|h| h.prim_id), Some(1));
+        },
+    );
+    let heard = std::mem::take(&mut *recorder.0.lock().unwrap());
+    for (inst, id) in [(a, 5), (b, 6), (a, 7)] {
+        assert!(
+            heard.iter().any(|&(i, _, r)| i == inst && r == id),
+            "{inst} {id}: {heard:?}"
+        );
+    }
+    assert!(
+        heard.iter().all(|&(i, _, r)| (i == b) == (r == 6)),
+        "{heard:?}"
+    );
 }
 
 /// Both backends on a scene built in code with instances (the two triangles placed three

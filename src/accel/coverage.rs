@@ -12,14 +12,18 @@
 //! | `MASK` (cutoff) | where alpha ≥ cutoff; elsewhere it is a hole                     |
 //! | `BLEND`         | with probability alpha (stochastic coverage, Enderton et al. 2010) |
 //!
-//! BLEND's coin is a hash of the triangle and of the ray's origin and direction (their bits),
-//! not a random number drawn in the integrator: the answer is a pure function of the ray, so
-//! a render does not depend on the thread count or the schedule, both backends answer alike,
+//! BLEND's coin is a hash of the triangle, the instance it was reached through, and the
+//! ray's key ([`ray_key`]: a 32-bit hash of the world-space origin and direction bits), not a
+//! random number drawn in the integrator: the answer is a pure function of the ray, so a
+//! render does not depend on the thread count or the schedule, both backends answer alike,
 //! a ray asked twice (Embree may run a filter more than once on one hit) gets one answer, and
 //! camera, shadow and AO rays all meet the same partial surface in the mean. The ray's extent
 //! does not enter: a shadow ray toward a light and an unbounded ray along the same line meet
 //! the same surface. Two rays that differ in any bit of their origin or direction flip
-//! independent coins.
+//! independent coins (but for key collisions, one pair in 2³²), and so do two instances of a
+//! mesh. The key is computed once from the ray the caller traces and travels with it (in
+//! Embree's ray id), because inside an instance the backends see the ray in the mesh's own
+//! space, whose bits differ.
 //!
 //! Why here, beside the backends and not in `shading`: whether a hit exists is the
 //! acceleration structure's answer, which both backends must give alike (Embree through its
@@ -44,6 +48,7 @@ const NOT_TESTED: u32 = u32::MAX;
 
 /// Salt of BLEND's coverage hash, so that it shares no values with the samplers' hashes.
 const BLEND_SALT: u64 = 0x616c_7068_615f_626c; // "alpha_bl"
+const RAY_KEY_SALT: u64 = 0x7261_795f_6b65_7921; // "ray_key!"
 
 /// Which surfaces of a scene let rays through where, by alpha.
 #[derive(Clone, Debug)]
@@ -55,6 +60,8 @@ pub struct AlphaCoverage {
     rules: Vec<Rule>,
     /// The alpha channels of the decoded base colour images.
     images: Vec<Image<f32>>,
+    /// True when some rule BLENDs ([`AlphaCoverage::blends`]).
+    blends: bool,
 }
 
 /// What an alpha-tested triangle needs to look its alpha up.
@@ -126,17 +133,22 @@ impl Rule {
     }
 }
 
-/// A uniform number in (0, 1) for BLEND's coin at triangle `prim` along `ray` (its origin
-/// and direction bits).
+/// The key of `ray` for BLEND's coin: a hash of its origin and direction bits (world space,
+/// as the caller traces it).
 #[inline]
-fn blend_coin(prim: u32, ray: &Ray) -> f32 {
+pub fn ray_key(ray: &Ray) -> u32 {
     let bits = |a: f32, b: f32| u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32;
     let (o, d) = (ray.org, ray.dir);
+    hash_words(&[RAY_KEY_SALT, bits(o.x, o.y), bits(o.z, d.x), bits(d.y, d.z)]) as u32
+}
+
+/// A uniform number in (0, 1) for BLEND's coin at triangle `prim` of instance `inst`
+/// ([`crate::scene::NO_INSTANCE`] outside instances) along the ray of key `key` ([`ray_key`]).
+#[inline]
+fn blend_coin(prim: u32, inst: u32, key: u32) -> f32 {
     unit_f32(hash_words(&[
         BLEND_SALT ^ u64::from(prim),
-        bits(o.x, o.y),
-        bits(o.z, d.x),
-        bits(d.y, d.z),
+        u64::from(inst) | u64::from(key) << 32,
     ]))
 }
 
@@ -233,6 +245,7 @@ impl AlphaCoverage {
         Ok(Some(AlphaCoverage {
             slot,
             tested,
+            blends: rules.iter().any(|r| matches!(r.cut, Cut::Blend)),
             rules,
             images,
         }))
@@ -262,12 +275,13 @@ impl AlphaCoverage {
         Some(t.alpha(rule, &self.images, u, v))
     }
 
-    /// True when the hit of `ray` with triangle `prim` at barycentrics (u, v) stops the ray;
-    /// false where the surface is a hole for this ray. Only the ray's origin and direction
-    /// are read (BLEND's coin, see the module docs). Never panics (it runs inside Embree's
-    /// callbacks): a triangle it does not know is covered.
+    /// True when the hit of the ray of key `key` ([`ray_key`]) with triangle `prim`, reached
+    /// through instance `inst` ([`crate::scene::NO_INSTANCE`] outside instances), at barycentrics (u, v)
+    /// stops the ray; false where the surface is a hole for this ray (BLEND's coin, see the
+    /// module docs). Never panics (it runs inside Embree's callbacks): a triangle it does not
+    /// know is covered.
     #[inline]
-    pub fn covers(&self, prim: u32, u: f32, v: f32, ray: &Ray) -> bool {
+    pub fn covers(&self, prim: u32, inst: u32, u: f32, v: f32, key: u32) -> bool {
         let Some(&slot) = self.slot.get(prim as usize) else {
             return true;
         };
@@ -278,8 +292,14 @@ impl AlphaCoverage {
         let alpha = t.alpha(rule, &self.images, u, v);
         match rule.cut {
             Cut::Mask(cutoff) => alpha >= cutoff,
-            Cut::Blend => blend_coin(prim, ray) < alpha,
+            Cut::Blend => blend_coin(prim, inst, key) < alpha,
         }
+    }
+
+    /// True when some tested triangle BLENDs: its coin reads the ray's key ([`ray_key`]).
+    #[inline]
+    pub fn blends(&self) -> bool {
+        self.blends
     }
 
     /// The probability that a ray meeting triangle `prim` at barycentrics (u, v) stops there
@@ -319,7 +339,7 @@ impl AlphaCoverage {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{ImageSource, Material, Wrap};
+    use crate::scene::{ImageSource, Material, Wrap, NO_INSTANCE};
     use glam::{Vec3, Vec4};
 
     /// A 2×1 RGBA PNG: a left texel of alpha `left`, a right one of alpha 255.
@@ -413,13 +433,24 @@ mod tests {
         {
             let s = scene(vec![textured(AlphaMode::Mask(cutoff), 0.8)], 51);
             let c = build(&s).unwrap();
-            assert_eq!(c.covers(0, 0.0, 0.0, &ray), left, "cutoff {cutoff}, left");
-            assert_eq!(c.covers(0, 1.0, 0.0, &ray), right, "cutoff {cutoff}, right");
+            let key = ray_key(&ray);
+            assert_eq!(
+                c.covers(0, NO_INSTANCE, 0.0, 0.0, key),
+                left,
+                "cutoff {cutoff}, left"
+            );
+            assert_eq!(
+                c.covers(0, NO_INSTANCE, 1.0, 0.0, key),
+                right,
+                "cutoff {cutoff}, right"
+            );
         }
     }
 
     /// BLEND stops a fraction alpha of rays (here over 40,000 rays, 5 standard errors), the
-    /// same answer for the same ray each time, and different rays decide independently.
+    /// same answer for the same ray each time, and different rays decide independently; so
+    /// do two instances of the triangle along the same ray (their coins agree as often as
+    /// independent ones would, α² + (1 − α)²).
     #[test]
     fn blend_stops_a_fraction_alpha_of_rays() {
         let s = scene(vec![plain(AlphaMode::Blend, 0.3)], 255);
@@ -432,13 +463,26 @@ mod tests {
                 Ray::new(Vec3::new(0.3 * x, 0.3 * y, 1.0), -Vec3::Z)
             })
             .collect();
-        let stopped = rays.iter().filter(|r| c.covers(0, 0.2, 0.2, r)).count();
+        let covers = |r: &Ray, inst: u32| c.covers(0, inst, 0.2, 0.2, ray_key(r));
+        let stopped = rays.iter().filter(|r| covers(r, NO_INSTANCE)).count();
         let p = stopped as f64 / n as f64;
         let se = (0.3f64 * 0.7 / n as f64).sqrt();
         assert!((p - 0.3).abs() < 5.0 * se, "{p} of rays stopped, not 0.3");
         for r in &rays[..100] {
-            assert_eq!(c.covers(0, 0.2, 0.2, r), c.covers(0, 0.7, 0.1, r));
+            let key = ray_key(r);
+            assert_eq!(
+                covers(r, NO_INSTANCE),
+                c.covers(0, NO_INSTANCE, 0.7, 0.1, key)
+            );
         }
+        let agree = rays.iter().filter(|r| covers(r, 3) == covers(r, 4)).count();
+        let q = agree as f64 / n as f64;
+        let independent = 0.3f64 * 0.3 + 0.7 * 0.7;
+        let se = (independent * (1.0 - independent) / n as f64).sqrt();
+        assert!(
+            (q - independent).abs() < 5.0 * se,
+            "instances agree on {q} of rays"
+        );
     }
 
     /// Materials whose alpha cannot cut (OPAQUE whatever its alpha; MASK or BLEND with a
@@ -477,9 +521,8 @@ mod tests {
             (false, true, 1)
         );
         let s = scene(vec![plain(AlphaMode::Mask(0.5), 0.49)], 255);
-        assert!(!build(&s)
-            .unwrap()
-            .covers(0, 0.1, 0.1, &Ray::new(Vec3::Z, -Vec3::Z)));
+        let key = ray_key(&Ray::new(Vec3::Z, -Vec3::Z));
+        assert!(!build(&s).unwrap().covers(0, NO_INSTANCE, 0.1, 0.1, key));
     }
 
     /// An undecodable base colour image of an alpha-tested material is an error naming the

@@ -26,22 +26,17 @@
 //! the prototype's scene and its normal in the prototype's space: [`EmbreeAccel`] maps both
 //! back (the scene's triangle; the normal by the instance's inverse transpose).
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
 use glam::{Vec3, Vec3A};
 
-use super::coverage::AlphaCoverage;
+use super::coverage::{ray_key, AlphaCoverage};
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::embree::{
     self, Device, EmbreeError, HitFilter, SceneBuilder, SceneOptions, OCCLUSION_PACKET, PACKET,
 };
 use crate::scene::{Instance, Scene, NO_INSTANCE};
-
-/// A ray as the Embree module takes it: (origin, direction, t_min, t_max).
-#[inline(always)]
-fn lane(r: &Ray) -> ([f32; 3], [f32; 3], f32, f32) {
-    (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max)
-}
 
 /// The scene triangles of one Embree quad (v0, v1, v2, v3), whose halves are (v0, v1, v3)
 /// and (v2, v3, v1), and where each half's vertices sit in its triangle's order.
@@ -269,17 +264,35 @@ impl PrimMap {
 struct AlphaFilter {
     map: PrimMap,
     coverage: Arc<AlphaCoverage>,
+    /// The top scene's geometry id of instance 0, for a prototype's filter (set once the
+    /// instances are attached, before any ray is traced): Embree reports the instance by
+    /// its geometry id, BLEND's coin reads the scene's instance index.
+    first_instance: AtomicU32,
+}
+
+impl AlphaFilter {
+    fn new(map: PrimMap, coverage: Arc<AlphaCoverage>) -> AlphaFilter {
+        AlphaFilter {
+            map,
+            coverage,
+            first_instance: AtomicU32::new(0),
+        }
+    }
 }
 
 impl HitFilter for AlphaFilter {
     #[inline]
-    fn accept(&self, prim: u32, u: f32, v: f32, org: [f32; 3], dir: [f32; 3]) -> bool {
+    fn accept(&self, prim: u32, inst: u32, u: f32, v: f32, ray_id: u32) -> bool {
         if !self.map.has(prim) {
             return true;
         }
         let (tri, u, v) = self.map.hit(prim, u, v);
-        let ray = Ray::new(Vec3::from_array(org), Vec3::from_array(dir));
-        self.coverage.covers(tri, u, v, &ray)
+        let inst = match inst == embree::INVALID_GEOMETRY_ID {
+            true => NO_INSTANCE,
+            false => inst.wrapping_sub(self.first_instance.load(Ordering::Relaxed)),
+        };
+        // The ray's key travels as its Embree id ([`EmbreeAccel::lane`]).
+        self.coverage.covers(tri, inst, u, v, ray_id)
     }
 }
 
@@ -347,14 +360,14 @@ impl Part {
     ) -> Result<(u32, Arc<AlphaFilter>), EmbreeError> {
         let (id, filter) = match self {
             Part::Triangles(v, i, map) => {
-                let filter = Arc::new(AlphaFilter { map, coverage });
+                let filter = Arc::new(AlphaFilter::new(map, coverage));
                 (
                     builder.attach_filtered_triangles(&v, &i, filter.clone())?,
                     filter,
                 )
             }
             Part::Quads(v, i, map) => {
-                let filter = Arc::new(AlphaFilter { map, coverage });
+                let filter = Arc::new(AlphaFilter::new(map, coverage));
                 (
                     builder.attach_filtered_quads(&v, &i, filter.clone())?,
                     filter,
@@ -392,6 +405,8 @@ pub struct EmbreeAccel {
     /// The geometry of the alpha-tested triangles: its id and its filter (which holds its
     /// map).
     alpha: Option<(u32, Arc<AlphaFilter>)>,
+    /// True when rays carry their key for BLEND's coin ([`ray_key`]): some triangle BLENDs.
+    keyed: bool,
 }
 
 impl EmbreeAccel {
@@ -475,6 +490,7 @@ impl EmbreeAccel {
             placed,
             opaque,
             alpha,
+            keyed: coverage.as_ref().is_some_and(|c| c.blends()),
         })
     }
 
@@ -518,11 +534,22 @@ impl EmbreeAccel {
         }
     }
 
+    /// Ray `r` as Embree takes it: with its key for BLEND's coin as its id where some
+    /// triangle BLENDs, else id 0 (the key's hash is then not computed).
+    #[inline(always)]
+    fn lane(&self, r: &Ray) -> embree::Lane {
+        let id = match self.keyed {
+            true => ray_key(r),
+            false => 0,
+        };
+        (r.org.to_array(), r.dir.to_array(), r.t_min, r.t_max, id)
+    }
+
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let (org, dir, t_min, t_max) = lane(ray);
+        let (org, dir, t_min, t_max, id) = self.lane(ray);
         self.scene
-            .intersect(org, dir, t_min, t_max)
+            .intersect_id(org, dir, t_min, t_max, id)
             .map(|h| self.to_hit(h))
     }
 
@@ -530,21 +557,24 @@ impl EmbreeAccel {
     #[inline]
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>; PACKET]) {
         hits[rays.len()..].fill(None);
-        self.scene
-            .intersect_packet(rays, lane, |i, h| hits[i] = h.map(|h| self.to_hit(h)));
+        self.scene.intersect_packet(
+            rays,
+            |r| self.lane(r),
+            |i, h| hits[i] = h.map(|h| self.to_hit(h)),
+        );
     }
 
     /// Any-hit answers for up to [`OCCLUSION_PACKET`] rays in one packet query.
     #[inline]
     pub fn occluded_packet(&self, rays: &[Ray], occluded: &mut [bool; OCCLUSION_PACKET]) {
         self.scene
-            .occluded_packet(rays, lane, |i, o| occluded[i] = o);
+            .occluded_packet(rays, |r| self.lane(r), |i, o| occluded[i] = o);
     }
 
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let (org, dir, t_min, t_max) = lane(ray);
-        self.scene.occluded(org, dir, t_min, t_max)
+        let (org, dir, t_min, t_max, id) = self.lane(ray);
+        self.scene.occluded_id(org, dir, t_min, t_max, id)
     }
 
     pub fn memory(&self) -> AccelMemory {
@@ -730,10 +760,16 @@ fn place_instances(
             )));
         }
     }
+    let first_id = first_id.unwrap_or(0);
+    for (_, alpha) in &prototypes {
+        if let Some((_, filter)) = alpha {
+            filter.first_instance.store(first_id, Ordering::Relaxed);
+        }
+    }
     let placed = Placed {
         prototypes,
         instances: scene.instances.clone(),
-        first_id: first_id.unwrap_or(0),
+        first_id,
     };
     Ok((placed, buffers))
 }

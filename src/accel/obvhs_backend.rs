@@ -11,9 +11,8 @@
 //!
 //! Instances ([`crate::scene::Instance`]): each prototype has a BVH of its own triangles
 //! ([`Blas`], the same as the world-space triangles', alpha coverage included: BLEND's coin
-//! reads the world-space ray, where Embree's filter sees the instance's own, so the loader
-//! instances no BLEND material), and a top-level BVH over the
-//! instances' world boxes leads a ray to them; inside an instance the ray is carried into the
+//! reads the world ray's key and the instance, as Embree's filter gets them), and a
+//! top-level BVH over the instances' world boxes leads a ray to them; inside an instance the ray is carried into the
 //! prototype's space by the inverse of its placement (an affine map leaves the ray's
 //! parameter t unchanged, so distances compare across instances).
 
@@ -28,7 +27,7 @@ use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
-use super::coverage::AlphaCoverage;
+use super::coverage::{ray_key, AlphaCoverage};
 use super::{AccelMemory, AccelOptions, BuildQuality, Hit, Ray};
 use crate::scene::{Instance, Scene, NO_INSTANCE};
 
@@ -91,7 +90,7 @@ impl Blas {
     /// The closest hit of `r` within its extent (alpha coverage tested against the caller's
     /// `ray`, where given): its leaf slot and distance.
     #[inline(always)]
-    fn closest(&self, r: ORay, coverage: Option<(&AlphaCoverage, &Ray)>) -> Option<(usize, f32)> {
+    fn closest(&self, r: ORay, coverage: Option<Probe>) -> Option<(usize, f32)> {
         if self.tris.is_empty() {
             return None;
         }
@@ -101,16 +100,16 @@ impl Blas {
             None => self.bvh.ray_traverse(r, &mut hit, |r, slot| {
                 intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
             }),
-            Some((c, ray)) => self
+            Some(probe) => self
                 .bvh
-                .ray_traverse(r, &mut hit, |r, slot| self.hit_distance(slot, r, ray, c)),
+                .ray_traverse(r, &mut hit, |r, slot| self.hit_distance(slot, r, probe)),
         };
         found.then_some((hit.primitive_id as usize, hit.t))
     }
 
     /// True when `r` meets a triangle within its extent (as [`Blas::closest`]).
     #[inline(always)]
-    fn any(&self, r: ORay, coverage: Option<(&AlphaCoverage, &Ray)>) -> bool {
+    fn any(&self, r: ORay, coverage: Option<Probe>) -> bool {
         if self.tris.is_empty() {
             return false;
         }
@@ -119,20 +118,24 @@ impl Blas {
             None => self.bvh.ray_traverse_miss(r, |r, slot| {
                 intersect_triangle(&tris[slot], r).map_or(f32::INFINITY, |(t, _, _)| t)
             }),
-            Some((c, ray)) => self
+            Some(probe) => self
                 .bvh
-                .ray_traverse_miss(r, |r, slot| self.hit_distance(slot, r, ray, c)),
+                .ray_traverse_miss(r, |r, slot| self.hit_distance(slot, r, probe)),
         }
     }
 
-    /// The distance of the hit of `r` (the caller's `ray`, as obvhs takes it) with the
-    /// triangle in leaf slot `slot`, or infinity for a miss or a hole.
+    /// The distance of the hit of `r` with the triangle in leaf slot `slot`, or infinity for
+    /// a miss or a hole (`probe`'s coverage at its ray key and instance).
     #[inline(always)]
-    fn hit_distance(&self, slot: usize, r: &ORay, ray: &Ray, coverage: &AlphaCoverage) -> f32 {
+    fn hit_distance(&self, slot: usize, r: &ORay, probe: Probe) -> f32 {
         match intersect_triangle(&self.tris[slot], r) {
-            // BLEND's coin reads the caller's ray (not obvhs's, whose −0 became +0), as
-            // Embree's filter does.
-            Some((t, u, v)) if coverage.covers(self.ids[slot], u, v, ray) => t,
+            Some((t, u, v))
+                if probe
+                    .coverage
+                    .covers(self.ids[slot], probe.inst, u, v, probe.key) =>
+            {
+                t
+            }
             _ => f32::INFINITY,
         }
     }
@@ -230,7 +233,7 @@ impl Tlas {
 
     /// The closest hit of `r` on an instance (alpha coverage tested as [`Blas::closest`]
     /// says).
-    fn intersect(&self, r: ORay, coverage: Option<(&AlphaCoverage, &Ray)>) -> Option<Hit> {
+    fn intersect(&self, r: ORay, coverage: Option<Probe>) -> Option<Hit> {
         if self.instances.is_empty() {
             return None;
         }
@@ -240,6 +243,7 @@ impl Tlas {
         let mut best = (0, 0);
         let found = self.bvh.ray_traverse(r, &mut hit, |r, slot| {
             let k = self.bvh.primitive_indices[slot] as usize;
+            let coverage = coverage.map(|p| p.inside(k));
             match self.blas(k).closest(self.local(k, r), coverage) {
                 Some((slot, t)) => {
                     best = (k, slot);
@@ -265,17 +269,49 @@ impl Tlas {
     }
 
     /// True when `r` meets an instance.
-    fn occluded(&self, r: ORay, coverage: Option<(&AlphaCoverage, &Ray)>) -> bool {
+    fn occluded(&self, r: ORay, coverage: Option<Probe>) -> bool {
         if self.instances.is_empty() {
             return false;
         }
         !self.bvh.ray_traverse_miss(r, |r, slot| {
             let k = self.bvh.primitive_indices[slot] as usize;
+            let coverage = coverage.map(|p| p.inside(k));
             match self.blas(k).any(self.local(k, r), coverage) {
                 true => f32::NEG_INFINITY,
                 false => f32::INFINITY,
             }
         })
+    }
+}
+
+/// What the alpha test of a hit reads beside the triangle: the coverage, the key of the
+/// caller's ray (world space: not obvhs's copy, whose −0 became +0, nor an instance's local
+/// ray), and the instance the triangle was reached through, as Embree's filter gets them.
+#[derive(Clone, Copy)]
+struct Probe<'a> {
+    coverage: &'a AlphaCoverage,
+    key: u32,
+    inst: u32,
+}
+
+impl<'a> Probe<'a> {
+    fn new(coverage: &'a AlphaCoverage, ray: &Ray) -> Probe<'a> {
+        Probe {
+            coverage,
+            key: match coverage.blends() {
+                true => ray_key(ray),
+                false => 0,
+            },
+            inst: NO_INSTANCE,
+        }
+    }
+
+    /// The probe for triangles of instance `k`.
+    fn inside(self, k: usize) -> Probe<'a> {
+        Probe {
+            inst: k as u32,
+            ..self
+        }
     }
 }
 
@@ -377,7 +413,7 @@ impl ObvhsAccel {
     #[inline(never)]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut r = Self::ray(ray);
-        let coverage = self.coverage.as_deref().map(|c| (c, ray));
+        let coverage = self.coverage.as_deref().map(|c| Probe::new(c, ray));
         let flat = self.flat.closest(r, coverage).map(|(slot, t)| {
             let (t, prim, u, v, n) = self.flat.hit(slot, t, r);
             Hit {
@@ -401,7 +437,7 @@ impl ObvhsAccel {
     #[inline(never)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         let r = Self::ray(ray);
-        let coverage = self.coverage.as_deref().map(|c| (c, ray));
+        let coverage = self.coverage.as_deref().map(|c| Probe::new(c, ray));
         self.flat.any(r, coverage)
             || self
                 .placed

@@ -298,18 +298,21 @@ impl Device {
 /// runs inside Embree's traversal, from any thread, for every hit the geometry's primitives
 /// report to any query. It must not panic: a panic cannot unwind through Embree, and aborts.
 pub trait HitFilter: Send + Sync + 'static {
-    /// True when the hit of the ray `org + t·dir` with primitive `prim` of the geometry, at
-    /// Embree's coordinates (u, v) (as [`RawHit`] reports them), counts; false rejects it and
-    /// the traversal goes on past it.
-    fn accept(&self, prim: u32, u: f32, v: f32, org: [f32; 3], dir: [f32; 3]) -> bool;
+    /// True when the hit of a ray with primitive `prim` of the geometry, at Embree's
+    /// coordinates (u, v) (as [`RawHit`] reports them), counts; false rejects it and the
+    /// traversal goes on past it. `inst` is the instance the geometry was reached through
+    /// ([`INVALID_GEOMETRY_ID`] outside instances) and `ray_id` the id the ray was traced
+    /// with ([`Scene::intersect_id`]): the same inside an instance as outside, where Embree
+    /// hands the filter the ray in the instance's space.
+    fn accept(&self, prim: u32, inst: u32, u: f32, v: f32, ray_id: u32) -> bool;
 }
 
 /// Embree's intersection and occlusion filter callback for a geometry whose user data is an
 /// `F`: asks `F` about each valid lane of the packet of hits and clears the lanes it rejects.
 /// The ray and hit packets are `N` wide, structure of arrays, laid out as `rtcore_ray.h`'s
 /// `RTCRayN_*` and `RTCHitN_*` accessors read them (the same in Embree 3 and 4): ray field k
-/// of lane i at float k·N + i (origin x, y, z: k = 0, 1, 2; direction: 4, 5, 6), hit u, v at
-/// 3·N + i, 4·N + i, primID at 5·N + i.
+/// of lane i at 4-byte word k·N + i (the id: k = 10), hit u, v at 3·N + i, 4·N + i, primID
+/// at 5·N + i, the first level's instID at 7·N + i.
 unsafe extern "C" fn filter_hits<F: HitFilter>(args: *const sys::RTCFilterFunctionNArguments) {
     // SAFETY: Embree passes a valid argument struct for the duration of the call. Its
     // geometryUserPtr is the `F` registered with the geometry in `attach_mesh`, kept alive by
@@ -334,17 +337,16 @@ unsafe extern "C" fn filter_hits<F: HitFilter>(args: *const sys::RTCFilterFuncti
             continue;
         }
         // SAFETY: i < N, and every offset read lies inside the N-wide packets (see above).
-        let (org, dir, u, v, prim) = unsafe {
-            let at = |k: usize| *ray.add(k * n + i);
+        let (ray_id, u, v, prim, inst) = unsafe {
             (
-                [at(0), at(1), at(2)],
-                [at(4), at(5), at(6)],
+                *(ray as *const u32).add(10 * n + i),
                 *hit.add(3 * n + i),
                 *hit.add(4 * n + i),
                 *(hit as *const u32).add(5 * n + i),
+                *(hit as *const u32).add(7 * n + i),
             )
         };
-        if !filter.accept(prim, u, v, org, dir) {
+        if !filter.accept(prim, inst, u, v, ray_id) {
             *lane = 0;
         }
     }
@@ -732,6 +734,13 @@ impl RawRay {
     }
 }
 
+/// The layout facts the filter callback reads (see [`filter_hits`]).
+const _: () = {
+    use std::mem::offset_of;
+    assert!(offset_of!(sys::RTCRay, id) == 10 * 4);
+    assert!(offset_of!(sys::RTCHit, instID) == 7 * 4);
+};
+
 fn make_ray(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> sys::RTCRay {
     sys::RTCRay {
         org_x: org[0],
@@ -795,14 +804,14 @@ const _: () = {
 
 impl VectorRay {
     #[inline(always)]
-    fn new(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> VectorRay {
+    fn new(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32, id: u32) -> VectorRay {
         VectorRay {
             org_tnear: glam::Vec4::new(org[0], org[1], org[2], tnear),
             dir_time: glam::Vec4::new(dir[0], dir[1], dir[2], 0.0),
             tfar,
             // Embree 4 enables ray masks by default: a zero mask would miss everything.
             mask: u32::MAX,
-            id: 0,
+            id,
             flags: 0,
         }
     }
@@ -880,7 +889,7 @@ struct Valid<const N: usize>([i32; N]);
 trait RayLanes<const N: usize>: Sized {
     /// The packet with every field zero.
     fn zeroed() -> Self;
-    fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32);
+    fn set(&mut self, i: usize, lane: Lane);
     /// Embree's any-hit query of the lanes `valid` marks, in `scene` (committed).
     fn occlude(&mut self, valid: &Valid<N>, scene: sys::RTCScene);
     /// True when an occlusion query found an occluder for lane i (Embree sets tfar to −∞).
@@ -897,7 +906,8 @@ macro_rules! ray_lanes {
                 unsafe { std::mem::zeroed() }
             }
             #[inline(always)]
-            fn set(&mut self, i: usize, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) {
+            fn set(&mut self, i: usize, (org, dir, tnear, tfar, id): Lane) {
+                self.id[i] = id;
                 self.org_x[i] = org[0];
                 self.org_y[i] = org[1];
                 self.org_z[i] = org[2];
@@ -935,19 +945,21 @@ macro_rules! ray_lanes {
 ray_lanes!(sys::RTCRay8, 8, rtcOccluded8);
 ray_lanes!(sys::RTCRay16, 16, rtcOccluded16);
 
-/// Writes `ray(&rays[i])` = (org, dir, tnear, tfar) into lane i of `packet` and returns the
-/// mask with those lanes valid.
+/// One ray of a packet: origin, direction, tnear, tfar and id ([`Scene::intersect_id`]).
+pub type Lane = ([f32; 3], [f32; 3], f32, f32, u32);
+
+/// Writes `ray(&rays[i])` into lane i of `packet` and returns the mask with those lanes
+/// valid.
 #[inline(always)]
 fn pack<const N: usize, R>(
     rays: &[R],
-    ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+    ray: impl Fn(&R) -> Lane,
     packet: &mut impl RayLanes<N>,
 ) -> Valid<N> {
     assert!(rays.len() <= N, "more rays than a packet holds");
     let mut valid = Valid([0; N]);
     for (i, r) in rays.iter().enumerate() {
-        let (org, dir, tnear, tfar) = ray(r);
-        packet.set(i, org, dir, tnear, tfar);
+        packet.set(i, ray(r));
         valid.0[i] = -1;
     }
     valid
@@ -1016,8 +1028,22 @@ impl Scene {
     /// The closest hit along `org + t·dir` for t in `[tnear, tfar]`, if any.
     #[inline]
     pub fn intersect(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> Option<RawHit> {
+        self.intersect_id(org, dir, tnear, tfar, 0)
+    }
+
+    /// [`Scene::intersect`] of a ray with id `id`, which hit filters receive
+    /// ([`HitFilter::accept`]) in and out of instances alike.
+    #[inline]
+    pub fn intersect_id(
+        &self,
+        org: [f32; 3],
+        dir: [f32; 3],
+        tnear: f32,
+        tfar: f32,
+        id: u32,
+    ) -> Option<RawHit> {
         let mut rayhit = VectorRayHit {
-            ray: VectorRay::new(org, dir, tnear, tfar),
+            ray: VectorRay::new(org, dir, tnear, tfar, id),
             hit: sys::RTCHit {
                 geomID: INVALID_GEOMETRY_ID,
                 primID: INVALID_GEOMETRY_ID,
@@ -1055,7 +1081,7 @@ impl Scene {
 
     /// The closest hits of up to [`PACKET`] coherent rays (camera rays of neighbouring pixels)
     /// in one call of Embree's 8-wide packet API, with the coherent hint.
-    /// `ray(&rays[i])` gives ray i as (org, dir, tnear, tfar), and `hit(i, …)` receives its
+    /// `ray(&rays[i])` gives ray i as a [`Lane`], and `hit(i, …)` receives its
     /// answer, for every i < `rays.len()`; the other lanes are masked off. (Closures, so that
     /// callers pack from and unpack into their own types without intermediate copies.) The
     /// answers equal those of [`Scene::intersect`] ray by ray (tested in tests/embree.rs),
@@ -1065,7 +1091,7 @@ impl Scene {
     pub fn intersect_packet<R>(
         &self,
         rays: &[R],
-        ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+        ray: impl Fn(&R) -> Lane,
         mut hit: impl FnMut(usize, Option<RawHit>),
     ) {
         // SAFETY: all-zero bytes are a valid value of this plain struct of floats and
@@ -1111,14 +1137,14 @@ impl Scene {
     pub fn occluded_packet<R>(
         &self,
         rays: &[R],
-        ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+        ray: impl Fn(&R) -> Lane,
         mut occluded: impl FnMut(usize, bool),
     ) {
         match rays.len() {
             0 => {}
             1 => {
-                let (org, dir, tnear, tfar) = ray(&rays[0]);
-                occluded(0, self.occluded(org, dir, tnear, tfar));
+                let (org, dir, tnear, tfar, id) = ray(&rays[0]);
+                occluded(0, self.occluded_id(org, dir, tnear, tfar, id));
             }
             2..=PACKET => self.occluded_lanes::<PACKET, sys::RTCRay8, R>(rays, ray, occluded),
             _ => self.occluded_lanes::<OCCLUSION_PACKET, sys::RTCRay16, R>(rays, ray, occluded),
@@ -1130,7 +1156,7 @@ impl Scene {
     fn occluded_lanes<const N: usize, P: RayLanes<N>, R>(
         &self,
         rays: &[R],
-        ray: impl Fn(&R) -> ([f32; 3], [f32; 3], f32, f32),
+        ray: impl Fn(&R) -> Lane,
         mut occluded: impl FnMut(usize, bool),
     ) {
         let mut packet = P::zeroed();
@@ -1142,7 +1168,20 @@ impl Scene {
     /// True when anything lies along `org + t·dir` for t in `[tnear, tfar]`.
     #[inline]
     pub fn occluded(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
-        let mut ray = VectorRay::new(org, dir, tnear, tfar);
+        self.occluded_id(org, dir, tnear, tfar, 0)
+    }
+
+    /// [`Scene::occluded`] of a ray with id `id` (see [`Scene::intersect_id`]).
+    #[inline]
+    pub fn occluded_id(
+        &self,
+        org: [f32; 3],
+        dir: [f32; 3],
+        tnear: f32,
+        tfar: f32,
+        id: u32,
+    ) -> bool {
+        let mut ray = VectorRay::new(org, dir, tnear, tfar, id);
         let ptr = (&mut ray as *mut VectorRay).cast::<sys::RTCRay>();
         #[cfg(embree3)]
         {

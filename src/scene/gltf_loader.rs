@@ -591,7 +591,7 @@ fn estimate_memory(
     let mut est = MemoryEstimate::default();
     for mesh in doc.meshes() {
         let placements = uses[mesh.index()];
-        let copies = match instanced_mesh(&mesh, placements, flatten_instances) {
+        let copies = match instanced_mesh(placements, flatten_instances) {
             true => {
                 est.instances = est.instances.saturating_add(placements);
                 1
@@ -619,16 +619,11 @@ fn estimate_memory(
 }
 
 /// True when `mesh`, placed `placements` times, is stored once and instanced: placed more than
-/// once (unless `flatten_instances`), and no primitive's material BLEND (its coin reads the
-/// ray, which an instance's triangles see in their own space: such a mesh is flattened, a copy
-/// per placement). MASK coverage depends on the point alone, and is tested inside instances;
-/// an emitting mesh's triangles are lights once per instance.
-fn instanced_mesh(mesh: &gltf::Mesh, placements: u64, flatten_instances: bool) -> bool {
-    placements >= 2
-        && !flatten_instances
-        && mesh
-            .primitives()
-            .all(|p| p.material().alpha_mode() != gltf::material::AlphaMode::Blend)
+/// once, unless `flatten_instances`. Alpha coverage is tested inside instances (BLEND's coin
+/// reads the world ray's key and the instance: `accel::coverage`), and an emitting mesh's
+/// triangles are lights once per instance.
+fn instanced_mesh(placements: u64, flatten_instances: bool) -> bool {
+    placements >= 2 && !flatten_instances
 }
 
 /// The document's buffers; the external files read are added to `files`.
@@ -1273,8 +1268,7 @@ impl Loader<'_> {
                 Some(instances) => instances.iter().map(|m| world * *m).collect(),
                 None => vec![world],
             };
-            let instanced =
-                instanced_mesh(&mesh, self.mesh_uses[mesh.index()], self.flatten_instances);
+            let instanced = instanced_mesh(self.mesh_uses[mesh.index()], self.flatten_instances);
             for (k, placed) in placements.iter().enumerate() {
                 if !placed.is_finite() {
                     return Err(format!(

@@ -318,10 +318,10 @@ pub enum Light {
 }
 
 /// A mesh drawn in several places: its triangles, stored once in [`Scene::triangles`] in the
-/// mesh's own space, which each [`Instance`] places. The loader makes prototypes of meshes
-/// without emission or BLEND only (light sampling sees world-space triangles, and BLEND's coin
-/// reads the ray: a mesh with either is flattened, one copy per placement); MASK coverage is
-/// tested inside instances.
+/// mesh's own space, which each [`Instance`] places: every mesh placed more than once, unless
+/// `--flatten-instances`. Alpha coverage (MASK, and BLEND, whose coin reads the instance and
+/// the world ray's key) is tested inside instances; an emitting prototype's triangles are
+/// lights once per instance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Prototype {
     /// Its triangles, `triangles.start..triangles.end` of [`Scene::triangles`].
