@@ -11,8 +11,9 @@
 # (textured-quad orientation, camera handedness, point-light and emission radiometry) and the
 # renders. Needs python3 (3.11) and oiiotool (Debian: openimageio-tools). Not run by CI.
 # STRATA_MITSUBA_VARIANT picks the Mitsuba variant (default scalar_rgb). With --materials gltf the
-# checks of the glTF BRDF plugin (check_gltf_bsdf.py) and of the glass BSDFs (check_glass_bsdf.py)
-# run first too; their chi-square tests need the llvm_ad_rgb variant, which needs Debian's libllvm19.
+# checks of the glTF BRDF plugin (check_gltf_bsdf.py), of the glass BSDFs (check_glass_bsdf.py) and
+# of the clear-coat plugin (check_coat_bsdf.py) run first too; their chi-square tests need the
+# llvm_ad_rgb variant, which needs Debian's libllvm19.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -44,6 +45,7 @@ for arg in "$@"; do
     if [ "$arg" = "--materials=gltf" ] || { [ "$prev" = "--materials" ] && [ "$arg" = "gltf" ]; }; then
         (cd "$check_dir" && "$venv/bin/python" "$here/check_gltf_bsdf.py")
         (cd "$check_dir" && "$venv/bin/python" "$here/check_glass_bsdf.py")
+        (cd "$check_dir" && "$venv/bin/python" "$here/check_coat_bsdf.py")
         break
     fi
     prev="$arg"

@@ -8,7 +8,7 @@ Run through tools/references/make_references.sh (which makes the pinned virtuale
     make_references.sh --materials gltf        # shaded jobs with the glTF BRDF (see "material")
     python3 mitsuba_refs.py --list             # the job names
     python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera), radiometry, environment map,
-                                          # glass refusals
+                                          # glass and coat refusals
 
 The conversion is written from the glTF alone (nothing is tuned per scene); the contract it
 implements is strata's (see scenes/references/README.md):
@@ -53,6 +53,19 @@ implements is strata's (see scenes/references/README.md):
     (1 - F) tint). Mitsuba's own `thindielectric` (R = 2F/(1 + F)) is a different sheet: the
     negative control job thin-glass-thindielectric (CONTROLS) uses it for the smooth sheets.
     Glass scenes take strata --max-depth 16 (PATH_DEPTH; Mitsuba max_depth 17).
+  - clear coat (gltf only): a material with KHR_materials_clearcoat is strata's `Layered` coat
+    over the glTF BRDF (src/shading/layers.rs, energy compensation off), converted by
+    coat_props() when the coat is uniform: clearcoatTexture, clearcoatRoughnessTexture,
+    clearcoatNormalTexture, a normalTexture of the base, other extensions and emission are
+    refused (ConversionError). It becomes the `gltf_coated` plugin of coat_bsdf.py with the
+    material's gltf_metal_rough (as above, textures included) nested as its base, clearcoat =
+    clearcoatFactor and clearcoat_roughness = clearcoatRoughnessFactor (both default 0; alpha_c
+    = r^2, a mirror below 1e-3): f = c Fc f_coat + (1 - c Fc) f_base with Fc = 0.04 + 0.96 (1 -
+    n.wi)^5, Schlick's Fresnel of the coat's index 1.5 at the view angle (KHR_materials_clearcoat,
+    "Layering": fresnel_coat uses N.V, not V.H), f_coat = D V of GGX around the vertex normal,
+    neither Fresnel-weighted again nor divided by its albedo; check_coat_bsdf.py checks it. A
+    coat of weight 0 is no coat (the plain gltf_metal_rough, as strata drops it). The negative
+    control job coat-f0-0.028 (CONTROLS) gives every coat f0 0.028 (index 1.4).
   `ao` jobs ignore --materials.
 - emission: a one-sided `area` emitter with radiance = emissiveFactor x emissiveTexture x
   KHR_materials_emissive_strength. A doubleSided emissive material is refused unless its
@@ -109,6 +122,7 @@ import scene_hash  # noqa: E402
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
+import coat_bsdf  # noqa: E402
 import glass_bsdf  # noqa: E402
 import gltf_bsdf  # noqa: E402
 
@@ -135,6 +149,9 @@ SCENES = {
     "thin-glass": ("scenes/thin-glass.gltf", (128, 96)),
     # A negative control (CONTROLS), not a reference: thin-glass with Mitsuba's thindielectric.
     "thin-glass-thindielectric": ("scenes/thin-glass.gltf", (128, 96)),
+    # Clear coats (tools/scenes/make_coat.py), and a negative control: coats of index 1.4.
+    "coat": ("scenes/coat.gltf", (128, 96)),
+    "coat-f0-0.028": ("scenes/coat.gltf", (128, 96)),
 }
 # Scenes lit by an HDR environment map: strata's --env FILE (repository-relative), --env-rotate
 # (degrees about +Y). Poly Haven's studio_small_05 (CC0) puts nearly all its light in half of
@@ -159,6 +176,13 @@ CONTROLS = {
                        "Mitsuba's thindielectric (R = 2F/(1 + F): the light reflected back and forth inside the "
                        "sheet), a different model from strata's and the extension's (R = F). strata's thin-glass "
                        "render must fail the comparison against it.",
+    },
+    "coat-f0-0.028": {
+        "coat_model": "f0-0.028",
+        "description": "NEGATIVE CONTROL, not a reference: scenes/coat.gltf with every clear coat's reflectance at "
+                       "normal incidence 0.028 (a coat of index 1.4) instead of the extension's 0.04 (index 1.5), "
+                       "through the same gltf_coated plugin. strata's coat render must fail the comparison "
+                       "against it.",
     },
 }
 # Jobs: (scene, integrator, total spp, passes). Passes use spp/passes samples each.
@@ -193,6 +217,10 @@ JOBS = [
     ("glass", "path", 8192, 32),
     ("thin-glass", "path", 8192, 32),
     ("thin-glass-thindielectric", "path", 8192, 32),
+    # Clear coats (--materials gltf): smooth, half-weight and rough coats and an uncoated twin;
+    # and the coats' negative control (CONTROLS).
+    ("coat", "path", 8192, 32),
+    ("coat-f0-0.028", "path", 8192, 32),
 ]
 # Material models (--materials): what every glTF material of a shaded job becomes.
 MATERIAL_MODELS = {
@@ -218,7 +246,7 @@ COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 512
 NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_transmission",
-                        "KHR_materials_volume", "KHR_materials_ior"}
+                        "KHR_materials_volume", "KHR_materials_ior", "KHR_materials_clearcoat"}
 
 
 class Gltf:
@@ -449,11 +477,12 @@ def check_texture_info(info, what):
 # scene conversion
 # ---------------------------------------------------------------------------------------
 
-def material_props(g, mat_index, mode, materials="lambertian", warnings=None, glass=None):
+def material_props(g, mat_index, mode, materials="lambertian", warnings=None, glass=None, coat=None):
     """(bsdf dict, emitter dict or None, needs_uv, interior medium dict or None) for a material,
     in mode 'ao' or 'shaded', with the material model `materials` ('lambertian' or 'gltf', see
     MATERIAL_MODELS). `glass`: a dict that collects the conversion of each transmissive
-    material (glass_props), with the key "thin_model" (THIN_MODELS) read from it."""
+    material (glass_props), with the key "thin_model" (THIN_MODELS) read from it. `coat`: the
+    same for clear-coated materials (coat_props), with the key "coat_model" (COAT_MODELS)."""
     white = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}}
     if mode == "ao":
         return white, None, False, None
@@ -478,6 +507,11 @@ def material_props(g, mat_index, mode, materials="lambertian", warnings=None, gl
         glass = {} if glass is None else glass
         bsdf, medium, what = glass_props(mat, name, reflectance, glass.get("thin_model", "strata"))
         glass.setdefault("materials", {})[name] = what
+    elif materials == "gltf" and "KHR_materials_clearcoat" in mat.get("extensions", {}):
+        coat = {} if coat is None else coat
+        bsdf, mr_uv, what = coat_props(g, mat, name, reflectance, warnings, coat.get("coat_model", "strata"))
+        coat.setdefault("materials", {})[name] = what
+        needs_uv |= mr_uv
     elif materials == "gltf":
         bsdf, mr_uv = gltf_bsdf_dict(g, mat, name, reflectance, warnings)
         needs_uv |= mr_uv
@@ -614,10 +648,75 @@ def glass_props(mat, name, base_color, thin_model="strata"):
     return bsdf, medium, what
 
 
-def gltf_bsdf_dict(g, mat, name, base_color, warnings):
+# How a clear coat is converted (coat_props).
+COAT_MODELS = {
+    "strata": "gltf_coated (tools/references/coat_bsdf.py): KHR_materials_clearcoat's layering as strata's "
+              "Layered without energy compensation: c Fc(n.wi) f_coat + (1 - c Fc(n.wi)) f_base, Fc Schlick's "
+              "Fresnel of f0 0.04 (index 1.5) at the view angle, f_coat GGX D V of alpha clearcoatRoughness^2 "
+              "(a mirror below alpha 1e-3), f_base gltf_metal_rough",
+    "f0-0.028": "NEGATIVE CONTROL: gltf_coated with the coat's f0 0.028 (a coat of index 1.4) instead of the "
+                "extension's 0.04 (index 1.5)",
+}
+# Extensions a coated material may carry: the coat, and emissive strength (a coated material
+# must not emit; checked by coat_props).
+COAT_EXTENSIONS = {"KHR_materials_clearcoat", "KHR_materials_emissive_strength"}
+
+
+def coat_props(g, mat, name, base_color, warnings, coat_model="strata"):
+    """(bsdf dict, needs_uv, description) of a material with KHR_materials_clearcoat, as strata
+    renders it (Materials::gltf_bsdf and Layered, src/shading/layers.rs) with energy compensation
+    off: the gltf_coated plugin of coat_bsdf.py over the material's glTF BRDF (gltf_bsdf_dict,
+    which may be textured). The coat itself must be uniform: clearcoatTexture,
+    clearcoatRoughnessTexture and clearcoatNormalTexture are refused, and so is a normalTexture
+    of the base (strata keeps the coat on the vertex normal under the base's normal map; the
+    conversion has no normal maps), other extensions (they change the base under the coat) and
+    emission (the extension darkens emission under the coat; the conversion does not model it).
+    clearcoatFactor c (default 0) and clearcoatRoughnessFactor r (default 0) become the plugin's
+    clearcoat and clearcoat_roughness (alpha = r^2); a coat of weight 0 is no coat (strata drops
+    it), the plain glTF BRDF. coat_model "f0-0.028" (a negative control) gives every coat the
+    reflectance of index 1.4."""
+    if coat_model not in COAT_MODELS:
+        raise ValueError(f"coat_model {coat_model!r} is not one of {sorted(COAT_MODELS)}")
+    ext = mat.get("extensions", {})
+    cc = ext["KHR_materials_clearcoat"]
+    problems = []
+    textures = [t for t in ("clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture") if t in cc]
+    if textures:
+        problems.append(f"{', '.join(textures)}: only an untextured coat is converted")
+    if "normalTexture" in mat:
+        problems.append("a normalTexture under a clear coat is not converted (strata keeps the coat on the vertex "
+                        "normal; the conversion has no normal maps)")
+    others = sorted(set(ext) - COAT_EXTENSIONS)
+    if others:
+        problems.append(f"extensions {others} beside a clear coat are not converted")
+    strength = ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    if any(float(e) * strength > 0 for e in mat.get("emissiveFactor", [0, 0, 0])):
+        problems.append("an emissive coated material is not converted")
+    factor = float(cc.get("clearcoatFactor", 0.0))
+    roughness = float(cc.get("clearcoatRoughnessFactor", 0.0))
+    if not (0.0 <= factor <= 1.0 and 0.0 <= roughness <= 1.0):
+        problems.append(f"clearcoatFactor {factor} and clearcoatRoughnessFactor {roughness} must lie in [0, 1]")
+    if problems:
+        raise ConversionError(f"material '{name}': " + "; ".join(problems))
+    base, needs_uv = gltf_bsdf_dict(g, mat, name, base_color, warnings, coated=True)
+    if factor == 0.0:
+        return base, needs_uv, {"clearcoat": 0.0, "mitsuba": gltf_bsdf.PLUGIN_NAME + " (a coat of weight 0)"}
+    coat_bsdf.register()
+    bsdf = {"type": coat_bsdf.PLUGIN_NAME, "clearcoat": factor, "clearcoat_roughness": roughness, "base": base}
+    what = {"clearcoat": factor, "clearcoat_roughness": roughness, "alpha": roughness * roughness,
+            "mitsuba": coat_bsdf.PLUGIN_NAME}
+    if coat_model == "f0-0.028":
+        bsdf["coat_f0"] = 0.028
+        what["coat_f0"] = 0.028
+        what["mitsuba"] += " with coat_f0 0.028 (negative control)"
+    return bsdf, needs_uv, what
+
+
+def gltf_bsdf_dict(g, mat, name, base_color, warnings, coated=False):
     """The glTF BRDF plugin (gltf_bsdf.py) for material `mat`, and whether it needs TEXCOORD_0.
     metallic = metallicFactor x metallicRoughnessTexture.B, roughness = roughnessFactor x
-    metallicRoughnessTexture.G (linear data, glTF's defaults 1 and 1)."""
+    metallicRoughnessTexture.G (linear data, glTF's defaults 1 and 1). `coated`: the base of a
+    clear coat (coat_props), whose KHR_materials_clearcoat is converted, not ignored."""
     gltf_bsdf.register()
     pbr = mat.get("pbrMetallicRoughness", {})
     metallic = float(pbr.get("metallicFactor", 1.0))
@@ -632,6 +731,8 @@ def gltf_bsdf_dict(g, mat, name, base_color, warnings):
         needs_uv = True
     for ext in mat.get("extensions", {}):
         msg = f"material '{name}': {ext} ignored (the reference uses the core glTF BRDF)"
+        if coated and ext == "KHR_materials_clearcoat":
+            continue
         if ext in GLTF_BRDF_EXTENSIONS_IGNORED and warnings is not None and msg not in warnings:
             warnings.append(msg)
     return {"type": gltf_bsdf.PLUGIN_NAME, "base_color": base_color, "metallic": metallic,
@@ -661,16 +762,18 @@ def make_mesh(name, pos, faces, normals, uvs, bsdf, emitter, interior=None):
     return mesh
 
 
-def convert(path, mode, resolution, max_depth, materials="lambertian", environment=None, thin_model="strata"):
+def convert(path, mode, resolution, max_depth, materials="lambertian", environment=None, thin_model="strata",
+            coat_model="strata"):
     """Mitsuba scene dict for glTF `path`. mode 'ao' or 'shaded'; materials 'lambertian' or 'gltf'
     (MATERIAL_MODELS); environment: an ENVIRONMENTS entry that lights a shaded scene in place of
-    its background, or None; thin_model: how thin-walled glass is converted (THIN_MODELS).
-    Returns (dict, info)."""
+    its background, or None; thin_model: how thin-walled glass is converted (THIN_MODELS);
+    coat_model: how clear coats are converted (COAT_MODELS). Returns (dict, info)."""
     g = Gltf(path)
     doc = g.doc
     scene = {"type": "scene"}
     info = {"triangles": 0, "meshes": 0, "lights": [], "emissive_materials": set(), "warnings": []}
     glass = {"thin_model": thin_model}
+    coat = {"coat_model": coat_model}
     media = False
     camera = None
     lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
@@ -694,7 +797,7 @@ def convert(path, mode, resolution, max_depth, materials="lambertian", environme
                     tris = tris[:, [0, 2, 1]]
                 wpos = pos @ lin.T + world[:3, 3]
                 bsdf, emitter, needs_uv, medium = material_props(g, prim.get("material"), mode, materials,
-                                                                 info["warnings"], glass)
+                                                                 info["warnings"], glass, coat)
                 media |= medium is not None
                 normals = None
                 if "NORMAL" in attrs and emitter is None and normal_m is not None:
@@ -779,6 +882,9 @@ def convert(path, mode, resolution, max_depth, materials="lambertian", environme
     info["emissive_materials"] = sorted(info["emissive_materials"])
     if "materials" in glass:
         info["glass"] = {"thin_model": thin_model, "materials": glass["materials"]}
+    if "materials" in coat:
+        info["coat"] = {"coat_model": coat_model, "description": COAT_MODELS[coat_model],
+                        "materials": coat["materials"]}
     return scene, info
 
 
@@ -1001,8 +1107,9 @@ def job_convert(scene_name, integrator, materials):
     rel, res = SCENES[scene_name]
     mdepth, _ = depths(scene_name, integrator)
     thin_model = CONTROLS.get(scene_name, {}).get("thin_model", "strata")
+    coat_model = CONTROLS.get(scene_name, {}).get("coat_model", "strata")
     return convert(os.path.join(REPO, rel), "ao" if integrator == "ao" else "shaded", res, mdepth,
-                   materials, ENVIRONMENTS.get(scene_name), thin_model)
+                   materials, ENVIRONMENTS.get(scene_name), thin_model, coat_model)
 
 
 def strata_args(integrator, strata_depth, res, background, materials="lambertian", environment=None):
@@ -1105,6 +1212,8 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         entry["materials"] = {"model": materials, "description": MATERIAL_MODELS[materials]}
     if "glass" in info:
         entry["glass"] = info["glass"]
+    if "coat" in info:
+        entry["coat"] = info["coat"]
     if scene_name in CONTROLS:
         entry["control"] = CONTROLS[scene_name]["description"]
     return entry
@@ -1450,6 +1559,61 @@ def check_glass_refusals():
     return ok, lines
 
 
+def check_coat_refusals():
+    """coat_props() converts an untextured coat over the glTF BRDF and refuses what it cannot
+    convert exactly: each material below must raise ConversionError naming it; the plain coats
+    must convert (weight 0: the base alone; the control's f0 on request)."""
+    pbr = {"baseColorFactor": [0.7, 0.06, 0.05, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}
+    cc = {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.3}
+
+    def coated(coat=None, **extra):
+        m = {"pbrMetallicRoughness": pbr, "extensions": {"KHR_materials_clearcoat": dict(cc, **(coat or {}))}}
+        for k, v in extra.items():
+            if k == "extensions":
+                m["extensions"].update(v)
+            else:
+                m[k] = v
+        return m
+
+    refused = {
+        "coat texture": coated({"clearcoatTexture": {"index": 0}}),
+        "coat roughness texture": coated({"clearcoatRoughnessTexture": {"index": 0}}),
+        "coat normal texture": coated({"clearcoatNormalTexture": {"index": 0}}),
+        "base normal map": coated(normalTexture={"index": 0}),
+        "coat and ior": coated(extensions={"KHR_materials_ior": {"ior": 1.4}}),
+        "coat and sheen": coated(extensions={"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}),
+        "emissive coat": coated(emissiveFactor=[1.0, 0.5, 0.0]),
+        "coat weight 2": coated({"clearcoatFactor": 2.0}),
+    }
+    lines, ok = [], True
+    red = {"type": "rgb", "value": [0.7, 0.06, 0.05]}
+    gltf_bsdf.register()
+    for name, mat in refused.items():
+        try:
+            coat_props(None, mat, name, red, [])
+            good, why = False, "converted"
+        except ConversionError as e:
+            good, why = f"'{name}'" in str(e), str(e)
+        ok &= good
+        lines.append(f"{'ok  ' if good else 'FAIL'} coat refused, {name}: {why}")
+    try:
+        bsdf, _, _ = coat_props(None, coated(), "coat", red, [])
+        plain, _, _ = coat_props(None, coated({"clearcoatFactor": 0.0}), "no coat", red, [])
+        control, _, _ = coat_props(None, coated(), "control", red, [], "f0-0.028")
+        good = (bsdf["type"] == coat_bsdf.PLUGIN_NAME and bsdf["clearcoat"] == 1.0
+                and bsdf["clearcoat_roughness"] == 0.3 and "coat_f0" not in bsdf
+                and bsdf["base"]["type"] == gltf_bsdf.PLUGIN_NAME and bsdf["base"]["roughness"] == 0.5
+                and plain["type"] == gltf_bsdf.PLUGIN_NAME and control["coat_f0"] == 0.028)
+        mi.load_dict(bsdf)
+    except ConversionError as e:
+        good = False
+        lines.append(str(e))
+    ok &= good
+    lines.append(f"{'ok  ' if good else 'FAIL'} plain coats convert: gltf_coated over gltf_metal_rough; weight 0 the "
+                 "base alone; the control's coat_f0 0.028")
+    return ok, lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("jobs", nargs="*", help="scene.integrator names (default: all)")
@@ -1472,8 +1636,9 @@ def main():
         ok2, lines2 = check_radiometry(args.check)
         ok3, lines3 = check_environment()
         ok4, lines4 = check_glass_refusals()
-        print("\n".join(lines1 + lines2 + lines3 + lines4))
-        ok = ok1 and ok2 and ok3 and ok4
+        ok5, lines5 = check_coat_refusals()
+        print("\n".join(lines1 + lines2 + lines3 + lines4 + lines5))
+        ok = ok1 and ok2 and ok3 and ok4 and ok5
         print("checks:", "passed" if ok else "FAILED")
         return 0 if ok else 1
     if args.list:
