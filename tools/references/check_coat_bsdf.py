@@ -27,8 +27,10 @@ rough blue metal at incidence 0, 45 and 85 degrees, and negative controls: the c
 must reject the pdf of a coat alpha 5% larger (85 degrees, where the coat takes 65% of the
 samples, over both bases), of a coat roughness a third larger (normal incidence, where it takes
 4%) and of the coat chosen with probability 1/2 instead of c Fc; and the pointwise comparison
-must see the Fresnel term taken at wi.h instead of n.wi, and a coat of f0 0.028 (index 1.4)
-instead of 0.04 (both run in every variant).
+must see the Fresnel term taken at wi.h instead of n.wi, a coat of f0 0.028 (index 1.4)
+instead of 0.04, and the base not weighted by 1 - c Fc (these run in every variant; the plugin's
+coat_f0 and attenuate_base, which make the reference's negative controls, must equal the formula
+changed the same way).
 """
 import argparse
 import math
@@ -64,11 +66,12 @@ COATS = ((1.0, 0.3), (1.0, 0.6), (0.5, 0.3), (0.2, 1.0), (1.0, 0.0), (0.5, 0.0))
 # the model, written out independently (numpy, float64)
 # ---------------------------------------------------------------------------------------
 
-def coat_model(coat, base, wi, wo, f0=0.04, fresnel_at_half=False):
+def coat_model(coat, base, wi, wo, f0=0.04, fresnel_at_half=False, additive=False):
     """(f cos (N, 3), pdf (N,)) of a coat (weight c, roughness r) over `base` (name, colour,
     metallic, roughness), for direction pairs wi, wo (N, 3), both sides (the back face is the
     mirrored front face). The continuous lobes only: a smooth coat's mirror is not in eval.
-    `fresnel_at_half`: the Fresnel term at wi.h (a negative control, not the model)."""
+    Negative controls, not the model: `fresnel_at_half`, the Fresnel term at wi.h; `additive`,
+    the base not weighted by 1 - c Fc."""
     c, r = coat
     _, colour, metallic, roughness = base
     wi, wo = np.array(wi, dtype=np.float64), np.array(wo, dtype=np.float64)
@@ -87,7 +90,7 @@ def coat_model(coat, base, wi, wo, f0=0.04, fresnel_at_half=False):
     p = c * (f0 + (1 - f0) * (1 - np.clip(ci, 0, 1)) ** 5)  # its sampling probability
     with np.errstate(invalid="ignore", divide="ignore"):  # h = 0 where wo = -wi (masked)
         f_base, pdf_base = base_check.model(colour, metallic, roughness, wi, wo)
-    value = (1 - w)[:, None] * f_base
+    value = (1.0 if additive else (1 - w)[:, None]) * f_base
     pdf = (1 - p) * pdf_base
     if alpha >= SMOOTH_ALPHA:
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -110,18 +113,20 @@ def base_fresnel(base, ci):
 # the plugin
 # ---------------------------------------------------------------------------------------
 
-def coat_dict(coat, base, f0=None):
+def coat_dict(coat, base, f0=None, attenuate_base=None):
     _, colour, metallic, roughness = base
     d = {"type": coat_bsdf.PLUGIN_NAME, "clearcoat": float(coat[0]), "clearcoat_roughness": float(coat[1]),
          "base": {"type": gltf_bsdf.PLUGIN_NAME, "base_color": {"type": "rgb", "value": list(colour)},
                   "metallic": float(metallic), "roughness": float(roughness)}}
     if f0 is not None:
         d["coat_f0"] = f0
+    if attenuate_base is not None:
+        d["attenuate_base"] = attenuate_base
     return d
 
 
-def plugin(coat, base, f0=None):
-    return mi.load_dict(coat_dict(coat, base, f0))
+def plugin(coat, base, f0=None, attenuate_base=None):
+    return mi.load_dict(coat_dict(coat, base, f0, attenuate_base))
 
 
 def sample(bsdf, wi, u1, u2):
@@ -295,6 +300,17 @@ def check_model_controls():
     ok &= good
     lines.append(f"{'ok  ' if good else 'FAIL'} coat_f0 0.028 against the formula with f0 0.028: max relative error "
                  f"{e:.1e} (bound 2e-4)")
+    additive, _ = eval_pdf(plugin(coat, base, attenuate_base=False), wi, wo)
+    e = relative_error(additive, coat_model(coat, base, wi, wo)[0])
+    good = e > 0.01
+    ok &= good
+    lines.append(f"{'ok  ' if good else 'FAIL'} negative control, attenuate_base false (the base not weighted by "
+                 f"1 - c Fc) against the formula: max relative difference {e:.2f} (must exceed 0.01)")
+    e = relative_error(additive, coat_model(coat, base, wi, wo, additive=True)[0])
+    good = e < 2e-4
+    ok &= good
+    lines.append(f"{'ok  ' if good else 'FAIL'} attenuate_base false against the additive formula: max relative "
+                 f"error {e:.1e} (bound 2e-4)")
     return ok, lines
 
 

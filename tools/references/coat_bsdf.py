@@ -50,6 +50,8 @@ Parameters:
 - clearcoat_roughness: float in [0, 1] (default 0): clearcoatRoughnessFactor (alpha_c = r^2);
 - coat_f0: float (default 0.04): the coat's reflectance at normal incidence. Only negative
   controls change it (0.028: a coat of index 1.4 instead of the extension's 1.5).
+- attenuate_base: bool (default true): the base weighted by 1 - w. Only negative controls turn
+  it off (f cos = w f_coat n.wo + f_base n.wo: the coat added on top, gaining energy).
 
 Variants: RGB ones (scalar_rgb, llvm_ad_rgb). Use:
 
@@ -116,6 +118,7 @@ def _make_class():
             rough = min(max(float(props.get("clearcoat_roughness", 0.0)), 0.0), 1.0)
             self.alpha = rough * rough
             self.f0 = float(props.get("coat_f0", COAT_F0))
+            self.attenuate_base = bool(props.get("attenuate_base", True))
             self.smooth = self.alpha < SMOOTH_ALPHA
             coat = (+F.DeltaReflection if self.smooth else +F.GlossyReflection) | +sides
             self.m_components = [coat] + [self.base.flags(k) for k in range(self.base.component_count())]
@@ -149,6 +152,10 @@ def _make_class():
                 p = mi.Float(1.0 if coat_on else 0.0)
             return w, p
 
+        def _base_weight(self, w):
+            """The base's weight under the coat: 1 - w (1 in the additive negative control)."""
+            return 1.0 - w if self.attenuate_base else 1.0
+
         def _distribution(self):
             return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, max(self.alpha, SMOOTH_ALPHA), True)
 
@@ -162,7 +169,7 @@ def _make_class():
             pdf = mi.Float(0.0)
             if base_on:
                 base_value, base_pdf = self.base.eval_pdf(base_ctx, si, wo, active)
-                value += (1.0 - w) * base_value
+                value += self._base_weight(w) * base_value
                 pdf += (1.0 - p) * base_pdf
             if coat_on and not self.smooth:
                 above = active & (cos_o > 0.0)
@@ -229,7 +236,7 @@ def _make_class():
             # The mirrors: the lobe's weight over the probability of drawing it.
             weight = dr.select(coat_delta, w / dr.maximum(p, 1e-30), weight)
             pdf = dr.select(coat_delta, p, pdf)
-            weight = dr.select(base_delta, (1.0 - w) * w_base / dr.maximum(1.0 - p, 1e-30), weight)
+            weight = dr.select(base_delta, self._base_weight(w) * w_base / dr.maximum(1.0 - p, 1e-30), weight)
             pdf = dr.select(base_delta, (1.0 - p) * bs_base.pdf, pdf)
             valid = valid & (pdf > 0.0)
 
@@ -246,6 +253,6 @@ def _make_class():
 
         def to_string(self):
             return (f"GltfCoated[clearcoat={self.weight}, alpha={self.alpha}, coat_f0={self.f0}, "
-                    f"base={self.base}]")
+                    f"attenuate_base={self.attenuate_base}, base={self.base}]")
 
     return GltfCoated

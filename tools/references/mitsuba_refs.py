@@ -65,7 +65,8 @@ implements is strata's (see scenes/references/README.md):
     "Layering": fresnel_coat uses N.V, not V.H), f_coat = D V of GGX around the vertex normal,
     neither Fresnel-weighted again nor divided by its albedo; check_coat_bsdf.py checks it. A
     coat of weight 0 is no coat (the plain gltf_metal_rough, as strata drops it). The negative
-    control job coat-f0-0.028 (CONTROLS) gives every coat f0 0.028 (index 1.4).
+    control jobs (CONTROLS) change the model: coat-f0-0.028 gives every coat f0 0.028 (index
+    1.4), coat-additive leaves out the base's weight 1 - c Fc.
   `ao` jobs ignore --materials.
 - emission: a one-sided `area` emitter with radiance = emissiveFactor x emissiveTexture x
   KHR_materials_emissive_strength. A doubleSided emissive material is refused unless its
@@ -149,9 +150,11 @@ SCENES = {
     "thin-glass": ("scenes/thin-glass.gltf", (128, 96)),
     # A negative control (CONTROLS), not a reference: thin-glass with Mitsuba's thindielectric.
     "thin-glass-thindielectric": ("scenes/thin-glass.gltf", (128, 96)),
-    # Clear coats (tools/scenes/make_coat.py), and a negative control: coats of index 1.4.
+    # Clear coats (tools/scenes/make_coat.py), and two negative controls: coats of index 1.4, and
+    # coats that do not darken the material below them.
     "coat": ("scenes/coat.gltf", (128, 96)),
     "coat-f0-0.028": ("scenes/coat.gltf", (128, 96)),
+    "coat-additive": ("scenes/coat.gltf", (128, 96)),
 }
 # Scenes lit by an HDR environment map: strata's --env FILE (repository-relative), --env-rotate
 # (degrees about +Y). Poly Haven's studio_small_05 (CC0) puts nearly all its light in half of
@@ -183,6 +186,13 @@ CONTROLS = {
                        "normal incidence 0.028 (a coat of index 1.4) instead of the extension's 0.04 (index 1.5), "
                        "through the same gltf_coated plugin. strata's coat render must fail the comparison "
                        "against it.",
+    },
+    "coat-additive": {
+        "coat_model": "additive",
+        "description": "NEGATIVE CONTROL, not a reference: scenes/coat.gltf with every clear coat added over its "
+                       "base without darkening it (c Fc f_coat + f_base, where the extension and strata weight the "
+                       "base by 1 - c Fc), through the same gltf_coated plugin. strata's coat render must fail the "
+                       "comparison against it.",
     },
 }
 # Jobs: (scene, integrator, total spp, passes). Passes use spp/passes samples each.
@@ -218,9 +228,10 @@ JOBS = [
     ("thin-glass", "path", 8192, 32),
     ("thin-glass-thindielectric", "path", 8192, 32),
     # Clear coats (--materials gltf): smooth, half-weight and rough coats and an uncoated twin;
-    # and the coats' negative control (CONTROLS).
+    # and the coats' negative controls (CONTROLS).
     ("coat", "path", 8192, 32),
     ("coat-f0-0.028", "path", 8192, 32),
+    ("coat-additive", "path", 8192, 32),
 ]
 # Material models (--materials): what every glTF material of a shaded job becomes.
 MATERIAL_MODELS = {
@@ -656,6 +667,8 @@ COAT_MODELS = {
               "(a mirror below alpha 1e-3), f_base gltf_metal_rough",
     "f0-0.028": "NEGATIVE CONTROL: gltf_coated with the coat's f0 0.028 (a coat of index 1.4) instead of the "
                 "extension's 0.04 (index 1.5)",
+    "additive": "NEGATIVE CONTROL: gltf_coated with attenuate_base false: c Fc f_coat + f_base, the coat added "
+                "over a base that it does not darken (the factor 1 - c Fc left out)",
 }
 # Extensions a coated material may carry: the coat, and emissive strength (a coated material
 # must not emit; checked by coat_props).
@@ -673,8 +686,8 @@ def coat_props(g, mat, name, base_color, warnings, coat_model="strata"):
     emission (the extension darkens emission under the coat; the conversion does not model it).
     clearcoatFactor c (default 0) and clearcoatRoughnessFactor r (default 0) become the plugin's
     clearcoat and clearcoat_roughness (alpha = r^2); a coat of weight 0 is no coat (strata drops
-    it), the plain glTF BRDF. coat_model "f0-0.028" (a negative control) gives every coat the
-    reflectance of index 1.4."""
+    it), the plain glTF BRDF. Negative controls: coat_model "f0-0.028" gives every coat the
+    reflectance of index 1.4, "additive" leaves out the base's weight 1 - c Fc."""
     if coat_model not in COAT_MODELS:
         raise ValueError(f"coat_model {coat_model!r} is not one of {sorted(COAT_MODELS)}")
     ext = mat.get("extensions", {})
@@ -709,6 +722,10 @@ def coat_props(g, mat, name, base_color, warnings, coat_model="strata"):
         bsdf["coat_f0"] = 0.028
         what["coat_f0"] = 0.028
         what["mitsuba"] += " with coat_f0 0.028 (negative control)"
+    elif coat_model == "additive":
+        bsdf["attenuate_base"] = False
+        what["attenuate_base"] = False
+        what["mitsuba"] += " with attenuate_base false (negative control)"
     return bsdf, needs_uv, what
 
 
@@ -1600,17 +1617,19 @@ def check_coat_refusals():
         bsdf, _, _ = coat_props(None, coated(), "coat", red, [])
         plain, _, _ = coat_props(None, coated({"clearcoatFactor": 0.0}), "no coat", red, [])
         control, _, _ = coat_props(None, coated(), "control", red, [], "f0-0.028")
+        additive, _, _ = coat_props(None, coated(), "additive", red, [], "additive")
         good = (bsdf["type"] == coat_bsdf.PLUGIN_NAME and bsdf["clearcoat"] == 1.0
                 and bsdf["clearcoat_roughness"] == 0.3 and "coat_f0" not in bsdf
                 and bsdf["base"]["type"] == gltf_bsdf.PLUGIN_NAME and bsdf["base"]["roughness"] == 0.5
-                and plain["type"] == gltf_bsdf.PLUGIN_NAME and control["coat_f0"] == 0.028)
+                and plain["type"] == gltf_bsdf.PLUGIN_NAME and control["coat_f0"] == 0.028
+                and additive["attenuate_base"] is False and "attenuate_base" not in bsdf)
         mi.load_dict(bsdf)
     except ConversionError as e:
         good = False
         lines.append(str(e))
     ok &= good
     lines.append(f"{'ok  ' if good else 'FAIL'} plain coats convert: gltf_coated over gltf_metal_rough; weight 0 the "
-                 "base alone; the control's coat_f0 0.028")
+                 "base alone; the controls' coat_f0 0.028 and attenuate_base false")
     return ok, lines
 
 
