@@ -26,8 +26,10 @@
 //! image shifted by one pixel (what a camera off by one pixel gives), and on ambient
 //! occlusion computed with the wrong hemisphere warp (uniform, without the cosine weight);
 //! the glass references, on glass made wrong (index, roughness, absorption) and on strata's
-//! true thin sheets against Mitsuba's different `thindielectric`. Manifest rows marked
-//! `control` are such wrong models: only that last test reads them.
+//! true thin sheets against Mitsuba's different `thindielectric`; the clear-coat reference, on
+//! coats made wrong (removed, smooth, at full weight, energy-compensated) and on strata's true
+//! coats against two other coat models. Manifest rows marked `control` are such wrong models:
+//! only those last two tests read them.
 //!
 //! A failed comparison leaves strata's image, its variance, the reference and idiff's
 //! difference image in `target/tmp/reference-results/<test>/<scene>.<integrator>/` and names
@@ -871,4 +873,129 @@ fn glass_references_fail_on_wrong_glass() {
         rejects(&control, &img, &path, ".true-vs-thindielectric"),
         "strata's thin sheet passed against Mitsuba's thindielectric"
     );
+}
+
+/// A clear-coated material (KHR_materials_clearcoat) of the edited scene.
+fn is_coated(m: &Value) -> bool {
+    m["extensions"]["KHR_materials_clearcoat"].is_object()
+}
+
+/// The clear-coat reference (scenes/coat.gltf; the `gltf_coated` plugin of
+/// tools/references/coat_bsdf.py over the glTF BRDF) rejects strata's coats made wrong, each
+/// with the comparison its true render passes (scenes/references/README.md, "Coat", has the
+/// numbers):
+///
+/// - every coat removed (clearcoatFactor 0);
+/// - the rough coat (clearcoatRoughnessFactor 0.3) made smooth;
+/// - the half-weight coat (clearcoatFactor 0.5) at full weight;
+/// - energy compensation on, strata's default, which divides the rough coat's lobe by its
+///   albedo (and the rough metal's by its own);
+/// - strata's true render against the two controls of the manifest (`control` rows made with
+///   the same plugin): every coat of index 1.4 (f0 0.028 instead of 0.04), and every coat added
+///   over a base it does not darken (the factor 1 − c·Fc left out);
+/// - and, as for every reference, the true image 3% darker or shifted one pixel.
+#[test]
+fn coat_references_fail_on_wrong_coats() {
+    let use_idiff = idiff_available();
+    let coat = reference("coat.path");
+    let (img, path, _) = render_strata(&coat, &[], "");
+    compare(&coat, &img, &path, "", use_idiff)
+        .unwrap_or_else(|e| panic!("the true coat image must pass first: {e}"));
+    let rejects = |r: &Reference, img: &Image, p: &Path, tag: &str| {
+        let outcome = compare(r, img, p, tag, use_idiff);
+        eprintln!("{} against {}: {outcome:?}", tag, r.name);
+        outcome.is_err()
+    };
+    let dir = results_dir(&coat);
+    let write = |tag: &str, img: &Image| {
+        let p = dir.join(format!("strata{tag}.exr"));
+        let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+        write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
+        p
+    };
+    let mut darker = img.clone();
+    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
+    let p = write(".darker", &darker);
+    assert!(
+        rejects(&coat, &darker, &p, ".darker"),
+        "a 3% darker image passed"
+    );
+    let mut shifted = img.clone();
+    for y in 0..img.h {
+        for x in (1..img.w).rev() {
+            shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
+            shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
+        }
+    }
+    let p = write(".shifted", &shifted);
+    assert!(
+        rejects(&coat, &shifted, &p, ".shifted"),
+        "a one-pixel shift passed"
+    );
+
+    let coat_field = |m: &Value, k: &str, default: f64| {
+        m["extensions"]["KHR_materials_clearcoat"][k]
+            .as_f64()
+            .unwrap_or(default)
+    };
+    let uncoated = with_edited_materials(&coat, ".no-coat", |m| {
+        is_coated(m) && {
+            m["extensions"]["KHR_materials_clearcoat"]["clearcoatFactor"] = serde_json::json!(0.0);
+            true
+        }
+    });
+    let smooth = with_edited_materials(&coat, ".rough-coat-made-smooth", |m| {
+        is_coated(m) && coat_field(m, "clearcoatRoughnessFactor", 0.0) > 0.0 && {
+            m["extensions"]["KHR_materials_clearcoat"]["clearcoatRoughnessFactor"] =
+                serde_json::json!(0.0);
+            true
+        }
+    });
+    let full = with_edited_materials(&coat, ".half-coat-at-full-weight", |m| {
+        is_coated(m) && coat_field(m, "clearcoatFactor", 0.0) < 1.0 && {
+            m["extensions"]["KHR_materials_clearcoat"]["clearcoatFactor"] = serde_json::json!(1.0);
+            true
+        }
+    });
+    for (wrong, tag) in [
+        (&uncoated, ".no-coat"),
+        (&smooth, ".rough-coat-made-smooth"),
+        (&full, ".half-coat-at-full-weight"),
+    ] {
+        let (img, p, _) = render_strata(wrong, &[], tag);
+        assert!(rejects(&coat, &img, &p, tag), "coat{tag} passed");
+    }
+    let mut compensated = coat.clone();
+    compensated
+        .strata_args
+        .retain(|a| a != "--energy-compensation" && a != "off");
+    let (img_on, p, _) = render_strata(
+        &compensated,
+        &["--energy-compensation", "on"],
+        ".compensated",
+    );
+    assert!(
+        rejects(&coat, &img_on, &p, ".compensated"),
+        "coat with energy compensation passed"
+    );
+
+    // strata's true render against the controls: other models, made by the same plugin.
+    let controls: Vec<Reference> = manifest()
+        .into_iter()
+        .filter(|r| r.control && r.scene == coat.scene)
+        .collect();
+    assert_eq!(
+        controls.len(),
+        2,
+        "the coat's negative controls (coat-f0-0.028.path, coat-additive.path)"
+    );
+    for control in &controls {
+        assert_eq!(control.strata_args, coat.strata_args);
+        let tag = format!(".true-vs-{}", control.name);
+        assert!(
+            rejects(control, &img, &path, &tag),
+            "strata's coats passed against the control {}",
+            control.name
+        );
+    }
 }
