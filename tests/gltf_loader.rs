@@ -594,6 +594,27 @@ fn the_index_of_refraction_is_read() {
     assert!(s.material_warnings().iter().all(|w| !w.contains("ior")));
 }
 
+/// Loads `doc` with `material` (named 'bad') as its only material from `dir/bad.gltf`, and
+/// checks that it is refused with one message naming the file, the material, `extension` and
+/// `words`.
+fn assert_material_refused(
+    dir: &Path,
+    doc: &mut Value,
+    material: Value,
+    extension: &str,
+    words: &str,
+) {
+    doc["materials"] = json!([material]);
+    let path = dir.join("bad.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let err = scene::load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    for w in ["bad.gltf", "'bad'", extension, words] {
+        assert!(err.contains(w), "{w:?} missing from: {err}");
+    }
+}
+
 /// KHR_materials_anisotropy: strength, rotation and texture read, honoured when required,
 /// silent when rendered; a strength of 0 is no anisotropy; bad values are refused naming the
 /// file, the material and the property; glass with anisotropy says its glass renders
@@ -658,15 +679,8 @@ fn the_anisotropy_is_read() {
             "texture 7",
         ),
     ] {
-        doc["materials"] = json!([aniso("bad", ext)]);
-        let path = dir.path().join("bad.gltf");
-        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-        let err = scene::load(&path, &LoadOptions::default())
-            .unwrap_err()
-            .to_string();
-        for w in ["bad.gltf", "'bad'", "KHR_materials_anisotropy", words] {
-            assert!(err.contains(w), "{w:?} missing from: {err}");
-        }
+        let bad = aniso("bad", ext);
+        assert_material_refused(dir.path(), &mut doc, bad, "KHR_materials_anisotropy", words);
     }
 }
 
@@ -718,15 +732,14 @@ fn the_dispersion_is_read() {
     );
     assert!(!s.load_warnings.iter().any(|w| w.contains("ignores")));
 
-    doc["materials"] = json!([material("bad", json!(-0.5), true)]);
-    let path = dir.path().join("bad.gltf");
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    let err = scene::load(&path, &LoadOptions::default())
-        .unwrap_err()
-        .to_string();
-    for w in ["bad.gltf", "'bad'", "KHR_materials_dispersion", "-0.5"] {
-        assert!(err.contains(w), "{w:?} missing from: {err}");
-    }
+    let bad = material("bad", json!(-0.5), true);
+    assert_material_refused(
+        dir.path(),
+        &mut doc,
+        bad,
+        "KHR_materials_dispersion",
+        "-0.5",
+    );
 }
 
 /// KHR_materials_iridescence: factor, film index, thickness range and textures read with the
@@ -807,15 +820,14 @@ fn the_iridescence_is_read() {
             "iridescenceThicknessMaximum -3.0",
         ),
     ] {
-        doc["materials"] = json!([film("bad", ext)]);
-        let path = dir.path().join("bad.gltf");
-        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-        let err = scene::load(&path, &LoadOptions::default())
-            .unwrap_err()
-            .to_string();
-        for w in ["bad.gltf", "'bad'", "KHR_materials_iridescence", words] {
-            assert!(err.contains(w), "{w:?} missing from: {err}");
-        }
+        let bad = film("bad", ext);
+        assert_material_refused(
+            dir.path(),
+            &mut doc,
+            bad,
+            "KHR_materials_iridescence",
+            words,
+        );
     }
 }
 
