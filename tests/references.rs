@@ -572,45 +572,8 @@ fn comparisons_fail_on_wrong_images() {
         "suzanne-studio.path",
     ] {
         let r = manifest().into_iter().find(|r| r.name == name).expect(name);
-        let (img, path, _) = render_strata(&r, &[], "");
-        compare(&r, &img, &path, "", use_idiff)
-            .unwrap_or_else(|e| panic!("the true image must pass first: {e}"));
-        // Each control's outcome is printed (shown with --nocapture): how far it fails.
-        let rejects = |img: &Image, p: &Path, tag: &str| {
-            let outcome = compare(&r, img, p, tag, use_idiff);
-            eprintln!("{name}{tag}: {outcome:?}");
-            outcome.is_err()
-        };
-        let dir = results_dir(&r);
-        let write = |tag: &str, img: &Image| {
-            let p = dir.join(format!("strata{tag}.exr"));
-            let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
-            write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
-            p
-        };
-
-        // 3% darker.
-        let mut darker = img.clone();
-        darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
-        let p = write(".darker", &darker);
-        assert!(
-            rejects(&darker, &p, ".darker"),
-            "{name}: a 3% darker image passed"
-        );
-
-        // Shifted one pixel to the right (the first column repeated).
-        let mut shifted = img.clone();
-        for y in 0..img.h {
-            for x in (1..img.w).rev() {
-                shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
-                shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
-            }
-        }
-        let p = write(".shifted", &shifted);
-        assert!(
-            rejects(&shifted, &p, ".shifted"),
-            "{name}: a one-pixel shift passed"
-        );
+        true_image_passes_and_tampered_ones_fail(&r, use_idiff);
+        let rejects = |img: &Image, p: &Path, tag: &str| rejects(&r, img, p, tag, use_idiff);
 
         // The shaded references are the specification's single-scattering model: the same
         // scene as Lambertian clay differs, and so do the Cornell box (roughness 0.5) and the
@@ -740,6 +703,52 @@ fn povray_and_strata_lambertian_agree_on_point_lights() {
     );
 }
 
+/// True when the comparison with `r` fails strata's image `img` (written at `p`, named by
+/// `tag`); the outcome is printed (shown with --nocapture): how far it fails.
+fn rejects(r: &Reference, img: &Image, p: &Path, tag: &str, use_idiff: bool) -> bool {
+    let outcome = compare(r, img, p, tag, use_idiff);
+    eprintln!("{}{tag}: {outcome:?}", r.name);
+    outcome.is_err()
+}
+
+/// Renders `r` with strata and checks that the true image passes, and that the same image 3%
+/// darker, or shifted one pixel to the right (the first column repeated), fails; returns the
+/// true image and its path.
+fn true_image_passes_and_tampered_ones_fail(r: &Reference, use_idiff: bool) -> (Image, PathBuf) {
+    let (img, path, _) = render_strata(r, &[], "");
+    compare(r, &img, &path, "", use_idiff)
+        .unwrap_or_else(|e| panic!("{}: the true image must pass first: {e}", r.name));
+    let dir = results_dir(r);
+    let write = |tag: &str, img: &Image| {
+        let p = dir.join(format!("strata{tag}.exr"));
+        let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
+        write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
+        p
+    };
+    let mut darker = img.clone();
+    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
+    let p = write(".darker", &darker);
+    assert!(
+        rejects(r, &darker, &p, ".darker", use_idiff),
+        "{}: a 3% darker image passed",
+        r.name
+    );
+    let mut shifted = img.clone();
+    for y in 0..img.h {
+        for x in (1..img.w).rev() {
+            shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
+            shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
+        }
+    }
+    let p = write(".shifted", &shifted);
+    assert!(
+        rejects(r, &shifted, &p, ".shifted", use_idiff),
+        "{}: a one-pixel shift passed",
+        r.name
+    );
+    (img, path)
+}
+
 /// The reference of manifest row `name` (a file name without `.exr`).
 fn reference(name: &str) -> Reference {
     manifest()
@@ -790,40 +799,9 @@ fn is_glass(m: &Value) -> bool {
 fn glass_references_fail_on_wrong_glass() {
     let use_idiff = idiff_available();
     let glass = reference("glass.path");
-    let (img, path, _) = render_strata(&glass, &[], "");
-    compare(&glass, &img, &path, "", use_idiff)
-        .unwrap_or_else(|e| panic!("the true glass image must pass first: {e}"));
-    let rejects = |r: &Reference, img: &Image, p: &Path, tag: &str| {
-        let outcome = compare(r, img, p, tag, use_idiff);
-        eprintln!("{} against {}: {outcome:?}", tag, r.name);
-        outcome.is_err()
-    };
-    let dir = results_dir(&glass);
-    let write = |tag: &str, img: &Image| {
-        let p = dir.join(format!("strata{tag}.exr"));
-        let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
-        write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
-        p
-    };
-    let mut darker = img.clone();
-    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
-    let p = write(".darker", &darker);
-    assert!(
-        rejects(&glass, &darker, &p, ".darker"),
-        "a 3% darker image passed"
-    );
-    let mut shifted = img.clone();
-    for y in 0..img.h {
-        for x in (1..img.w).rev() {
-            shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
-            shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
-        }
-    }
-    let p = write(".shifted", &shifted);
-    assert!(
-        rejects(&glass, &shifted, &p, ".shifted"),
-        "a one-pixel shift passed"
-    );
+    true_image_passes_and_tampered_ones_fail(&glass, use_idiff);
+    let rejects =
+        |r: &Reference, img: &Image, p: &Path, tag: &str| rejects(r, img, p, tag, use_idiff);
 
     let wrong_ior = with_edited_materials(&glass, ".ior-1.4", |m| {
         is_glass(m) && {
@@ -898,40 +876,9 @@ fn is_coated(m: &Value) -> bool {
 fn coat_references_fail_on_wrong_coats() {
     let use_idiff = idiff_available();
     let coat = reference("coat.path");
-    let (img, path, _) = render_strata(&coat, &[], "");
-    compare(&coat, &img, &path, "", use_idiff)
-        .unwrap_or_else(|e| panic!("the true coat image must pass first: {e}"));
-    let rejects = |r: &Reference, img: &Image, p: &Path, tag: &str| {
-        let outcome = compare(r, img, p, tag, use_idiff);
-        eprintln!("{} against {}: {outcome:?}", tag, r.name);
-        outcome.is_err()
-    };
-    let dir = results_dir(&coat);
-    let write = |tag: &str, img: &Image| {
-        let p = dir.join(format!("strata{tag}.exr"));
-        let v: Vec<glam::Vec3> = img.px.iter().map(|p| glam::Vec3::from_array(*p)).collect();
-        write_rgb_exr(&p, img.w as u32, img.h as u32, &v, &[]).unwrap();
-        p
-    };
-    let mut darker = img.clone();
-    darker.px.iter_mut().flatten().for_each(|v| *v *= 0.97);
-    let p = write(".darker", &darker);
-    assert!(
-        rejects(&coat, &darker, &p, ".darker"),
-        "a 3% darker image passed"
-    );
-    let mut shifted = img.clone();
-    for y in 0..img.h {
-        for x in (1..img.w).rev() {
-            shifted.px[y * img.w + x] = img.px[y * img.w + x - 1];
-            shifted.var[y * img.w + x] = img.var[y * img.w + x - 1];
-        }
-    }
-    let p = write(".shifted", &shifted);
-    assert!(
-        rejects(&coat, &shifted, &p, ".shifted"),
-        "a one-pixel shift passed"
-    );
+    let (img, path) = true_image_passes_and_tampered_ones_fail(&coat, use_idiff);
+    let rejects =
+        |r: &Reference, img: &Image, p: &Path, tag: &str| rejects(r, img, p, tag, use_idiff);
 
     let coat_field = |m: &Value, k: &str, default: f64| {
         m["extensions"]["KHR_materials_clearcoat"][k]
