@@ -924,12 +924,10 @@ impl Loader<'_> {
         }
         let dispersion = match m.extension_value("KHR_materials_dispersion") {
             None => 0.0,
-            Some(ext) => match ext.get("dispersion") {
-                None => 0.0,
-                Some(d) => (d.as_f64()).filter(|d| d.is_finite() && *d >= 0.0).ok_or_else(|| {
-                    format!("{label} KHR_materials_dispersion: dispersion {d} is not a number of at least 0")
-                })? as f32,
-            },
+            Some(ext) => {
+                let what = format!("{label} KHR_materials_dispersion");
+                number_at_least(ext, "dispersion", 0.0, 0.0, &what)?
+            }
         };
         if dispersion > 0.0 && !(transmission_factor > 0.0 && volume.is_some()) {
             self.warnings.push(format!(
@@ -1063,20 +1061,9 @@ impl Loader<'_> {
         };
         let what = format!("{label} KHR_materials_iridescence");
         let factor = unit_number(ext, "iridescenceFactor", 0.0, &what)?;
-        let number = |key: &str, default: f64, least: f64| -> Result<f32> {
-            match ext.get(key) {
-                None => Ok(default as f32),
-                Some(v) => (v.as_f64())
-                    .filter(|x| x.is_finite() && *x >= least)
-                    .map(|x| x as f32)
-                    .ok_or_else(|| {
-                        format!("{what}: {key} {v} is not a number of at least {least}")
-                    }),
-            }
-        };
-        let ior = number("iridescenceIOR", 1.3, 1.0)?;
-        let thickness_min = number("iridescenceThicknessMinimum", 100.0, 0.0)?;
-        let thickness_max = number("iridescenceThicknessMaximum", 400.0, 0.0)?;
+        let ior = number_at_least(ext, "iridescenceIOR", 1.3, 1.0, &what)?;
+        let thickness_min = number_at_least(ext, "iridescenceThicknessMinimum", 100.0, 0.0, &what)?;
+        let thickness_max = number_at_least(ext, "iridescenceThicknessMaximum", 400.0, 0.0, &what)?;
         let texture = self.extension_texture(ext, "iridescenceTexture", &what)?;
         let thickness_texture =
             self.extension_texture(ext, "iridescenceThicknessTexture", &what)?;
@@ -1850,6 +1837,24 @@ fn unit_number(ext: &gltf::json::Value, key: &str, default: f32, what: &str) -> 
             Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
             _ => Err(format!("{what}: {key} {v} is not a number between 0 and 1")),
         },
+    }
+}
+
+/// The number at `key` of an extension's JSON, `default` where absent; an error naming `what`
+/// where it is not a finite number of at least `least`.
+fn number_at_least(
+    ext: &gltf::json::Value,
+    key: &str,
+    default: f32,
+    least: f64,
+    what: &str,
+) -> Result<f32> {
+    match ext.get(key) {
+        None => Ok(default),
+        Some(v) => (v.as_f64())
+            .filter(|x| x.is_finite() && *x >= least)
+            .map(|x| x as f32)
+            .ok_or_else(|| format!("{what}: {key} {v} is not a number of at least {least}")),
     }
 }
 
