@@ -148,18 +148,18 @@ impl Anisotropy {
         AnisotropicGgx::new(self.alpha_t, self.alpha_b)
     }
 
-    /// Local direction `w` in the frame whose x axis is the stretch's direction.
+    /// Local direction `w` in the frame whose x axis is the stretch's direction: turned
+    /// about z by the direction's angle backwards.
     #[inline(always)]
     fn turn(&self, w: Vec3) -> Vec3 {
-        let (c, s) = (self.direction.x, self.direction.y);
-        Vec3::new(c * w.x + s * w.y, c * w.y - s * w.x, w.z)
+        let back = Vec2::new(self.direction.x, -self.direction.y);
+        back.rotate(w.truncate()).extend(w.z)
     }
 
     /// The inverse of [`Anisotropy::turn`].
     #[inline(always)]
     fn turn_back(&self, w: Vec3) -> Vec3 {
-        let (c, s) = (self.direction.x, self.direction.y);
-        Vec3::new(c * w.x - s * w.y, s * w.x + c * w.y, w.z)
+        self.direction.rotate(w.truncate()).extend(w.z)
     }
 }
 

@@ -566,11 +566,7 @@ impl Materials {
             strength *= texel.z;
         }
         // Turned counter-clockwise from the tangent toward the bitangent.
-        let (c, s) = (anisotropy.rotation.x, anisotropy.rotation.y);
-        let turned = Vec2::new(
-            c * direction.x - s * direction.y,
-            s * direction.x + c * direction.y,
-        );
+        let turned = anisotropy.rotation.rotate(direction);
         let world = t * turned.x + b * turned.y;
         Some((strength, Onb::from_normal(shaded.ns).to_local(world)))
     }
