@@ -35,7 +35,7 @@ pub struct Experiments {
     /// camera ray in 4.9 M on the helmet, docs/journal/benchmarks-2026-11.md, "Packets").
     pub camera_packets: bool,
     /// Leave untraced the pixel blocks that cannot see the scene
-    /// ([`crate::render::culling::BlockMask`]); the image is the same either way (tested).
+    /// ([`crate::accel::culling::BlockMask`]); the image is the same either way (tested).
     pub cull_blocks: bool,
     /// Path tracing: the first light point comes with the film position, and a bounce's
     /// BSDF direction with the light point of the next vertex ([`crate::integrators::path`]).

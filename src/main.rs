@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use strata::accel::Accel;
 use strata::cli::{Args, DenoiseArgs, MergeArgs};
 use strata::integrators::Prepared;
-use strata::job::Job;
+use strata::job::{header, Job};
 use strata::render::merge::{self, Part};
 use strata::render::output::{self, Attr, Ids};
 use strata::render::{self, Checkpoint, Film, RenderStats};
@@ -258,7 +258,7 @@ fn run(args: Args) -> Result<Outcome> {
 /// Loads, builds, renders and writes one job (one frame).
 fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     // A shard's settings, from the options alone (before the scene changes the job).
-    let settings_hash = job.share.map(|_| merge::settings_hash(&job));
+    let settings_hash = job.share.map(|_| header::settings_hash(&job));
     // Load.
     let t_load = Instant::now();
     let scene = scene::load(&job.scene, &job.load_options())?;
@@ -326,10 +326,10 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     };
     let settings = job.render_settings(&view);
     let progress = progress_bar(&job);
-    let mut header = output::header_attributes(&job, &accel.describe());
+    let mut header = header::header_attributes(&job, &accel.describe());
     if let (Some(share), Some(hash)) = (job.share, &settings_hash) {
         header.extend(
-            merge::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
+            header::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
         );
     }
     let write_images =
@@ -378,7 +378,7 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
 
     // Denoise. If the denoiser fails, the raw image is still written before the error.
     let t_denoise = Instant::now();
-    let mut attrs = output::result_attributes(&job, &result);
+    let mut attrs = header::result_attributes(&job, &result);
     let denoised = job.denoise.map(|options| {
         let options = strata::denoise::Options { threads, ..options };
         let denoised = strata::denoise::denoise_film(&result.film, &options);

@@ -28,7 +28,7 @@
 //! Why here, beside the backends and not in `shading`: whether a hit exists is the
 //! acceleration structure's answer, which both backends must give alike (Embree through its
 //! filter callbacks, obvhs inside its traversal), and which no integrator must ever see a hole
-//! in. It borrows only the texture lookup from [`crate::shading::texture`].
+//! in. It borrows only the texture lookup from [`crate::texture`].
 //!
 //! [`AlphaCoverage::build`] decodes only the base colour images of the MASK and BLEND
 //! materials that some triangle uses, keeps their alpha channel alone, and builds nothing for
@@ -41,7 +41,7 @@ use glam::Vec2;
 use super::Ray;
 use crate::sampling::hash::{hash_words, unit_f32};
 use crate::scene::{AlphaMode, Scene, TextureRef};
-use crate::shading::texture::{transform_uv, Image};
+use crate::texture::{transform_uv, Image};
 
 /// `slot` of a triangle that is not alpha-tested.
 const NOT_TESTED: u32 = u32::MAX;

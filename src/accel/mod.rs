@@ -15,8 +15,11 @@
 //! coverage itself, and nothing for a scene without alpha-tested materials.
 //!
 //! Backends form a closed set, dispatched by `match` (no virtual calls in the ray loop).
+//! [`culling`] finds, from the scene's cluster boxes, the pixel blocks whose camera rays can
+//! meet no triangle, so that the renderer need not trace them.
 
 mod coverage;
+pub mod culling;
 mod embree_backend;
 mod obvhs_backend;
 

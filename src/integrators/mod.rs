@@ -4,6 +4,7 @@
 //! [`PixelSampler`], draws its dimensions in a fixed order, and returns one estimate.
 
 pub mod ao;
+pub(crate) mod emitters;
 pub mod path;
 
 use glam::{Vec3, Vec3A};
@@ -17,6 +18,7 @@ use crate::shading::{
 };
 use crate::shading::{LocalBsdf, SurfaceInteraction};
 
+pub use crate::record::{Features, SampleRecord};
 pub use ao::{AoSettings, Hemisphere};
 pub use path::{PathSettings, Strategy};
 
@@ -134,11 +136,11 @@ pub struct RayCounts {
     /// Any-hit rays: shadow rays toward lights, and ambient-occlusion rays.
     pub shadow: u64,
     /// Camera rays, counted in `camera`, that the renderer found to miss the scene without
-    /// traversal: those of pixel blocks that cannot see it ([`crate::render::culling`]), and
+    /// traversal: those of pixel blocks that cannot see it ([`crate::accel::culling`]), and
     /// of packets whose rays all miss the scene's box. They were not traced.
     pub culled: u64,
     /// Camera rays traced before the render, through pixel corners, to find the pixels
-    /// that see an emitter whole (the renderer's `emitters` module).
+    /// that see an emitter whole ([`emitters`]).
     pub probe: u64,
 }
 
@@ -160,39 +162,6 @@ impl RayCounts {
         self.culled += other.culled;
         self.probe += other.probe;
     }
-}
-
-/// What one sample of a pixel estimates: the radiance along its camera ray and, when the
-/// render keeps feature layers ([`Context::features`]), what the ray's first hit looks like
-/// (pbrt-v4's `VisibleSurface`, Mitsuba's AOVs): one record through one entry point,
-/// [`Integrator::li_packet`], so that passes and a denoiser need no second path.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SampleRecord {
-    /// The radiance estimate (in 16-byte lanes: a value stored as three floats and loaded
-    /// as a pair and a float defeats store-to-load forwarding).
-    pub l: Vec3A,
-    /// The first hit's features; None for a ray that meets nothing, or when not asked for.
-    pub features: Option<Features>,
-    /// The camera ray's first hit's triangle and instance ([`crate::render::FirstHit`]: its
-    /// index in [`Scene::triangles`], the hit's primitive id, and the hit's instance), which
-    /// ID passes name by its glTF node, mesh and material; None for a ray that meets nothing,
-    /// or when not asked for ([`Context::ids`]).
-    pub triangle: Option<u64>,
-}
-
-/// The first surface a camera ray meets, as feature layers describe it.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Features {
-    /// The reflectance of its BSDF (ρ for diffuse reflection; 1 for AO).
-    pub albedo: Vec3,
-    /// The unit shading normal in world space, on the side the camera sees.
-    pub normal: Vec3,
-    /// The distance from the camera ray's origin to the hit.
-    pub depth: f32,
-    /// The world-space point hit.
-    pub position: Vec3,
-    /// Its interpolated TEXCOORD_0 (zero where the scene has none).
-    pub uv: glam::Vec2,
 }
 
 /// Which integrator renders the image.
@@ -324,7 +293,7 @@ impl Integrator {
         }
         if ctx.ids {
             for k in 0..rays.len() {
-                out[k].triangle = hits[k].map(|hit| crate::render::first_hit(hit.prim, hit.inst));
+                out[k].triangle = hits[k].map(|hit| crate::record::first_hit(hit.prim, hit.inst));
             }
         }
     }

@@ -40,6 +40,8 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::record::{Features, FirstHit, NO_HIT};
+
 /// A sample whose value was NaN, infinite or out of the film's range ([`MAX_SAMPLE_VALUE`]),
 /// kept out of the film and reported.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,25 +142,6 @@ pub struct Film {
     first_hits: Option<Vec<FirstHit>>,
 }
 
-/// A pixel's first hit where its sample 0 met nothing, or has not been taken.
-pub const NO_HIT: FirstHit = u64::MAX;
-
-/// A first hit as the film keeps it: the triangle in the low 32 bits, the instance that placed
-/// it (or [`crate::ray::NO_INSTANCE`]) in the high ones ([`first_hit`], [`split_first_hit`]).
-pub type FirstHit = u64;
-
-/// Triangle `prim` placed by instance `inst` as a [`FirstHit`].
-#[inline]
-pub fn first_hit(prim: u32, inst: u32) -> FirstHit {
-    (inst as u64) << 32 | prim as u64
-}
-
-/// A [`FirstHit`]'s triangle and instance.
-#[inline]
-pub fn split_first_hit(h: FirstHit) -> (u32, u32) {
-    (h as u32, (h >> 32) as u32)
-}
-
 /// The slots of [`FeatureTotals`].
 pub const FEATURE_SLOTS: usize = 13;
 
@@ -186,7 +169,7 @@ pub struct PixelFeatures {
 
 /// Adds a sample's first-hit features (None: its ray met nothing) to a pixel's totals.
 #[inline]
-pub fn add_features(totals: &mut FeatureTotals, features: Option<crate::integrators::Features>) {
+pub fn add_features(totals: &mut FeatureTotals, features: Option<Features>) {
     if let Some(f) = features {
         let values = [
             f.albedo.x,

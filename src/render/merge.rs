@@ -14,8 +14,10 @@
 //! - `strata:settings_hash`: SHA-256 of every option that can change the image (the job less
 //!   its paths, outputs, threads, memory limit, preview and timing options), with strata's
 //!   version;
-//! - the settings in plain words (`strata:seed`, `strata:spp`, …, [`super::output`]), which
-//!   name what differs when a check fails.
+//! - the settings in plain words (`strata:seed`, `strata:spp`, …), which name what differs
+//!   when a check fails.
+//!
+//! The job writes these attributes ([`crate::job::header`]); this module reads them.
 
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -28,7 +30,6 @@ use super::output::Attr;
 use super::partial::{ExactLayer, EXACT_LAYER};
 use super::passes::Pass;
 use super::Film;
-use crate::job::Job;
 
 /// The share of every pixel's samples a farm task renders (`--shard`, `--samples`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,7 +84,7 @@ impl Share {
 }
 
 /// Hex digits of a digest.
-fn hex(bytes: &[u8]) -> String {
+pub(crate) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
@@ -108,69 +109,6 @@ pub fn files_hash(files: &[PathBuf]) -> Result<String, String> {
         }
     }
     Ok(hex(&hash.finalize()))
-}
-
-/// The settings of `job` that can change its image, as text ([`settings_hash`]): the job's
-/// own description, less the options that cannot (where files go, the threads, the memory
-/// limit, the preview, the pass timing, the report) and less the paths of the scene and the
-/// environment map (whose contents [`files_hash`] covers), with strata's version. Call it on
-/// the job as the options made it, before the scene lights it.
-pub fn settings_key(job: &Job) -> String {
-    let mut j = job.clone();
-    j.scene = PathBuf::new();
-    j.output = PathBuf::new();
-    j.png = false;
-    j.view = Default::default();
-    j.exposure = 0.0;
-    j.frames = None;
-    j.variance = None;
-    j.spp_image = None;
-    j.threads = 0;
-    j.min_pass_seconds = 0.0;
-    j.memory_limit = None;
-    j.checkpoint = None;
-    j.stats = false;
-    j.warnings.clear();
-    j.share = None;
-    if let Some((path, _, _)) = &mut j.env {
-        *path = PathBuf::new();
-    }
-    format!("strata {} {j:?}", env!("CARGO_PKG_VERSION"))
-}
-
-/// SHA-256 of [`settings_key`].
-pub fn settings_hash(job: &Job) -> String {
-    hex(&Sha256::digest(settings_key(job).as_bytes()))
-}
-
-/// The header attributes of a partial file of `share`: the sample range, the shard, and the
-/// hashes of the scene's files (`files`, with the environment map's) and of the settings
-/// (`settings_hash`, taken from the job before the scene changed it).
-pub fn partial_attributes(
-    job: &Job,
-    share: Share,
-    files: &[PathBuf],
-    settings_hash: &str,
-) -> Result<Vec<(String, Attr)>, String> {
-    let mut all = files.to_vec();
-    all.extend(job.env.as_ref().map(|(p, _, _)| p.clone()));
-    let (a, b) = share.range(job.spp);
-    let mut attrs = vec![
-        ("strata:partial".to_string(), Attr::Int(1)),
-        ("strata:samples".into(), Attr::Text(format!("{a}..{b}"))),
-        ("strata:scene_hash".into(), Attr::Text(files_hash(&all)?)),
-        (
-            "strata:settings_hash".into(),
-            Attr::Text(settings_hash.to_string()),
-        ),
-    ];
-    if let Share::Shard { index, count } = share {
-        attrs.push((
-            "strata:shard".into(),
-            Attr::Text(format!("{index}/{count}")),
-        ));
-    }
-    Ok(attrs)
 }
 
 /// Header attributes that differ from part to part of one image, or do not matter to it.
@@ -645,73 +583,6 @@ mod tests {
             samples.path(Path::new("b.exr")),
             Path::new("b.samples-8-24.exr")
         );
-    }
-
-    fn job(dir: &Path, extra: &[&str]) -> Job {
-        let out = dir.join("out.exr");
-        let mut all = vec!["render", "scene.gltf", "-o", out.to_str().unwrap()];
-        all.extend_from_slice(extra);
-        let args = <crate::cli::Args as clap::Parser>::try_parse_from(all).unwrap();
-        Job::from_args(&args).unwrap()
-    }
-
-    #[test]
-    fn the_settings_hash_covers_what_changes_the_image_and_nothing_else() {
-        let dir = tempfile::tempdir().unwrap();
-        let base = settings_hash(&job(dir.path(), &["--shard", "0/2"]));
-        // Where files go, the threads, the memory limit, the preview, the pass timing and
-        // the share itself do not change a pixel.
-        let sub = dir.path().join("sub");
-        std::fs::create_dir(&sub).unwrap();
-        for same in [
-            &["--shard", "1/2", "--threads", "3"][..],
-            &[
-                "--shard",
-                "0/2",
-                "--max-memory",
-                "1G",
-                "--min-pass-seconds",
-                "0",
-            ],
-            &[
-                "--shard",
-                "0/2",
-                "--view",
-                "standard",
-                "--exposure",
-                "2",
-                "--stats",
-            ],
-            &["--samples", "3..9"],
-            &[],
-        ] {
-            assert_eq!(settings_hash(&job(dir.path(), same)), base, "{same:?}");
-        }
-        let moved = job(&sub, &["--shard", "0/2"]);
-        assert_eq!(settings_hash(&moved), base, "another output directory");
-        // Options that do.
-        for other in [
-            &["--shard", "0/2", "--seed", "1"][..],
-            &["--shard", "0/2", "--spp", "32"],
-            &["--shard", "0/2", "--camera", "1"],
-            &["--shard", "0/2", "--resolution", "64x48"],
-            &["--shard", "0/2", "--frame", "3"],
-            &["--shard", "0/2", "--no-alpha"],
-            &["--shard", "0/2", "--max-depth", "3"],
-            &["--shard", "0/2", "--passes", "albedo"],
-            &["--shard", "0/2", "--backend", "obvhs"],
-        ] {
-            assert_ne!(settings_hash(&job(dir.path(), other)), base, "{other:?}");
-        }
-        // A frame's shard carries its share before the frame number.
-        let framed = job(dir.path(), &["--shard", "1/4", "--frame", "12"]);
-        assert_eq!(framed.output, dir.path().join("out.shard-1-of-4.0012.exr"));
-        let frames = job(dir.path(), &["--shard", "1/4", "--frames", "3..4"]);
-        assert_eq!(
-            frames.frame_jobs()[1].output,
-            dir.path().join("out.shard-1-of-4.0004.exr")
-        );
-        assert!(!framed.png, "a shard writes no preview");
     }
 
     fn part(name: &str, range: (u32, u32), shard: Option<(u32, u32)>) -> Part {

@@ -26,8 +26,6 @@
 //! the films of disjoint ranges is the film of their union, bit for bit.
 
 pub mod adaptive;
-pub mod culling;
-mod emitters;
 pub mod film;
 pub mod merge;
 pub mod output;
@@ -42,17 +40,17 @@ use glam::{Vec2, Vec3A};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
+use crate::accel::culling::{self, BlockMask};
 use crate::accel::{SceneBox, PACKET};
+use crate::integrators::emitters::EmitterView;
 use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
+pub use crate::record::{first_hit, split_first_hit, FirstHit, NO_HIT};
 use crate::sampling::{PixelSampler, SamplerKind};
 use crate::scene::{Camera, RayGenerator};
-use culling::BlockMask;
-use emitters::EmitterView;
 use film::add_features;
-pub use film::{first_hit, split_first_hit, FirstHit};
 pub use film::{
     BadSample, FeatureTotals, Film, FilmRows, MergeError, PixelFeatures, PixelTotals, RoundTotals,
-    WideTotals, FEATURE_SLOTS, NO_HIT,
+    WideTotals, FEATURE_SLOTS,
 };
 
 /// The default of [`RenderSettings::min_pass_seconds`]: passes shorter than this paid a

@@ -1,5 +1,6 @@
-//! Image output: linear float32 EXR (R, G, B, with the render settings as header attributes:
-//! [`header_attributes`]) and an sRGB PNG preview. Files are written to a temporary name
+//! Image output: linear float32 EXR (R, G, B, with the header attributes the caller gives:
+//! the job's settings, [`crate::job::header`], and the film's state, [`film_attributes`]) and
+//! an sRGB PNG preview. Files are written to a temporary name
 //! beside the target and renamed into place, so a reader never sees a half-written image.
 
 use std::fs;
@@ -13,9 +14,7 @@ use exr::prelude::{
 
 use super::passes::Pass;
 use super::view::Display;
-use super::{split_first_hit, Film, RenderResult};
-use crate::integrators::Integrator;
-use crate::job::Job;
+use super::{split_first_hit, Film};
 use crate::scene::Scene;
 
 /// A header attribute value.
@@ -306,98 +305,6 @@ fn set_attributes(
     Ok(())
 }
 
-/// The header attributes that record how an image was rendered: the scene, the integrator
-/// and its settings, the sampler, the samples per pixel, the seed, the backend (`backend`:
-/// [`crate::accel::Accel::describe`]) and the stopping rule. They are the same for every
-/// image a job writes; [`film_attributes`] and [`result_attributes`] add the film's state.
-pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
-    let mut attrs = vec![
-        (
-            "strata:scene".to_string(),
-            Attr::Text(job.scene.display().to_string()),
-        ),
-        (
-            "strata:integrator".into(),
-            Attr::Text(job.integrator.kind().to_string()),
-        ),
-        ("strata:sampler".into(), Attr::Text(job.sampler.to_string())),
-        ("strata:spp".into(), Attr::Int(job.spp as i32)),
-        ("strata:seed".into(), Attr::Text(job.seed.to_string())),
-        ("strata:backend".into(), Attr::Text(backend.to_string())),
-        // What the PNG preview beside the EXR shows (the EXR itself stays linear).
-        (
-            "strata:preview_view".into(),
-            Attr::Text(job.view.to_string()),
-        ),
-        ("strata:preview_exposure".into(), Attr::Float(job.exposure)),
-    ];
-    if let Some(e) = job.target_error {
-        attrs.push(("strata:target_error".into(), Attr::Float(e)));
-        attrs.push(("strata:min_spp".into(), Attr::Int(job.min_spp as i32)));
-        attrs.push((
-            "strata:error_metric".into(),
-            Attr::Text(job.error_metric.to_string()),
-        ));
-    }
-    if let Some(t) = job.time_limit {
-        attrs.push(("strata:time_limit".into(), Attr::Float(t as f32)));
-    }
-    match job.integrator {
-        Integrator::Ao(ao) => {
-            attrs.push((
-                "strata:hemisphere".into(),
-                Attr::Text(ao.hemisphere.to_string()),
-            ));
-            attrs.push(("strata:ao_distance".into(), Attr::Float(ao.max_distance)));
-            attrs.push(("strata:ao_samples".into(), Attr::Int(ao.samples as i32)));
-        }
-        Integrator::Direct(p) | Integrator::Path(p) => {
-            attrs.push(("strata:max_depth".into(), Attr::Int(p.max_depth as i32)));
-            attrs.push(("strata:rr_depth".into(), Attr::Int(p.rr_depth as i32)));
-            attrs.push((
-                "strata:emitter_samples".into(),
-                Attr::Int(p.emitter_samples as i32),
-            ));
-            attrs.push(("strata:strategy".into(), Attr::Text(p.strategy.to_string())));
-            let materials = job.shading.materials;
-            attrs.push((
-                "strata:materials".into(),
-                Attr::Text(materials.model.to_string()),
-            ));
-            let compensation = match materials.energy_compensation {
-                true => "on",
-                false => "off",
-            };
-            attrs.push((
-                "strata:energy_compensation".into(),
-                Attr::Text(compensation.into()),
-            ));
-            attrs.push((
-                "strata:hemisphere".into(),
-                Attr::Text(job.hemisphere.to_string()),
-            ));
-            attrs.push((
-                "strata:triangle_sampling".into(),
-                Attr::Text(job.shading.triangle_sampling.to_string()),
-            ));
-            let b = (job.shading.camera_background)
-                .or(job.shading.environment.constant())
-                .unwrap_or_default();
-            attrs.push((
-                "strata:background".into(),
-                Attr::Text(format!("{},{},{}", b.x, b.y, b.z)),
-            ));
-            if let Some((path, degrees, scale)) = &job.env {
-                let text = format!("{}", path.display());
-                attrs.push(("strata:environment".into(), Attr::Text(text)));
-                attrs.push(("strata:env_rotate".into(), Attr::Float(*degrees)));
-                attrs.push(("strata:env_intensity".into(), Attr::Float(*scale)));
-            }
-        }
-    }
-    attrs
-}
-
 /// The header attributes of the film as it stands: its samples per pixel so far, the
 /// render's seconds so far, whether the render was interrupted, and whether the image is a
 /// checkpoint (written during the render) rather than the final image.
@@ -419,31 +326,6 @@ pub fn film_attributes(
         ("strata:interrupted".into(), Attr::Int(interrupted as i32)),
         ("strata:checkpoint".into(), Attr::Int(checkpoint as i32)),
     ]
-}
-
-/// The header attributes of a finished render's image: [`film_attributes`], then whether
-/// the time limit stopped it (with `--time-limit`) and how many pixels did not reach the
-/// target error (with `--target-error`).
-pub fn result_attributes(job: &Job, result: &RenderResult) -> Vec<(String, Attr)> {
-    let mut attrs = film_attributes(
-        &result.film,
-        result.stats.seconds,
-        result.interrupted,
-        false,
-    );
-    if job.time_limit.is_some() {
-        attrs.push((
-            "strata:time_limit_reached".into(),
-            Attr::Int(result.time_limit_reached as i32),
-        ));
-    }
-    if let Some(u) = result.unconverged_pixels {
-        attrs.push((
-            "strata:unconverged_pixels".into(),
-            Attr::Int(u.min(i32::MAX as u64) as i32),
-        ));
-    }
-    attrs
 }
 
 /// Writes the film's preview PNG (8-bit sRGB) through `display` (the view transform and
@@ -497,107 +379,4 @@ pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Output
     .map_err(|e| err(path, format!("cannot read the EXR: {e}")))?;
     let (w, h, px) = image.layer_data.channel_data.pixels;
     Ok((w, h, px))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::cli::Args;
-    use clap::Parser;
-
-    fn names(extra: &[&str]) -> Vec<String> {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("out.exr");
-        let mut all = vec!["render", "scene.gltf", "-o", out.to_str().unwrap()];
-        all.extend_from_slice(extra);
-        let job = Job::from_args(&Args::try_parse_from(all).unwrap()).unwrap();
-        header_attributes(&job, "backend")
-            .into_iter()
-            .map(|(name, _)| name)
-            .collect()
-    }
-
-    #[test]
-    fn the_header_records_the_settings_the_integrator_reads() {
-        let common = [
-            "strata:scene",
-            "strata:integrator",
-            "strata:sampler",
-            "strata:spp",
-            "strata:seed",
-            "strata:backend",
-            "strata:preview_view",
-            "strata:preview_exposure",
-        ];
-        let ao = names(&["--integrator", "ao"]);
-        assert_eq!(ao[..8], common);
-        assert_eq!(
-            ao[8..],
-            [
-                "strata:hemisphere",
-                "strata:ao_distance",
-                "strata:ao_samples"
-            ]
-        );
-        let path = names(&[
-            "--integrator",
-            "path",
-            "--target-error",
-            "0.1",
-            "--time-limit",
-            "9",
-        ]);
-        assert_eq!(
-            path[8..],
-            [
-                "strata:target_error",
-                "strata:min_spp",
-                "strata:error_metric",
-                "strata:time_limit",
-                "strata:max_depth",
-                "strata:rr_depth",
-                "strata:emitter_samples",
-                "strata:strategy",
-                "strata:materials",
-                "strata:energy_compensation",
-                "strata:hemisphere",
-                "strata:triangle_sampling",
-                "strata:background",
-            ]
-        );
-    }
-
-    #[test]
-    fn settings_are_named_as_the_command_line_spells_them() {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("out.exr");
-        let args = Args::try_parse_from([
-            "render",
-            "scene.gltf",
-            "-o",
-            out.to_str().unwrap(),
-            "--integrator",
-            "direct",
-            "--triangle-sampling",
-            "solid-angle",
-            "--background",
-            "0.25,0.5,1",
-        ])
-        .unwrap();
-        let attrs = header_attributes(&Job::from_args(&args).unwrap(), "backend");
-        let text = |name: &str| {
-            attrs
-                .iter()
-                .find(|(n, _)| n == name)
-                .map(|(_, v)| v.clone())
-                .unwrap()
-        };
-        assert_eq!(text("strata:integrator"), Attr::Text("direct".into()));
-        assert_eq!(text("strata:max_depth"), Attr::Int(1));
-        assert_eq!(
-            text("strata:triangle_sampling"),
-            Attr::Text("solid-angle".into())
-        );
-        assert_eq!(text("strata:background"), Attr::Text("0.25,0.5,1".into()));
-    }
 }

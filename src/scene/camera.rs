@@ -163,7 +163,7 @@ impl RayGenerator {
     /// can meet the box `lo`..`hi` (empty, x0 > x1, when none in the image can); or None
     /// where no such rectangle is found (a perspective camera inside the box, a degenerate
     /// camera, non-finite input). The renderer leaves pixel blocks outside the rectangles of
-    /// all the scene's cluster boxes untraced ([`crate::render::culling`]).
+    /// all the scene's cluster boxes untraced ([`crate::accel::culling`]).
     ///
     /// A film position f sees a point q when q lies on f's ray, so f is q's image under the
     /// camera's projection. For an orthographic camera the projection is affine, and every

@@ -5,7 +5,7 @@
 //!   WebP and KTX2 (Basis Universal) images, so a texture's image is its extension's:
 //!   `EXT_texture_webp` first, then `KHR_texture_basisu`, then the core `source`
 //!   ([`prefer_texture_extensions`]). Images are decoded when a render needs them
-//!   (`shading::texture`, `shading::ktx2`).
+//!   (`texture`, `texture::ktx2`).
 //! - geometry: `EXT_meshopt_compression` / `KHR_meshopt_compression` buffer views are decoded
 //!   into the buffers they describe ([`super::meshopt`]), then `KHR_draco_mesh_compression`
 //!   primitives into a new buffer their accessors point at ([`super::draco`])

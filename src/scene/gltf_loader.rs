@@ -23,8 +23,8 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
 use super::{
-    AlphaMode, Camera, ImageSource, Instance, Light, Material, Projection, Prototype, Scene,
-    TextureRef, Wrap,
+    format_bytes, AlphaMode, Camera, ImageSource, Instance, Light, Material, Projection, Prototype,
+    Scene, TextureRef, Wrap,
 };
 
 /// Extensions strata honours when a file lists them in `extensionsRequired`.
@@ -142,21 +142,6 @@ impl MemoryEstimate {
             .saturating_add(self.instances.saturating_mul(Self::BYTES_PER_INSTANCE))
             .saturating_add(self.input_bytes)
     }
-}
-
-/// `bytes` for people: "1.5 GiB", "512.0 KiB", "100 bytes".
-pub fn format_bytes(bytes: u64) -> String {
-    const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
-    if bytes < 1024 {
-        return format!("{bytes} bytes");
-    }
-    let mut v = bytes as f64 / 1024.0;
-    let mut unit = 0;
-    while v >= 1024.0 && unit + 1 < UNITS.len() {
-        v /= 1024.0;
-        unit += 1;
-    }
-    format!("{v:.1} {}", UNITS[unit])
 }
 
 /// A scene file that cannot be loaded, with the reason.

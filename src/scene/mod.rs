@@ -19,13 +19,28 @@ mod tangents;
 pub use animation::PoseTime;
 pub use camera::{Camera, Projection, RayGenerator};
 pub use gltf_loader::{
-    format_bytes, load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
+    load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
 };
 pub use origins::{OriginRun, Origins, TriangleOrigin};
 
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A, Vec4};
 
 pub use crate::ray::NO_INSTANCE;
+
+/// `bytes` for people: "1.5 GiB", "512.0 KiB", "100 bytes".
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    if bytes < 1024 {
+        return format!("{bytes} bytes");
+    }
+    let mut v = bytes as f64 / 1024.0;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    format!("{v:.1} {}", UNITS[unit])
+}
 
 /// How a texture is addressed outside `[0, 1]` (glTF sampler wrap modes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -66,7 +66,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::{BsdfFlags, BsdfSample, LocalBsdf};
+use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
 use super::microfacet::{AlbedoTable, Ggx};
 
 /// The lobes of a rough interface.

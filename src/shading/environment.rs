@@ -12,6 +12,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::envmap::EnvMap;
+use super::spectrum::luminance;
 use crate::sampling::warps::square_to_uniform_sphere;
 
 /// Radiance arriving from infinitely far away, by direction.
@@ -91,12 +92,6 @@ impl Environment {
 
 /// 1/(4π): the density of directions uniform over the sphere.
 const UNIFORM_SPHERE_PDF: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
-
-/// Relative luminance of linear Rec.709 RGB.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 #[cfg(test)]
 mod tests {

@@ -21,9 +21,9 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::environment::luminance;
-use super::texture::Image;
+use super::spectrum::luminance;
 use crate::scene::Wrap;
+use crate::texture::Image;
 
 /// A piecewise-constant density on [0, 1) (pbrt-v4's `PiecewiseConstant1D`).
 #[derive(Clone, Debug, PartialEq)]

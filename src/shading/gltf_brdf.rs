@@ -85,9 +85,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::{BsdfFlags, BsdfSample};
-use super::environment::luminance;
+use super::lobe::{BsdfFlags, BsdfSample};
 use super::microfacet::{AlbedoRow, AlbedoTable, AnisotropicGgx, Ggx, Microfacet};
+use super::spectrum::luminance;
 use super::thin_film::ThinFilm;
 use crate::sampling::warps::square_to_cosine_hemisphere;
 

@@ -38,10 +38,10 @@ use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::{BsdfFlags, BsdfSample, LocalBsdf};
-use super::environment::luminance;
 use super::gltf_brdf::GltfBrdf;
+use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
 use super::microfacet::{AlbedoTable, Ggx};
+use super::spectrum::luminance;
 use crate::sampling::warps::square_to_cosine_hemisphere;
 use crate::sampling::Onb;
 

@@ -34,7 +34,7 @@ use crate::sampling::warps::{
 };
 use crate::scene::{Light, Scene, NO_INSTANCE};
 
-pub use super::environment::luminance;
+pub use super::spectrum::luminance;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Emitter {

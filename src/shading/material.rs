@@ -34,9 +34,9 @@ use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use super::layers::{Coat, Layered, Sheen, SheenTable};
 use super::microfacet::AlbedoTable;
-use super::texture::{transform_uv, Encoding, Image};
 use crate::sampling::Onb;
 use crate::scene::{Scene, TextureRef};
+use crate::texture::{transform_uv, Encoding, Image};
 
 /// What the integrator needs to read from materials.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

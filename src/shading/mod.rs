@@ -1,10 +1,11 @@
 //! Shading: what happens where a ray meets a surface or leaves the scene. It sits below the
-//! integrators and above the scene, and the integrators reach surfaces and light through it
-//! only.
+//! integrators and above the acceleration structures, the textures ([`crate::texture`]) and
+//! the scene, and the integrators reach surfaces and light through it only.
 //!
 //! | module          | what it holds                                                        |
 //! |-----------------|----------------------------------------------------------------------|
 //! | [`interaction`] | the surface point a ray hits, and the one way secondary rays leave it |
+//! | [`lobe`]        | [`LocalBsdf`], the interface every lobe implements; flags, samples    |
 //! | [`bsdf`]        | [`Bsdf`]: the closed set of scattering models, in the shading frame   |
 //! | [`dielectric`]  | dielectric interfaces (glass): refractive and thin-walled, rough or  |
 //! |                 | smooth, with exact Fresnel                                           |
@@ -12,9 +13,8 @@
 //! | [`layers`]      | sheen and clear coat over it (`KHR_materials_sheen`, `_clearcoat`)    |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
 //! | [`microfacet`]  | the GGX distribution: D, masking, visible-normal sampling             |
-//! | [`spectrum`]    | wavelengths for dispersion: the channels' responses, Cauchy's index   |
+//! | [`spectrum`]    | luminance; wavelengths for dispersion: responses, Cauchy's index      |
 //! | [`thin_film`]   | thin-film interference: iridescent Fresnel (Belcour & Barla 2017)     |
-//! | [`texture`]     | decoded images and their lookups                                      |
 //! | [`lights`]      | punctual lights, emissive triangles and the environment, as one set   |
 //! |                 | sampled by power                                                      |
 //! | [`environment`] | the radiance rays that leave the scene see, by direction              |
@@ -26,13 +26,12 @@ pub mod environment;
 pub mod envmap;
 pub mod gltf_brdf;
 pub mod interaction;
-pub mod ktx2;
 pub mod layers;
 pub mod lights;
+pub mod lobe;
 pub mod material;
 pub mod microfacet;
 pub mod spectrum;
-pub mod texture;
 pub mod thin_film;
 
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};

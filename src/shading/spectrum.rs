@@ -1,4 +1,5 @@
-//! Wavelengths for dispersion (`KHR_materials_dispersion`): strata renders in linear sRGB, and
+//! Colour: the luminance by which every module weighs an RGB value ([`luminance`]), and
+//! wavelengths for dispersion (`KHR_materials_dispersion`): strata renders in linear sRGB, and
 //! a path that meets a dispersive interface carries one wavelength from then on, drawn at its
 //! first such interface, its throughput weighted so that each RGB channel's expectation is the
 //! light the channel sees.
@@ -16,6 +17,12 @@
 //!   Abbe number and n_d the material's `ior` (at 587.6 nm).
 
 use glam::Vec3;
+
+/// Relative luminance of linear Rec.709 RGB.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
 
 /// The range of wavelengths drawn, in nm.
 pub const LAMBDA_MIN: f32 = 380.0;

@@ -6,6 +6,8 @@
 //! the options allow before anything is loaded. [`Job::view`] makes the checks that need
 //! the scene: the camera, the image size and the memory estimate.
 
+pub mod header;
+
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 

@@ -3,6 +3,8 @@
 //! (base colour, emission) are sRGB-encoded in glTF and decoded to linear once, at load; data
 //! textures (metallic-roughness) are read as stored ([`Encoding`]).
 
+pub mod ktx2;
+
 use std::path::Path;
 
 use glam::{Vec2, Vec4};
@@ -50,8 +52,8 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 /// Decodes encoded image bytes: KTX2 (Basis Universal, [`super::ktx2`]) by its identifier,
 /// PNG, JPEG and WebP by the `image` crate's guess from the bytes.
 fn decode_bytes(data: &[u8]) -> Result<image::DynamicImage, String> {
-    if super::ktx2::is_ktx2(data) {
-        return super::ktx2::decode(data).map(image::DynamicImage::ImageRgba8);
+    if ktx2::is_ktx2(data) {
+        return ktx2::decode(data).map(image::DynamicImage::ImageRgba8);
     }
     image::load_from_memory(data).map_err(|e| e.to_string())
 }
@@ -62,10 +64,10 @@ fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
     let mut head = [0u8; 12];
     let is_ktx2 = std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|()| super::ktx2::is_ktx2(&head));
+        .is_ok_and(|()| ktx2::is_ktx2(&head));
     if is_ktx2 {
         let data = std::fs::read(path).map_err(|e| e.to_string())?;
-        return super::ktx2::decode(&data).map(image::DynamicImage::ImageRgba8);
+        return ktx2::decode(&data).map(image::DynamicImage::ImageRgba8);
     }
     image::open(path).map_err(|e| e.to_string())
 }

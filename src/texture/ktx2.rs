@@ -5,7 +5,7 @@
 //! strata filters textures bilinearly at that level.
 //!
 //! The texels are the stored bytes: whether they are sRGB or linear is the glTF texture slot's
-//! business ([`super::texture::Encoding`]), not the container's transfer function.
+//! business ([`super::Encoding`]), not the container's transfer function.
 
 use basisu_c_sys::extra::{
     basisu_transcoder_init, BasisuTranscoder, ChannelType, SupportedTextureCompression,

@@ -28,9 +28,9 @@
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
-use super::culling::{BlockMask, BLOCK_H, BLOCK_W};
+use super::{Context, Integrator, RayCounts, SampleRecord};
+use crate::accel::culling::{BlockMask, BLOCK_H, BLOCK_W};
 use crate::accel::{clusters_of, Hit, Ray, PACKET};
-use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
 use crate::sampling::PixelSampler;
 use crate::scene::RayGenerator;
 use crate::shading::lights::Emitter;
@@ -39,7 +39,7 @@ use crate::shading::lights::Emitter;
 const STREAM: u32 = 0x0e31;
 
 /// Where the camera may see an emitter, and how the samples there are split.
-pub(super) struct EmitterView {
+pub(crate) struct EmitterView {
     /// Row-major, one per pixel of the image: whether the pixel's samples are split.
     split: Vec<bool>,
     width: u32,
