@@ -1,7 +1,8 @@
 //! Helpers shared by the tests: for the CLI tests (`cli.rs`, `bad_input.rs`,
 //! `losing_nothing.rs`), run the `render` binary, check its one-line errors, and build broken
 //! variants of a small scene; for the light-transport and numerics tests, a closed sphere; for
-//! the render tests, a film's sums as bits.
+//! the render tests, the render loop without a progress bar or a way to cancel
+//! (`render_quietly`, `render_quietly_on`) and a film's sums as bits.
 #![allow(dead_code)]
 
 pub mod sphere_chi2;
@@ -311,7 +312,17 @@ pub fn render_quietly(
     ctx: &strata::integrators::Context,
     settings: &strata::render::RenderSettings,
 ) -> strata::render::RenderResult {
-    let pool = strata::render::thread_pool(2).unwrap();
+    render_quietly_on(2, ctx, settings)
+}
+
+/// [`render_quietly`] on `threads` worker threads (0: rayon's default, one per core), for the
+/// tests that render on a given number of threads or on every core.
+pub fn render_quietly_on(
+    threads: usize,
+    ctx: &strata::integrators::Context,
+    settings: &strata::render::RenderSettings,
+) -> strata::render::RenderResult {
+    let pool = strata::render::thread_pool(threads).unwrap();
     strata::render::render(
         ctx,
         settings,
