@@ -4,11 +4,8 @@
 
 mod common;
 
-use std::sync::atomic::AtomicBool;
-
 use common::*;
 use glam::Vec3;
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{AoSettings, Integrator, PathSettings, Prepared, ShadingOptions};
 use strata::render::adaptive::ErrorMetric;
@@ -103,14 +100,7 @@ fn render_scene_with(
         crop: None,
         stopping,
     };
-    let pool = render::thread_pool(threads).unwrap();
-    render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    )
+    render_quietly_on(threads, &ctx, &settings)
 }
 
 fn ao() -> Integrator {

@@ -243,14 +243,7 @@ fn render_film_with(
         sample_range: None,
         min_pass_seconds: 0.0,
     };
-    let pool = render::thread_pool(threads).unwrap();
-    let result = render::render(
-        &prepared.context(&scene, &accel),
-        &settings,
-        &pool,
-        &indicatif::ProgressBar::hidden(),
-        &std::sync::atomic::AtomicBool::new(false),
-    );
+    let result = common::render_quietly_on(threads, &prepared.context(&scene, &accel), &settings);
     assert_eq!(result.stats.bad_samples, 0);
     result.film
 }

@@ -12,13 +12,13 @@
 //! samples meet these exactly; stratified and Sobol samples have lower variance, so the same
 //! bounds hold for them.
 
-use std::path::Path;
-use std::sync::atomic::AtomicBool;
+mod common;
 
-use indicatif::ProgressBar;
+use std::path::Path;
+
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{AoSettings, Hemisphere, Integrator, Prepared};
-use strata::render::{self, Film, RenderSettings};
+use strata::render::{Film, RenderSettings};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
 
@@ -70,14 +70,7 @@ fn render_ao_film(
     };
     let prepared = Prepared::default();
     let ctx = prepared.context(&scene, &accel);
-    let pool = render::thread_pool(0).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly_on(0, &ctx, &settings);
     assert!(!result.interrupted);
     assert_eq!(result.stats.bad_samples, 0);
     result.film

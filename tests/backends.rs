@@ -4,14 +4,14 @@
 //! alpha coverage (Embree's hit filter against obvhs's test in its traversal); tests/alpha.rs
 //! compares the backends on MASK and BLEND cut-outs as well.
 
+mod common;
+
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
 use strata::integrators::{AoSettings, Integrator, Prepared};
-use strata::render::{self, RenderSettings};
+use strata::render::RenderSettings;
 use strata::sampling::hash::{hash_words, unit_f32};
 use strata::sampling::warps::square_to_uniform_sphere;
 use strata::sampling::SamplerKind;
@@ -142,16 +142,9 @@ fn ao_images_agree_between_backends() {
             sample_range: None,
             min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
         };
-        let pool = render::thread_pool(0).unwrap();
-        render::render(
-            &prepared.context(&scene, &accel),
-            &settings,
-            &pool,
-            &ProgressBar::hidden(),
-            &AtomicBool::new(false),
-        )
-        .film
-        .pixels()
+        common::render_quietly_on(0, &prepared.context(&scene, &accel), &settings)
+            .film
+            .pixels()
     };
     let (a, b) = (image(Backend::Embree), image(Backend::Obvhs));
     // Same samples, same rays: pixels differ only where a ray's hit differs (edges), by a

@@ -5,7 +5,7 @@
 //! directory, so a file written anywhere unexpected shows up in the directory listings).
 
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -22,20 +22,6 @@ fn bad(name: &str) -> PathBuf {
     repo_path("tests/data/bad").join(name)
 }
 
-/// Runs a render that must fail with a one-line error mentioning `words`, and leave the
-/// (otherwise empty) temporary directory `dir` with exactly `left` in it.
-fn expect_error(dir: &Path, args: &[&str], words: &[&str], left: &[&str]) {
-    let run = render(dir, args);
-    assert!(
-        !run.status.success(),
-        "render should fail for {args:?}; stdout:\n{}\nstderr:\n{}",
-        run.stdout,
-        run.stderr
-    );
-    assert_one_error_line(&run.stderr, words);
-    assert_entries(dir, left);
-}
-
 const SMALL: [&str; 4] = ["--resolution", "32x32", "--spp", "4"];
 
 fn with_small<'a>(args: &[&'a str]) -> Vec<&'a str> {
@@ -47,37 +33,205 @@ fn with_small<'a>(args: &[&'a str]) -> Vec<&'a str> {
 // ---------------------------------------------------------------------------------------
 // 1. Bad input.
 
-#[test]
-fn error_missing_scene_file() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("missing.gltf");
-    let out = tmp.path().join("out.exr");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
-        &[s(&scene), "no such file"],
-        &[],
-    );
+/// What a refused command line must print on stderr, besides no panic.
+enum Says {
+    /// Exactly one line, `error: ...`, mentioning every word of `words` (case-insensitively)
+    /// and, unless `one_of` is empty, at least one word of `one_of`.
+    OneErrorLine {
+        words: &'static [&'static str],
+        one_of: &'static [&'static str],
+    },
+    /// Every word as written, in any number of lines.
+    Mentions(&'static [&'static str]),
 }
 
-/// A bad scene file from tests/data/bad: the error names the file and says what is wrong.
-fn expect_bad_scene(file: &str, words: &[&str]) {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = bad(file);
-    let out = tmp.path().join("out.exr");
-    let mut all = vec![s(&scene)];
-    all.extend_from_slice(words);
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&scene), "-o", s(&out)]),
-        &all,
-        &[],
-    );
+const fn one_error_line(words: &'static [&'static str]) -> Says {
+    Says::OneErrorLine { words, one_of: &[] }
 }
 
+/// A command line `render` must refuse, run in a fresh temporary directory (also the working
+/// directory): it fails, says what `says` says, and writes nothing.
+struct Refusal {
+    name: &'static str,
+    /// Directories made in the temporary directory before the run; afterwards it must hold
+    /// exactly these, still empty.
+    dirs: &'static [&'static str],
+    /// The arguments, split at whitespace. Here and in `says`, `{tmp}` stands for the
+    /// temporary directory and `{repo}` for the repository.
+    args: &'static str,
+    says: Says,
+}
+
+const REFUSALS: &[Refusal] = &[
+    Refusal {
+        name: "error_missing_scene_file",
+        dirs: &[],
+        args: "{tmp}/missing.gltf -o {tmp}/out.exr --resolution 32x32 --spp 4",
+        says: one_error_line(&["{tmp}/missing.gltf", "no such file"]),
+    },
+    // Bad scene files from tests/data/bad: the error names the file and says what is wrong.
+    Refusal {
+        name: "error_not_gltf",
+        dirs: &[],
+        args: "{repo}/tests/data/bad/not_gltf.gltf -o {tmp}/out.exr --resolution 32x32 --spp 4",
+        says: one_error_line(&["{repo}/tests/data/bad/not_gltf.gltf", "not a glTF"]),
+    },
+    Refusal {
+        name: "error_required_extension",
+        dirs: &[],
+        args: "{repo}/tests/data/bad/required_extension.gltf -o {tmp}/out.exr \
+               --resolution 32x32 --spp 4",
+        says: one_error_line(&[
+            "{repo}/tests/data/bad/required_extension.gltf",
+            "requires the extension EXT_texture_avif",
+            "not support",
+        ]),
+    },
+    Refusal {
+        name: "error_truncated_glb",
+        dirs: &[],
+        args: "{repo}/tests/data/bad/truncated.glb -o {tmp}/out.exr --resolution 32x32 --spp 4",
+        says: one_error_line(&["{repo}/tests/data/bad/truncated.glb", "invalid", "glTF"]),
+    },
+    // The message names the scene, the buffer and the file that could not be read.
+    Refusal {
+        name: "error_missing_buffer",
+        dirs: &[],
+        args: "{repo}/tests/data/bad/missing_buffer.gltf -o {tmp}/out.exr \
+               --resolution 32x32 --spp 4",
+        says: one_error_line(&[
+            "{repo}/tests/data/bad/missing_buffer.gltf",
+            "buffer 0",
+            "does-not-exist.bin",
+            "no such file",
+        ]),
+    },
+    Refusal {
+        name: "error_output_directory_missing",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/no/such/dir/out.exr --resolution 32x32 --spp 4",
+        says: one_error_line(&["{tmp}/no/such/dir/out.exr", "does not exist"]),
+    },
+    Refusal {
+        name: "error_output_is_existing_directory",
+        dirs: &["out.exr"],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --resolution 32x32 --spp 4",
+        says: one_error_line(&["{tmp}/out.exr", "directory"]),
+    },
+    // Either reason (not .exr, or a directory) is right; it must name the path.
+    Refusal {
+        name: "error_output_is_existing_directory_without_extension",
+        dirs: &["images"],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/images --resolution 32x32 --spp 4",
+        says: Says::OneErrorLine {
+            words: &["{tmp}/images"],
+            one_of: &[".exr", "directory"],
+        },
+    },
+    Refusal {
+        name: "error_output_wrong_extension",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.png --resolution 32x32 --spp 4",
+        says: one_error_line(&["{tmp}/out.png", ".exr"]),
+    },
+    Refusal {
+        name: "error_spp_zero",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --resolution 32x32 --spp 0",
+        says: one_error_line(&["--spp", "at least 1"]),
+    },
+    // The rest need only name the option (and the value).
+    Refusal {
+        name: "error_camera_out_of_range",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --camera 5 --resolution 32x32 --spp 4",
+        says: Says::Mentions(&["--camera"]),
+    },
+    Refusal {
+        name: "error_resolution_zero",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --resolution 0x10 --spp 4",
+        says: Says::Mentions(&["--resolution"]),
+    },
+    // error_min_pass_seconds_negative_or_not_a_number, one case per value.
+    Refusal {
+        name: "error_min_pass_seconds -1",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --min-pass-seconds=-1",
+        says: Says::Mentions(&["--min-pass-seconds", "-1"]),
+    },
+    Refusal {
+        name: "error_min_pass_seconds nan",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --min-pass-seconds=nan",
+        says: Says::Mentions(&["--min-pass-seconds", "nan"]),
+    },
+    Refusal {
+        name: "error_min_pass_seconds inf",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --min-pass-seconds=inf",
+        says: Says::Mentions(&["--min-pass-seconds", "inf"]),
+    },
+    Refusal {
+        name: "error_min_pass_seconds soon",
+        dirs: &[],
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.exr --min-pass-seconds=soon",
+        says: Says::Mentions(&["--min-pass-seconds", "soon"]),
+    },
+];
+
+/// Every case of [`REFUSALS`]; a failure names each failing case.
 #[test]
-fn error_not_gltf() {
-    expect_bad_scene("not_gltf.gltf", &["not a glTF"]);
+fn refused_command_lines() {
+    check_every_case(REFUSALS, |case| case.name, check_refusal);
+}
+
+fn check_refusal(case: &Refusal) {
+    let tmp = tempfile::tempdir().unwrap();
+    let expand = |text: &str| {
+        text.replace("{tmp}", s(tmp.path()))
+            .replace("{repo}", env!("CARGO_MANIFEST_DIR"))
+    };
+    for dir in case.dirs {
+        std::fs::create_dir(tmp.path().join(dir)).unwrap();
+    }
+    let args: Vec<String> = case.args.split_whitespace().map(expand).collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let run = render(tmp.path(), &args);
+    assert!(
+        !run.status.success(),
+        "render should fail for {args:?}; stdout:\n{}\nstderr:\n{}",
+        run.stdout,
+        run.stderr
+    );
+    match case.says {
+        Says::OneErrorLine { words, one_of } => {
+            let words: Vec<String> = words.iter().map(|w| expand(w)).collect();
+            let words: Vec<&str> = words.iter().map(String::as_str).collect();
+            assert_one_error_line(&run.stderr, &words);
+            let lower = run.stderr.to_lowercase();
+            assert!(
+                one_of.is_empty() || one_of.iter().any(|w| lower.contains(&w.to_lowercase())),
+                "stderr should mention one of {one_of:?}, got:\n{}",
+                run.stderr
+            );
+        }
+        Says::Mentions(words) => {
+            assert_no_panic(&run.stderr);
+            for word in words {
+                let word = expand(word);
+                assert!(
+                    run.stderr.contains(&word),
+                    "stderr should mention {word:?}, got:\n{}",
+                    run.stderr
+                );
+            }
+        }
+    }
+    assert_entries(tmp.path(), case.dirs);
+    for dir in case.dirs {
+        assert_entries(&tmp.path().join(dir), &[]);
+    }
 }
 
 /// A valid file with nothing to hit (tests/data/bad/no_triangles.gltf: one mesh of points) is
@@ -111,168 +265,6 @@ fn a_scene_without_triangles_renders_the_background_with_a_warning() {
             px.iter().all(|p| *p == [0.25, 0.5, 0.75]),
             "{backend}: not the background everywhere"
         );
-    }
-}
-
-#[test]
-fn error_required_extension() {
-    expect_bad_scene(
-        "required_extension.gltf",
-        &["requires the extension EXT_texture_avif", "not support"],
-    );
-}
-
-#[test]
-fn error_truncated_glb() {
-    expect_bad_scene("truncated.glb", &["invalid", "glTF"]);
-}
-
-#[test]
-fn error_missing_buffer() {
-    // The message names the scene, the buffer and the file that could not be read.
-    expect_bad_scene(
-        "missing_buffer.gltf",
-        &["buffer 0", "does-not-exist.bin", "no such file"],
-    );
-}
-
-#[test]
-fn error_output_directory_missing() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("no/such/dir/out.exr");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&ao_wall()), "-o", s(&out)]),
-        &[s(&out), "does not exist"],
-        &[],
-    );
-}
-
-#[test]
-fn error_output_is_existing_directory() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out.exr");
-    std::fs::create_dir(&out).unwrap();
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&ao_wall()), "-o", s(&out)]),
-        &[s(&out), "directory"],
-        &["out.exr"],
-    );
-    assert!(out.is_dir());
-    assert_entries(&out, &[]);
-}
-
-#[test]
-fn error_output_is_existing_directory_without_extension() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("images");
-    std::fs::create_dir(&out).unwrap();
-    let run = render(tmp.path(), &with_small(&[s(&ao_wall()), "-o", s(&out)]));
-    assert!(!run.status.success(), "stderr:\n{}", run.stderr);
-    // Either reason (not .exr, or a directory) is right; it must name the path.
-    assert_one_error_line(&run.stderr, &[s(&out)]);
-    let lower = run.stderr.to_lowercase();
-    assert!(
-        lower.contains(".exr") || lower.contains("directory"),
-        "stderr should say what is wrong:\n{}",
-        run.stderr
-    );
-    assert_entries(tmp.path(), &["images"]);
-    assert_entries(&out, &[]);
-}
-
-#[test]
-fn error_output_wrong_extension() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out.png");
-    expect_error(
-        tmp.path(),
-        &with_small(&[s(&ao_wall()), "-o", s(&out)]),
-        &[s(&out), ".exr"],
-        &[],
-    );
-}
-
-#[test]
-fn error_spp_zero() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out.exr");
-    expect_error(
-        tmp.path(),
-        &[
-            s(&ao_wall()),
-            "-o",
-            s(&out),
-            "--resolution",
-            "32x32",
-            "--spp",
-            "0",
-        ],
-        &["--spp", "at least 1"],
-        &[],
-    );
-}
-
-#[test]
-fn error_camera_out_of_range() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out.exr");
-    let run = render(
-        tmp.path(),
-        &with_small(&[s(&ao_wall()), "-o", s(&out), "--camera", "5"]),
-    );
-    assert!(!run.status.success(), "stderr:\n{}", run.stderr);
-    assert_no_panic(&run.stderr);
-    assert!(
-        run.stderr.contains("--camera"),
-        "stderr should name the option:\n{}",
-        run.stderr
-    );
-    assert_entries(tmp.path(), &[]);
-}
-
-#[test]
-fn error_resolution_zero() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out.exr");
-    let run = render(
-        tmp.path(),
-        &[
-            s(&ao_wall()),
-            "-o",
-            s(&out),
-            "--resolution",
-            "0x10",
-            "--spp",
-            "4",
-        ],
-    );
-    assert!(!run.status.success(), "stderr:\n{}", run.stderr);
-    assert_no_panic(&run.stderr);
-    assert!(
-        run.stderr.contains("--resolution"),
-        "stderr should name the option:\n{}",
-        run.stderr
-    );
-    assert_entries(tmp.path(), &[]);
-}
-
-#[test]
-fn error_min_pass_seconds_negative_or_not_a_number() {
-    for value in ["-1", "nan", "inf", "soon"] {
-        let tmp = tempfile::tempdir().unwrap();
-        let out = tmp.path().join("out.exr");
-        let arg = format!("--min-pass-seconds={value}");
-        let run = render(tmp.path(), &[s(&ao_wall()), "-o", s(&out), &arg]);
-        assert!(!run.status.success(), "{value}: stderr:\n{}", run.stderr);
-        assert_no_panic(&run.stderr);
-        assert!(
-            run.stderr.contains("--min-pass-seconds") && run.stderr.contains(value),
-            "{value}: stderr should name the option and the value:\n{}",
-            run.stderr
-        );
-        assert_entries(tmp.path(), &[]);
     }
 }
 

@@ -9,16 +9,14 @@
 mod common;
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 use common::*;
 use glam::Vec3;
-use indicatif::ProgressBar;
 use serde_json::Value;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions};
 use strata::render::output::read_exr_rgb;
-use strata::render::{self, Film, RenderResult, RenderSettings, Stopping};
+use strata::render::{Film, RenderResult, RenderSettings, Stopping};
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions};
 use strata::shading::MaterialOptions;
@@ -104,14 +102,7 @@ fn cornell(setup: Setup) -> RenderResult {
         crop: None,
         stopping,
     };
-    let pool = render::thread_pool(threads).unwrap();
-    render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    )
+    render_quietly_on(threads, &ctx, &settings)
 }
 
 /// [`cornell`] without the split and with it (`setup`'s emitter rays), in that order.

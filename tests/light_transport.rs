@@ -9,10 +9,8 @@
 mod common;
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions, Backend};
 use strata::experiments::Experiments;
 use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions, Strategy};
@@ -132,14 +130,7 @@ fn render_film(
         sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
-    let pool = render::thread_pool(0).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly_on(0, &ctx, &settings);
     assert_eq!(
         result.stats.bad_samples, 0,
         "NaN/Inf samples: {:?}",

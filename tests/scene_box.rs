@@ -9,6 +9,8 @@
 //! points on the faces, edges and corners, from near and far, at boxes near and far from the
 //! origin, and checked against both backends.
 
+mod common;
+
 use glam::{Mat4, Quat, Vec2, Vec3};
 use proptest::prelude::*;
 use proptest::test_runner::Config;
@@ -426,8 +428,6 @@ fn no_rectangle_for_a_box_around_the_camera() {
 /// culling off), AO at 4 spp; each of the others culls some blocks.
 #[test]
 fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
-    use indicatif::ProgressBar;
-    use std::sync::atomic::AtomicBool;
     use strata::integrators::{AoSettings, Integrator, Prepared};
     use strata::render::{self, RenderSettings};
     use strata::sampling::SamplerKind;
@@ -455,7 +455,6 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
 
     let accel = Accel::build(&scene, &AccelOptions::default()).expect("BVH");
     let prepared = Prepared::default();
-    let pool = render::thread_pool(2).unwrap();
     let middle = Vec3::new(0.0, 0.5, -0.5);
     for (eye, target, projection) in [
         (
@@ -516,8 +515,7 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
                 crop: None,
                 stopping: Default::default(),
             };
-            let progress = ProgressBar::hidden();
-            render::render(&ctx, &settings, &pool, &progress, &AtomicBool::new(false))
+            common::render_quietly(&ctx, &settings)
         });
         let sums = |r: &render::RenderResult| -> Vec<[i128; 3]> {
             (0..r.film.height)

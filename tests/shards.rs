@@ -7,11 +7,9 @@
 mod common;
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
-use common::repo_path;
+use common::{render_quietly_on, repo_path};
 use glam::Vec3;
-use indicatif::ProgressBar;
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{Context, Integrator, PathSettings, Prepared};
 use strata::render::film::value_of;
@@ -48,14 +46,7 @@ fn render_range(
         crop: None,
         stopping: Default::default(),
     };
-    let pool = render::thread_pool(threads).unwrap();
-    let result = render::render(
-        ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = render_quietly_on(threads, ctx, &settings);
     assert_eq!(result.stats.bad_samples, 0);
     result.film
 }

@@ -18,16 +18,16 @@
 //! itself every case would fail on its triangle count. `negative_control_*` below keeps the
 //! checks that can be run without the old loader.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 use base64::Engine;
 use glam::Vec3;
-use indicatif::ProgressBar;
 use serde_json::{json, Value};
 use strata::accel::{Accel, AccelOptions};
 use strata::integrators::{AoSettings, Hemisphere, Integrator, PathSettings, Prepared};
-use strata::render::{self, RenderSettings};
+use strata::render::RenderSettings;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, Camera, LoadOptions, Scene};
 
@@ -302,14 +302,7 @@ fn render_checked(scene: &Scene, integrator: Integrator, background: Vec3) -> Ve
         sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
-    let pool = render::thread_pool(0).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly_on(0, &ctx, &settings);
     assert!(!result.interrupted);
     assert_eq!(
         result.stats.bad_samples, 0,

@@ -20,10 +20,8 @@ mod common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 use glam::{DMat3, DVec3, Mat4, Vec2, Vec3, Vec4};
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde_json::Value;
 use strata::accel::{Accel, AccelOptions, Backend, Ray};
@@ -315,14 +313,7 @@ fn render_raw(scene: &Scene, cam: &Camera, integrator: Integrator, o: Opts) -> R
         sample_range: None,
         min_pass_seconds: strata::render::DEFAULT_MIN_PASS_SECONDS,
     };
-    let pool = render::thread_pool(0).unwrap();
-    let result = render::render(
-        &ctx,
-        &settings,
-        &pool,
-        &ProgressBar::hidden(),
-        &AtomicBool::new(false),
-    );
+    let result = common::render_quietly_on(0, &ctx, &settings);
     assert!(!result.interrupted);
     result
 }

@@ -1,7 +1,9 @@
 //! Helpers shared by the tests: for the CLI tests (`cli.rs`, `bad_input.rs`,
-//! `losing_nothing.rs`), run the `render` binary, check its one-line errors, and build broken
-//! variants of a small scene; for the light-transport and numerics tests, a closed sphere; for
-//! the render tests, a film's sums as bits.
+//! `losing_nothing.rs`), run the `render` binary, check its one-line errors, run a table of
+//! cases reporting every failing one (`check_every_case`), and build broken variants of a
+//! small scene; for the light-transport and numerics tests, a closed sphere; for
+//! the render tests, the render loop without a progress bar or a way to cancel
+//! (`render_quietly`, `render_quietly_on`) and a film's sums as bits.
 #![allow(dead_code)]
 
 pub mod sphere_chi2;
@@ -128,6 +130,38 @@ pub fn assert_one_error_line(stderr: &str, words: &[&str]) -> String {
         );
     }
     text.to_string()
+}
+
+/// Runs `check` on every case of a table, catching each case's panic, then fails naming
+/// every case that failed, with its message: one failing case does not hide the others.
+/// Names must be unique.
+pub fn check_every_case<T>(cases: &[T], name: impl Fn(&T) -> &str, check: impl Fn(&T)) {
+    assert!(!cases.is_empty(), "an empty table");
+    let mut names: Vec<&str> = cases.iter().map(&name).collect();
+    names.sort_unstable();
+    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        panic!("two cases are named {:?}", w[0]);
+    }
+    let mut failures = Vec::new();
+    for case in cases {
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(case)));
+        if let Err(payload) = outcome {
+            let message = payload
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| payload.downcast_ref::<&str>().copied())
+                .unwrap_or("(a panic without a message)");
+            failures.push(format!("--- {}:\n{message}", name(case)));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+    eprintln!("all {} cases passed", cases.len());
 }
 
 /// ao-wall.gltf (two quads, one camera, one embedded 240-byte buffer) as JSON.
@@ -311,7 +345,17 @@ pub fn render_quietly(
     ctx: &strata::integrators::Context,
     settings: &strata::render::RenderSettings,
 ) -> strata::render::RenderResult {
-    let pool = strata::render::thread_pool(2).unwrap();
+    render_quietly_on(2, ctx, settings)
+}
+
+/// [`render_quietly`] on `threads` worker threads (0: rayon's default, one per core), for the
+/// tests that render on a given number of threads or on every core.
+pub fn render_quietly_on(
+    threads: usize,
+    ctx: &strata::integrators::Context,
+    settings: &strata::render::RenderSettings,
+) -> strata::render::RenderResult {
+    let pool = strata::render::thread_pool(threads).unwrap();
     strata::render::render(
         ctx,
         settings,
