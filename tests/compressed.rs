@@ -19,7 +19,7 @@ use strata::integrators::{Integrator, PathSettings, Prepared};
 use strata::render::RenderSettings;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, ImageSource, Light, LoadOptions, Scene};
-use strata::shading::texture::{transform_uv, Encoding, Image};
+use strata::texture::{transform_uv, Encoding, Image};
 
 fn asset(name: &str) -> PathBuf {
     common::repo_path("scenes/compressed").join(name)
