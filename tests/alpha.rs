@@ -351,7 +351,7 @@ fn mask_cuts_the_factor_times_the_texture_at_the_cutoff() {
 /// mean is 0.75 × the emitter + 0.25 × the cut-out's own emission. Each camera ray sees one
 /// or the other, so the red channel's mean over N samples has a standard error of at most
 /// √(0.25 · 0.75 / N) × the emitter's red (less where a sample averages the emission of
-/// several camera rays, `render::emitters`); the test allows 5 of them. The render is the
+/// several camera rays, `integrators::emitters`); the test allows 5 of them. The render is the
 /// same bit for bit on one and two threads, and changes with the seed.
 #[test]
 fn blend_lets_one_minus_alpha_of_the_light_through() {
