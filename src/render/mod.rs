@@ -429,13 +429,7 @@ fn render_tile(
     round: &Round,
     (sums, wide, features, first_hits): TileTotals,
 ) -> TileResult {
-    let TileSetup {
-        camera,
-        scene_box,
-        ref mask,
-        miss,
-        ref emitters,
-    } = *setup;
+    let TileSetup { ref mask, miss, .. } = *setup;
     let pixels = tile.pixels();
     debug_assert_eq!(sums.len(), pixels);
     wide.clear();
@@ -448,95 +442,43 @@ fn render_tile(
         first_bad: Vec::new(),
     };
     let integrator = &settings.integrator;
-    let new_sampler = || PixelSampler::new(settings.sampler, settings.spp, settings.seed);
+    // Camera rays go in packets of a PACKET_W × PACKET_H block's pixels, or one at a time
+    // (`--no-camera-packets`, and where nothing is traced because nothing can be lit): then
+    // each block is one pixel, its one ray traced alone.
+    let traces = integrator.traces_rays(ctx);
+    let packets = ctx.experiments.camera_packets && traces;
+    let (block_w, block_h) = if packets {
+        (PACKET_W, PACKET_H)
+    } else {
+        (1, 1)
+    };
+    let mut samplers: [PixelSampler; PACKET] =
+        std::array::from_fn(|_| PixelSampler::new(settings.sampler, settings.spp, settings.seed));
     // Pixel (x, y)'s entry in `sums`.
     let at = |x: u32, y: u32| ((y - tile.y0) * (tile.x1 - tile.x0) + x - tile.x0) as usize;
-    if !(ctx.experiments.camera_packets && integrator.traces_rays(ctx)) {
-        // One camera ray at a time (or none, where nothing can be lit): each a packet of one.
-        let traces = integrator.traces_rays(ctx);
-        let mut sampler = [new_sampler()];
-        for y in tile.y0..tile.y1 {
-            for x in tile.x0..tile.x1 {
-                let samples = round.samples(x, y);
-                let pixel = &mut sums[at(x, y)];
-                *pixel = RoundTotals::default();
-                let mut pixel_features = round.film.feature_totals(x, y);
-                if keep_first_hits {
-                    first_hits[at(x, y)] = round.film.first_hit_raw(x, y);
-                }
-                for index in samples.0..samples.1 {
-                    sampler[0].start(x, y, index);
-                    // The first slot places the sample on the film.
-                    let film_uv = sampler[0].next_film();
-                    let ray = [camera.ray(x as f32 + film_uv.x, y as f32 + film_uv.y)];
-                    let mut record = [SampleRecord::default()];
-                    if traces {
-                        let hit = [ctx.accel.intersect(&ray[0])];
-                        let counts = &mut out.rays;
-                        match emitters {
-                            Some(view) => view.li_packet(
-                                ctx,
-                                integrator,
-                                &camera,
-                                &ray,
-                                &hit,
-                                &[(x, y)],
-                                &mut sampler,
-                                &[0],
-                                counts,
-                                &mut record,
-                            ),
-                            None => integrator.li_packet(
-                                ctx,
-                                &ray,
-                                &hit,
-                                &mut sampler,
-                                &[0],
-                                counts,
-                                &mut record,
-                            ),
-                        }
-                    }
-                    let l = record[0].l;
-                    let bad = (&mut out.bad, &mut out.first_bad);
-                    accumulate((pixel, wide), l, (x, y, index), bad);
-                    add_features(&mut pixel_features, record[0].features);
-                    if keep_first_hits && index == 0 {
-                        first_hits[at(x, y)] = record[0].triangle.unwrap_or(NO_HIT);
-                    }
-                }
-                pixel.count = samples.1 - samples.0;
-                if keep_features {
-                    features[at(x, y)] = pixel_features;
-                }
-            }
-        }
-        return out;
-    }
 
-    // Packets: the pixels of a PACKET_W × PACKET_H block take their samples side by side, the
-    // j-th sample of each pixel's range in one packet of camera rays. Each pixel still adds
-    // its samples in index order, from the same sampler dimensions, and packet hits equal
-    // single-ray hits, so the image is the one the loop above makes (but for a ray that meets
-    // an edge shared by two triangles at one distance, where the two traversals may name
-    // different triangles: 1 camera ray in 4.9 M on the helmet). A block's totals stay in
-    // `acc` until its last sample and are then written to `sums` whole.
-    let mut samplers: [PixelSampler; PACKET] = std::array::from_fn(|_| new_sampler());
-    for by in (tile.y0..tile.y1).step_by(PACKET_H as usize) {
-        for bx in (tile.x0..tile.x1).step_by(PACKET_W as usize) {
+    // The pixels of a block take their samples side by side, the j-th sample of each
+    // pixel's range in one packet of camera rays. Each pixel still adds its samples in index
+    // order, from the same sampler dimensions, and packet hits equal single-ray hits, so the
+    // image is the one of blocks of one pixel (but for a ray that meets an edge shared by
+    // two triangles at one distance, where the two traversals may name different triangles:
+    // 1 camera ray in 4.9 M on the helmet). A block's totals stay in `acc` until its last
+    // sample and are then written to `sums` whole.
+    for by in (tile.y0..tile.y1).step_by(block_h as usize) {
+        for bx in (tile.x0..tile.x1).step_by(block_w as usize) {
+            let (bx1, by1) = ((bx + block_w).min(tile.x1), (by + block_h).min(tile.y1));
             let mut lanes = [(0u32, 0u32, 0u32, 0u32); PACKET];
             let mut n_lanes = 0;
-            for y in by..(by + PACKET_H).min(tile.y1) {
-                for x in bx..(bx + PACKET_W).min(tile.x1) {
+            for y in by..by1 {
+                for x in bx..bx1 {
                     let (a, b) = round.samples(x, y);
                     lanes[n_lanes] = (x, y, a, b);
                     n_lanes += 1;
                 }
             }
             let lanes = &lanes[..n_lanes];
-            let (bx1, by1) = ((bx + PACKET_W).min(tile.x1), (by + PACKET_H).min(tile.y1));
             let unseen = mask.as_ref().is_some_and(|m| !m.sees(bx, by, bx1, by1));
-            // Samples to trace per pixel, at most (Round::samples gives b ≥ a).
+            // Samples to take per pixel, at most (Round::samples gives b ≥ a).
             let most = match unseen {
                 true => 0,
                 false => lanes.iter().map(|l| l.3 - l.2).max().unwrap_or(0),
@@ -581,53 +523,23 @@ fn render_tile(
                         n += 1;
                     }
                 }
-                // The first slot places the samples on the film.
-                let mut film_uv = [Vec2::ZERO; PACKET];
-                PixelSampler::next_film_lanes(&mut samplers, &which[..n], &mut film_uv[..n]);
-                let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
-                for k in 0..n {
-                    let (x, y, _, _) = lanes[which[k]];
-                    (fx[k], fy[k]) = (x as f32 + film_uv[k].x, y as f32 + film_uv[k].y);
-                }
-                let rays = camera.rays(&fx, &fy);
-                let mut hits = [None; PACKET];
-                // A packet whose rays all miss the scene's box needs no traversal.
-                if scene_box.misses_all(&rays[..n]) {
-                    out.rays.culled += n as u64;
-                } else {
-                    ctx.accel.intersect_packet(&rays[..n], &mut hits);
-                }
                 let mut records = [SampleRecord::default(); PACKET];
-                match emitters.as_ref().filter(|e| e.splits_any(bx, by, bx1, by1)) {
-                    None => integrator.li_packet(
+                if traces {
+                    let group = Group {
+                        lanes,
+                        which: &which[..n],
+                        block: (bx, by, bx1, by1),
+                        packet: packets,
+                    };
+                    camera_samples(
                         ctx,
-                        &rays[..n],
-                        &hits[..n],
+                        settings,
+                        setup,
+                        &group,
                         &mut samplers,
-                        &which[..n],
                         &mut out.rays,
-                        &mut records[..n],
-                    ),
-                    // Where an emitter may be seen, the samples of the pixels that may see
-                    // one are split ([`emitters`]).
-                    Some(view) => {
-                        let pixels: [(u32, u32); PACKET] = std::array::from_fn(|k| {
-                            let (x, y, _, _) = lanes[which[k.min(n - 1)]];
-                            (x, y)
-                        });
-                        view.li_packet(
-                            ctx,
-                            integrator,
-                            &camera,
-                            &rays[..n],
-                            &hits[..n],
-                            &pixels[..n],
-                            &mut samplers,
-                            &which[..n],
-                            &mut out.rays,
-                            &mut records[..n],
-                        );
-                    }
+                        &mut records,
+                    );
                 }
                 for (k, record) in records[..n].iter().enumerate() {
                     let (l, lane) = (record.l, which[k]);
@@ -655,6 +567,93 @@ fn render_tile(
         }
     }
     out
+}
+
+/// The camera samples a block takes side by side: `lanes` its pixels (x, y and their sample
+/// range), `which` the lanes that take a sample now, `block` its pixels' bounds
+/// [x0, x1) × [y0, y1); `packet`: its rays are traced as a packet (else it is one pixel, whose
+/// ray is traced alone).
+struct Group<'a> {
+    lanes: &'a [(u32, u32, u32, u32)],
+    which: &'a [usize],
+    block: (u32, u32, u32, u32),
+    packet: bool,
+}
+
+/// The records of one sample of each of `group`'s lanes (`samplers` started on them): their
+/// film positions, camera rays (traced as a packet, or alone for a block of one pixel, whose
+/// ray meets no box test), and the integrator's estimates, split where an emitter may be seen.
+#[inline]
+fn camera_samples(
+    ctx: &Context,
+    settings: &RenderSettings,
+    setup: &TileSetup,
+    group: &Group,
+    samplers: &mut [PixelSampler; PACKET],
+    counts: &mut RayCounts,
+    records: &mut [SampleRecord; PACKET],
+) {
+    let Group {
+        lanes,
+        which,
+        block: (bx, by, bx1, by1),
+        packet,
+    } = *group;
+    let n = which.len();
+    let (camera, integrator) = (&setup.camera, &settings.integrator);
+    // The first slot places the samples on the film.
+    let mut film_uv = [Vec2::ZERO; PACKET];
+    PixelSampler::next_film_lanes(samplers, which, &mut film_uv[..n]);
+    let (mut fx, mut fy) = ([0f32; PACKET], [0f32; PACKET]);
+    for k in 0..n {
+        let (x, y, _, _) = lanes[which[k]];
+        (fx[k], fy[k]) = (x as f32 + film_uv[k].x, y as f32 + film_uv[k].y);
+    }
+    let rays = camera.rays(&fx, &fy);
+    let mut hits = [None; PACKET];
+    if !packet {
+        hits[0] = ctx.accel.intersect(&rays[0]);
+    } else if setup.scene_box.misses_all(&rays[..n]) {
+        // A packet whose rays all miss the scene's box needs no traversal.
+        counts.culled += n as u64;
+    } else {
+        ctx.accel.intersect_packet(&rays[..n], &mut hits);
+    }
+    match setup
+        .emitters
+        .as_ref()
+        .filter(|e| e.splits_any(bx, by, bx1, by1))
+    {
+        None => integrator.li_packet(
+            ctx,
+            &rays[..n],
+            &hits[..n],
+            samplers,
+            which,
+            counts,
+            &mut records[..n],
+        ),
+        // Where an emitter may be seen, the samples of the pixels that may see one are
+        // split ([`EmitterView`]).
+        Some(view) => {
+            let pixels: [(u32, u32); PACKET] = std::array::from_fn(|k| {
+                let (x, y, _, _) = lanes[which[k.min(n - 1)]];
+                (x, y)
+            });
+            view.li_packet(
+                ctx,
+                integrator,
+                camera,
+                &rays[..n],
+                &hits[..n],
+                &pixels[..n],
+                samplers,
+                which,
+                counts,
+                &mut records[..n],
+            );
+        }
+    }
 }
 
 /// What every tile of a render shares, made once per render.
@@ -763,6 +762,11 @@ pub fn render(
 
 /// [`render`], handing the running film to `checkpoint` (if any) periodically. The image is
 /// the same, bit for bit, with or without checkpoints.
+///
+/// The render goes in rounds: each takes every pixel that still samples from its count to the
+/// round's end (a pass end of a fixed-spp render, the next count of a progressive one), tile
+/// by tile on `pool`, then adds the tiles to the film. Adaptive sampling judges the film
+/// before each round; a time limit or `cancel` stops it between tiles.
 pub fn render_with_checkpoints(
     ctx: &Context,
     settings: &RenderSettings,
@@ -771,121 +775,43 @@ pub fn render_with_checkpoints(
     cancel: &AtomicBool,
     mut checkpoint: Option<Checkpoint>,
 ) -> RenderResult {
-    let start = Instant::now();
-    let window = settings.crop.map_or(
-        (0, 0, settings.width, settings.height),
-        |(x0, y0, x1, y1)| {
-            (
-                x0.min(settings.width),
-                y0.min(settings.height),
-                x1.min(settings.width),
-                y1.min(settings.height),
-            )
-        },
-    );
-    let tiles = tiles(window, settings.tile_size);
-    // On the pool: its workers' floating-point mode is the one the tiles trace with.
-    let setup = pool.install(|| TileSetup::new(ctx, settings));
-    let mut tile_sums = TileSums::new(&tiles, ctx.features, ctx.ids);
-    let stopping = settings.stopping;
-    // The samples each pixel takes, from index `first_sample` on (the film counts them from 0).
-    let (first_sample, end_sample) = settings.samples();
-    assert!(
-        first_sample <= end_sample && end_sample <= settings.spp,
-        "sample range {first_sample}..{end_sample} outside 0..{}",
-        settings.spp
-    );
-    assert!(
-        settings.sample_range.is_none() || !stopping.is_progressive(),
-        "a sample range is for fixed-spp renders"
-    );
-    let spp = end_sample - first_sample;
+    let mut run = Run::new(ctx, settings, pool, progress, cancel);
+    let mut tile_sums = TileSums::new(&run.tiles, ctx.features, ctx.ids);
+    let (stopping, spp, window_pixels) = (settings.stopping, run.spp, run.window_pixels);
     // Each round takes every pixel from its count to the next pass end: in a progressive
     // render by the pixel's count, otherwise the same for all (`done` samples so far).
     let progressive = stopping.is_progressive();
     let next_progressive = |c: u32| progressive_next(c, stopping.min_spp, spp);
     let mut done = 0u32;
-    let deadline = stopping.time_limit.map(|t| start + t);
-    // The progress bar counts milliseconds when a time limit is set, converged pixels in an
-    // adaptive render without one (set after each judgement), and pixel samples otherwise.
-    let window_pixels = (window.2 - window.0) as u64 * (window.3 - window.1) as u64;
-    let adaptive_bar = stopping.time_limit.is_none() && stopping.target_error.is_some();
-    let bar_length = match stopping.time_limit {
-        Some(t) => t.as_millis().max(1) as u64,
-        None if adaptive_bar => window_pixels,
-        None => window_pixels * spp as u64,
-    };
-    progress.set_length(bar_length);
-    // After a tile: `samples` is the pixel samples it took (counted in fixed-spp renders).
-    let tick = |samples: u64| match stopping.time_limit {
-        Some(_) => progress.set_position((start.elapsed().as_millis() as u64).min(bar_length)),
-        None if adaptive_bar => {}
-        None => progress.inc(samples),
-    };
-    // The first round (one sample per pixel) always completes, so even a time limit shorter
-    // than one sample per pixel gives a whole image rather than a partly black one.
-    let mut first_round = true;
-    let time_is_up =
-        |first_round: bool| !first_round && deadline.is_some_and(|d| Instant::now() >= d);
-    let mut film = Film::new(settings.width, settings.height);
-    if ctx.features {
-        film.keep_features();
-    }
-    if ctx.ids {
-        film.keep_first_hits();
-    }
-    if stopping.target_error.is_some() && ctx.experiments.error_halves {
-        film.keep_halves();
-    }
+    let mut film = run.new_film();
     // Adaptive sampling: which pixels have not converged (all of the window at first), and
     // which of them sample in the current round.
-    let in_window = || {
-        let mut a = vec![false; settings.width as usize * settings.height as usize];
-        for y in window.1..window.3 {
-            let row = y as usize * settings.width as usize;
-            a[row + window.0 as usize..row + window.2 as usize].fill(true);
-        }
-        a
-    };
-    let mut active: Option<Vec<bool>> = stopping.target_error.map(|_| in_window());
+    let mut active: Option<Vec<bool>> = stopping.target_error.map(|_| run.in_window());
     let mut selected: Option<Vec<bool>> = None;
     let mut stats = RenderStats::default();
-    stats.rays.probe = setup.emitters.as_ref().map_or(0, |e| e.corner_rays);
-    let mut interrupted = false;
-    let mut time_limit_reached = false;
+    stats.rays.probe = run.setup.emitters.as_ref().map_or(0, |e| e.corner_rays);
+    let mut stop = Stop::default();
     // Without checkpoints a round is one group of all tiles. With them, groups of at least
     // four tiles per thread (so the barrier between groups costs little), at most 16 per round.
     let group = match checkpoint {
         Some(_) => (pool.current_num_threads() * 4)
-            .max(tiles.len().div_ceil(16))
+            .max(run.tiles.len().div_ceil(16))
             .max(1),
-        None => tiles.len().max(1),
+        None => run.tiles.len().max(1),
     };
     let mut last_checkpoint = Instant::now();
     // The probe round (one sample in one tile in PROBE_TILE_STRIDE), and the speed it
     // measured: seconds per sample per pixel of the whole window.
-    let mut probing = !progressive && settings.min_pass_seconds > 0.0 && spp > 1 && tiles.len() > 1;
+    let mut probing =
+        !progressive && settings.min_pass_seconds > 0.0 && spp > 1 && run.tiles.len() > 1;
     let mut probed: Option<f64> = None;
-
-    let judge = |film: &Film, mask: &mut [bool], target: f32| {
-        pool.install(|| {
-            adaptive::judge(
-                film,
-                window,
-                mask,
-                stopping.metric,
-                target,
-                stopping.min_spp,
-            )
-        })
-    };
 
     'rounds: loop {
         // Adaptive sampling: judge the film, and with a time limit pick the pixels whose next
         // samples lower the error most.
         if let (Some(target), Some(mask)) = (stopping.target_error, active.as_mut()) {
-            let judged = judge(&film, mask, target);
-            if adaptive_bar {
+            let judged = run.judge(&film, mask, target);
+            if run.adaptive_bar {
                 progress.set_position(window_pixels.saturating_sub(judged.active as u64));
             }
             if judged.active == 0 {
@@ -893,6 +819,7 @@ pub fn render_with_checkpoints(
             }
             if stopping.time_limit.is_some() {
                 let s = selected.get_or_insert_with(|| vec![false; mask.len()]);
+                let window = run.window;
                 pool.install(|| adaptive::select_most_useful(&film, window, mask, &judged, s));
             }
         }
@@ -904,13 +831,13 @@ pub fn render_with_checkpoints(
             if let Some(per_sample) = probed.take() {
                 return first_pass_end(spp, per_sample, settings.min_pass_seconds);
             }
-            let seconds = start.elapsed().as_secs_f64();
+            let seconds = run.start.elapsed().as_secs_f64();
             fixed_pass_end(done, spp, seconds, settings.min_pass_seconds)
         });
         let next_fixed = |c: u32| fixed_end.map_or(c, |end| end.max(c));
         let round = Round {
             film: &film,
-            offset: first_sample,
+            offset: run.first_sample,
             selection: selected.as_deref().or(active.as_deref()),
             next: if progressive {
                 &next_progressive
@@ -918,70 +845,17 @@ pub fn render_with_checkpoints(
                 &next_fixed
             },
         };
-        // A fixed-spp round's samples in a tile (for the progress bar): its pixels all have
-        // the same count.
-        let tile_samples = |t: &Tile| {
-            if progressive {
-                return 0;
-            }
-            let (a, b) = round.samples(t.x0, t.y0);
-            t.pixels() as u64 * (b - a) as u64
-        };
-        let work: Vec<bool> = if probing {
-            let probe =
-                |(i, t): (usize, &Tile)| i % PROBE_TILE_STRIDE == 0 && round.tile_has_work(t);
-            tiles.iter().enumerate().map(probe).collect()
-        } else if round.selection.is_none() {
-            tiles.iter().map(|t| round.tile_has_work(t)).collect()
-        } else {
-            pool.install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect())
-        };
+        let work = run.tiles_with_work(&round, probing);
         if !work.iter().any(|&w| w) {
             break 'rounds;
         }
         // Tiles rendered this round, by index into `tiles` (and `tile_sums`).
         let mut merged: Vec<(usize, TileResult)> = Vec::new();
-        let n_groups = tiles.len().div_ceil(group);
+        let n_groups = run.tiles.len().div_ceil(group);
         for g in 0..n_groups {
-            let range = g * group..((g + 1) * group).min(tiles.len());
-            let (chunk, chunk_work) = (&tiles[range.clone()], &work[range.clone()]);
-            if cancel.load(Ordering::Relaxed) {
-                interrupted = true;
-                break;
-            }
-            if time_is_up(first_round) {
-                time_limit_reached = true;
-                break;
-            }
-            let chunk_sums = tile_sums.split_mut(range.clone());
-            let results: Vec<Option<TileResult>> = pool.install(|| {
-                chunk
-                    .par_iter()
-                    .zip(chunk_work)
-                    .zip(chunk_sums)
-                    .map(|((&tile, &has_work), sums)| {
-                        if !has_work {
-                            tick(0);
-                            return None;
-                        }
-                        if cancel.load(Ordering::Relaxed) || time_is_up(first_round) {
-                            return None;
-                        }
-                        let r = render_tile(ctx, settings, &setup, tile, &round, sums);
-                        tick(tile_samples(&tile));
-                        Some(r)
-                    })
-                    .collect()
-            });
-            for ((i, &has_work), result) in range.clone().zip(chunk_work).zip(results) {
-                match result {
-                    Some(r) => merged.push((i, r)),
-                    None if !has_work => {}
-                    None if cancel.load(Ordering::Relaxed) => interrupted = true,
-                    None => time_limit_reached = true,
-                }
-            }
-            if interrupted || time_limit_reached {
+            let range = g * group..((g + 1) * group).min(run.tiles.len());
+            stop = run.render_group(&round, range, &work, &mut tile_sums, &mut merged);
+            if stop.any() {
                 break;
             }
             // Checkpoints see the film as of the last full round plus the groups so far.
@@ -989,9 +863,9 @@ pub fn render_with_checkpoints(
                 if g + 1 < n_groups && last_checkpoint.elapsed() >= c.every {
                     let mut snapshot = film.clone();
                     for (i, _) in &merged {
-                        merge_tile(&mut snapshot, &tiles[*i], tile_sums.get(*i));
+                        merge_tile(&mut snapshot, &run.tiles[*i], tile_sums.get(*i));
                     }
-                    stats.seconds = start.elapsed().as_secs_f64();
+                    stats.seconds = run.start.elapsed().as_secs_f64();
                     (c.save)(&snapshot, &stats);
                     last_checkpoint = Instant::now();
                 }
@@ -1000,25 +874,17 @@ pub fn render_with_checkpoints(
         // Each pixel's sum grows round by round in sample order. The bands of tile rows are
         // merged in parallel (a serial merge, first touching a new film's pages, held back
         // short renders on several threads).
-        merge_round(&mut film, &tiles, &tile_sums, &merged, pool);
+        merge_round(&mut film, &run.tiles, &tile_sums, &merged, pool);
         stats.passes += !merged.is_empty() as u32;
-        for (_, r) in merged {
-            stats.rays.add(&r.rays);
-            stats.bad_samples += r.bad;
-            for b in r.first_bad {
-                if stats.first_bad.len() < BAD_SAMPLES_KEPT {
-                    stats.first_bad.push(b);
-                }
-            }
-        }
-        if interrupted || time_limit_reached {
+        add_tile_results(&mut stats, merged);
+        if stop.any() {
             break 'rounds;
         }
-        first_round = false;
+        run.first_round = false;
         if probing {
             // The probe's pixels have a sample, the others none: `done` stays 0.
             probing = false;
-            let probe_pixels: u64 = (tiles.iter().zip(&work))
+            let probe_pixels: u64 = (run.tiles.iter().zip(&work))
                 .filter(|(_, &w)| w)
                 .map(|(t, _)| t.pixels() as u64)
                 .sum();
@@ -1030,25 +896,282 @@ pub fn render_with_checkpoints(
         if let Some(c) = checkpoint.as_mut() {
             let finished = film.count_range().0 >= spp;
             if !finished && last_checkpoint.elapsed() >= c.every {
-                stats.seconds = start.elapsed().as_secs_f64();
+                stats.seconds = run.start.elapsed().as_secs_f64();
                 (c.save)(&film, &stats);
                 last_checkpoint = Instant::now();
             }
         }
     }
-    stats.seconds = start.elapsed().as_secs_f64();
+    stats.seconds = run.start.elapsed().as_secs_f64();
     // Judge the last round too, so pixels that converged in it are not reported as still
     // sampling (this changes no pixel).
     let unconverged_pixels = match (stopping.target_error, active.as_mut()) {
-        (Some(target), Some(mask)) => Some(judge(&film, mask, target).active as u64),
+        (Some(target), Some(mask)) => Some(run.judge(&film, mask, target).active as u64),
         _ => None,
     };
     RenderResult {
         film,
         stats,
-        interrupted,
-        time_limit_reached,
+        interrupted: stop.interrupted,
+        time_limit_reached: stop.time_limit_reached,
         unconverged_pixels,
+    }
+}
+
+/// Why a round stopped before its last tile: the cancel flag, the time limit, or (where
+/// tiles running side by side saw each) both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Stop {
+    interrupted: bool,
+    time_limit_reached: bool,
+}
+
+impl Stop {
+    fn any(self) -> bool {
+        self.interrupted || self.time_limit_reached
+    }
+}
+
+/// What a render keeps from its start to its end but for the film and the stopping rule's
+/// state: its inputs, the window's tiles and their sums, and the progress bar's scale.
+struct Run<'a> {
+    ctx: &'a Context<'a>,
+    settings: &'a RenderSettings,
+    pool: &'a rayon::ThreadPool,
+    progress: &'a ProgressBar,
+    cancel: &'a AtomicBool,
+    start: Instant,
+    /// The pixels rendered: [x0, x1) × [y0, y1), the image or its crop.
+    window: (u32, u32, u32, u32),
+    window_pixels: u64,
+    tiles: Vec<Tile>,
+    setup: TileSetup,
+    /// The samples each pixel takes, from index `first_sample` on (the film counts them from
+    /// 0), `spp` of them.
+    first_sample: u32,
+    spp: u32,
+    /// The progress bar counts converged pixels (an adaptive render without a time limit).
+    adaptive_bar: bool,
+    bar_length: u64,
+    /// True until the first round completes: it always does, so even a time limit shorter
+    /// than one sample per pixel gives a whole image rather than a partly black one.
+    first_round: bool,
+}
+
+impl<'a> Run<'a> {
+    fn new(
+        ctx: &'a Context<'a>,
+        settings: &'a RenderSettings,
+        pool: &'a rayon::ThreadPool,
+        progress: &'a ProgressBar,
+        cancel: &'a AtomicBool,
+    ) -> Run<'a> {
+        let start = Instant::now();
+        let (width, height) = (settings.width, settings.height);
+        let window = settings
+            .crop
+            .map_or((0, 0, width, height), |(x0, y0, x1, y1)| {
+                (x0.min(width), y0.min(height), x1.min(width), y1.min(height))
+            });
+        let tiles = tiles(window, settings.tile_size);
+        // On the pool: its workers' floating-point mode is the one the tiles trace with.
+        let setup = pool.install(|| TileSetup::new(ctx, settings));
+        let stopping = settings.stopping;
+        let (first_sample, end_sample) = settings.samples();
+        assert!(
+            first_sample <= end_sample && end_sample <= settings.spp,
+            "sample range {first_sample}..{end_sample} outside 0..{}",
+            settings.spp
+        );
+        assert!(
+            settings.sample_range.is_none() || !stopping.is_progressive(),
+            "a sample range is for fixed-spp renders"
+        );
+        let spp = end_sample - first_sample;
+        // The progress bar counts milliseconds when a time limit is set, converged pixels in
+        // an adaptive render without one (set after each judgement), and pixel samples
+        // otherwise.
+        let window_pixels = (window.2 - window.0) as u64 * (window.3 - window.1) as u64;
+        let adaptive_bar = stopping.time_limit.is_none() && stopping.target_error.is_some();
+        let bar_length = match stopping.time_limit {
+            Some(t) => t.as_millis().max(1) as u64,
+            None if adaptive_bar => window_pixels,
+            None => window_pixels * spp as u64,
+        };
+        progress.set_length(bar_length);
+        Run {
+            ctx,
+            settings,
+            pool,
+            progress,
+            cancel,
+            start,
+            window,
+            window_pixels,
+            tiles,
+            setup,
+            first_sample,
+            spp,
+            adaptive_bar,
+            bar_length,
+            first_round: true,
+        }
+    }
+
+    /// A film of the image's size that keeps what the context asks for.
+    fn new_film(&self) -> Film {
+        let mut film = Film::new(self.settings.width, self.settings.height);
+        if self.ctx.features {
+            film.keep_features();
+        }
+        if self.ctx.ids {
+            film.keep_first_hits();
+        }
+        if self.settings.stopping.target_error.is_some() && self.ctx.experiments.error_halves {
+            film.keep_halves();
+        }
+        film
+    }
+
+    /// Indexed like the film: true in the window.
+    fn in_window(&self) -> Vec<bool> {
+        let (width, w) = (self.settings.width as usize, self.window);
+        let mut a = vec![false; width * self.settings.height as usize];
+        for y in w.1..w.3 {
+            let row = y as usize * width;
+            a[row + w.0 as usize..row + w.2 as usize].fill(true);
+        }
+        a
+    }
+
+    /// Adaptive sampling's judgement of `film`: `mask` keeps the pixels still above `target`.
+    fn judge(&self, film: &Film, mask: &mut [bool], target: f32) -> adaptive::Judgement {
+        let stopping = &self.settings.stopping;
+        self.pool.install(|| {
+            adaptive::judge(
+                film,
+                self.window,
+                mask,
+                stopping.metric,
+                target,
+                stopping.min_spp,
+            )
+        })
+    }
+
+    /// The time limit has passed (never in the first round).
+    fn time_is_up(&self) -> bool {
+        let deadline = self.settings.stopping.time_limit.map(|t| self.start + t);
+        !self.first_round && deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    /// Moves the progress bar after a tile that took `samples` pixel samples.
+    fn tick(&self, samples: u64) {
+        match self.settings.stopping.time_limit {
+            Some(_) => {
+                let ms = self.start.elapsed().as_millis() as u64;
+                self.progress.set_position(ms.min(self.bar_length));
+            }
+            None if self.adaptive_bar => {}
+            None => self.progress.inc(samples),
+        }
+    }
+
+    /// Which tiles have samples to take in `round` (`probing`: only one tile in
+    /// [`PROBE_TILE_STRIDE`] may).
+    fn tiles_with_work(&self, round: &Round, probing: bool) -> Vec<bool> {
+        if probing {
+            let probe =
+                |(i, t): (usize, &Tile)| i % PROBE_TILE_STRIDE == 0 && round.tile_has_work(t);
+            self.tiles.iter().enumerate().map(probe).collect()
+        } else if round.selection.is_none() {
+            self.tiles.iter().map(|t| round.tile_has_work(t)).collect()
+        } else {
+            let tiles = &self.tiles;
+            self.pool
+                .install(|| tiles.par_iter().map(|t| round.tile_has_work(t)).collect())
+        }
+    }
+
+    /// Renders the tiles of `range` that have `work` in `round` on the pool into their part
+    /// of `tile_sums`, and appends their results to `merged`; stops early, saying why, when
+    /// cancelled or out of time.
+    fn render_group(
+        &self,
+        round: &Round,
+        range: std::ops::Range<usize>,
+        work: &[bool],
+        tile_sums: &mut TileSums,
+        merged: &mut Vec<(usize, TileResult)>,
+    ) -> Stop {
+        if self.cancel.load(Ordering::Relaxed) {
+            return Stop {
+                interrupted: true,
+                ..Stop::default()
+            };
+        }
+        if self.time_is_up() {
+            return Stop {
+                time_limit_reached: true,
+                ..Stop::default()
+            };
+        }
+        // A fixed-spp round's samples in a tile (for the progress bar): its pixels all have
+        // the same count.
+        let progressive = self.settings.stopping.is_progressive();
+        let tile_samples = |t: &Tile| {
+            if progressive {
+                return 0;
+            }
+            let (a, b) = round.samples(t.x0, t.y0);
+            t.pixels() as u64 * (b - a) as u64
+        };
+        let (chunk, chunk_work) = (&self.tiles[range.clone()], &work[range.clone()]);
+        let chunk_sums = tile_sums.split_mut(range.clone());
+        let this = self;
+        let (ctx, settings, setup) = (self.ctx, self.settings, &self.setup);
+        let results: Vec<Option<TileResult>> = self.pool.install(|| {
+            chunk
+                .par_iter()
+                .zip(chunk_work)
+                .zip(chunk_sums)
+                .map(|((&tile, &has_work), sums)| {
+                    if !has_work {
+                        this.tick(0);
+                        return None;
+                    }
+                    if this.cancel.load(Ordering::Relaxed) || this.time_is_up() {
+                        return None;
+                    }
+                    let r = render_tile(ctx, settings, setup, tile, round, sums);
+                    this.tick(tile_samples(&tile));
+                    Some(r)
+                })
+                .collect()
+        });
+        let mut stop = Stop::default();
+        for ((i, &has_work), result) in range.zip(chunk_work).zip(results) {
+            match result {
+                Some(r) => merged.push((i, r)),
+                None if !has_work => {}
+                None if self.cancel.load(Ordering::Relaxed) => stop.interrupted = true,
+                None => stop.time_limit_reached = true,
+            }
+        }
+        stop
+    }
+}
+
+/// Adds a round's tile results to the render's statistics.
+fn add_tile_results(stats: &mut RenderStats, merged: Vec<(usize, TileResult)>) {
+    for (_, r) in merged {
+        stats.rays.add(&r.rays);
+        stats.bad_samples += r.bad;
+        for b in r.first_bad {
+            if stats.first_bad.len() < BAD_SAMPLES_KEPT {
+                stats.first_bad.push(b);
+            }
+        }
     }
 }
 
