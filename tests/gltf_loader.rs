@@ -648,11 +648,15 @@ fn the_anisotropy_is_read() {
             .find(|m| m.name.as_deref() == Some(n))
             .unwrap()
     };
-    let brushed = named("brushed").anisotropy.clone().expect("anisotropy");
+    let brushed = named("brushed")
+        .layers
+        .anisotropy
+        .clone()
+        .expect("anisotropy");
     assert_eq!((brushed.strength, brushed.rotation), (0.6, 1.57));
     assert_eq!(brushed.texture.expect("a texture").image, 0);
     assert!(named("brushed").needs_tangents());
-    assert_eq!(named("none").anisotropy, None);
+    assert_eq!(named("none").layers.anisotropy, None);
     assert!(!named("none").needs_tangents());
     assert!(
         !s.load_warnings.iter().any(|w| w.contains("ignores")),
@@ -778,7 +782,7 @@ fn the_iridescence_is_read() {
             .find(|m| m.name.as_deref() == Some(n))
             .unwrap()
     };
-    let bubble = named("bubble").iridescence.clone().expect("a film");
+    let bubble = named("bubble").layers.iridescence.clone().expect("a film");
     assert_eq!(
         (
             bubble.factor,
@@ -789,12 +793,12 @@ fn the_iridescence_is_read() {
         (0.8, 1.33, 250.0, 900.0)
     );
     assert!(bubble.texture.is_some() && bubble.thickness_texture.is_some());
-    let plain = named("plain").iridescence.clone().expect("a film");
+    let plain = named("plain").layers.iridescence.clone().expect("a film");
     assert_eq!(
         (plain.ior, plain.thickness_min, plain.thickness_max),
         (1.3, 100.0, 400.0)
     );
-    assert_eq!(named("off").iridescence, None);
+    assert_eq!(named("off").layers.iridescence, None);
     assert!(
         !s.load_warnings.iter().any(|w| w.contains("ignores")),
         "{:?}",
@@ -866,8 +870,8 @@ fn transmission_and_volume_are_read() {
             .unwrap()
     };
     let tinted = named("tinted");
-    assert_eq!(tinted.transmission, 0.75);
-    let volume = tinted.volume.expect("a volume");
+    assert_eq!(tinted.transmission.factor, 0.75);
+    let volume = tinted.transmission.volume.expect("a volume");
     assert_eq!(volume.attenuation_distance, 2.0);
     // σ_a = −ln(colour) / distance: ln 2 / 2, ln 4 / 2, 0.
     let sigma = volume.absorption();
@@ -879,11 +883,17 @@ fn transmission_and_volume_are_read() {
         );
     }
     assert_eq!(
-        (named("wall").transmission, named("wall").volume),
+        (
+            named("wall").transmission.factor,
+            named("wall").transmission.volume
+        ),
         (1.0, None)
     );
     assert_eq!(
-        (named("opaque").transmission, named("opaque").volume),
+        (
+            named("opaque").transmission.factor,
+            named("opaque").transmission.volume
+        ),
         (0.0, None)
     );
     assert!(

@@ -374,9 +374,9 @@ fn the_loader_reads_clearcoat_and_sheen_and_refuses_bad_values() {
     let m = (loaded.materials.iter())
         .find(|m| m.name.as_deref() == Some("velvet car"))
         .expect("the file's material");
-    let coat = m.clearcoat.as_ref().expect("a clear coat");
+    let coat = m.layers.clearcoat.as_ref().expect("a clear coat");
     assert_eq!((coat.factor, coat.roughness), (0.8, 0.25));
-    let sheen = m.sheen.as_ref().expect("a sheen");
+    let sheen = m.layers.sheen.as_ref().expect("a sheen");
     assert_eq!(
         (sheen.color, sheen.roughness),
         (Vec3::new(0.5, 0.25, 1.0), 0.3)
@@ -566,7 +566,7 @@ fn the_loader_reads_specular_and_refuses_bad_values() {
     let m = (loaded.materials.iter())
         .find(|m| m.name.as_deref() == Some("satin"))
         .expect("the file's material");
-    let sp = m.specular.as_ref().expect("a specular layer");
+    let sp = m.layers.specular.as_ref().expect("a specular layer");
     assert_eq!((sp.factor, sp.color), (0.3, Vec3::new(1.0, 2.0, 0.5)));
     assert!(
         m.ignored_extensions.is_empty(),

@@ -22,6 +22,7 @@ use glam::{Affine3A, DMat3, DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
+use super::extensions::{self, Layers};
 use super::{
     format_bytes, AlphaMode, Camera, ImageSource, Instance, Light, Material, Projection, Prototype,
     Scene, TextureRef, Wrap,
@@ -48,21 +49,6 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_texture_basisu",
     "KHR_texture_transform",
-];
-
-/// Material extensions strata renders (a material's other `KHR_materials_*` are named in a
-/// warning).
-const RENDERED_MATERIAL_EXTENSIONS: &[&str] = &[
-    "KHR_materials_anisotropy",
-    "KHR_materials_clearcoat",
-    "KHR_materials_dispersion",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_ior",
-    "KHR_materials_iridescence",
-    "KHR_materials_sheen",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_volume",
 ];
 
 /// What strata renders instead of what an extension it ignores asks for, for the warning
@@ -763,21 +749,8 @@ impl Loader<'_> {
     fn texture_ref(&mut self, info: &gltf::texture::Info, what: &str) -> TextureRef {
         let texture = info.texture();
         let sampler = texture.sampler();
-        let mut tex_coord = info.tex_coord();
-        // KHR_texture_transform: uv' = T · R · S · uv, R = [[cos, sin], [−sin, cos]].
-        let mut transform = [Vec2::X, Vec2::Y, Vec2::ZERO];
-        if let Some(t) = info.texture_transform() {
-            let (s, c) = t.rotation().sin_cos();
-            let [sx, sy] = t.scale();
-            transform = [
-                Vec2::new(c * sx, -s * sx),
-                Vec2::new(s * sy, c * sy),
-                Vec2::from_array(t.offset()),
-            ];
-            if let Some(tc) = t.tex_coord() {
-                tex_coord = tc;
-            }
-        }
+        let (transform, tex_coord) = extensions::texture_transform::read(info);
+        let tex_coord = tex_coord.unwrap_or(info.tex_coord());
         if tex_coord != 0 {
             self.warnings.push(format!(
                 "{what} uses TEXCOORD_{tex_coord}; strata reads TEXCOORD_0 only"
@@ -800,7 +773,8 @@ impl Loader<'_> {
         };
         let pbr = m.pbr_metallic_roughness();
         let base_color = Vec4::from_array(pbr.base_color_factor());
-        let emissive = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+        let emissive =
+            Vec3::from_array(m.emissive_factor()) * extensions::emissive_strength::read(m);
         if !base_color.is_finite() || !emissive.is_finite() {
             return Err(format!("{label} has a non-finite colour factor"));
         }
@@ -826,105 +800,25 @@ impl Loader<'_> {
         let occlusion_texture = m
             .occlusion_texture()
             .map(|o| plain_ref(o.texture(), o.tex_coord()));
-        // KHR_materials_ior: an index of refraction of at least 1 (the schema's minimum).
-        let ior = match m.ior() {
-            None => super::DEFAULT_IOR,
-            Some(ior) if ior.is_finite() && ior >= 1.0 => ior,
-            Some(ior) => {
-                self.warnings.push(format!(
-                    "{label}: KHR_materials_ior ior {ior} is not a number of at least 1; 1.5 is used"
-                ));
-                super::DEFAULT_IOR
-            }
-        };
-        // KHR_materials_transmission and KHR_materials_volume.
-        let transmission = m.transmission();
-        let transmission_factor = transmission
-            .as_ref()
-            .map_or(0.0, |t| t.transmission_factor());
-        if !(0.0..=1.0).contains(&transmission_factor) {
-            return Err(format!(
-                "{label}: KHR_materials_transmission transmissionFactor {transmission_factor} is not between 0 and 1"
-            ));
-        }
-        let transmission_texture = (transmission.as_ref())
-            .and_then(|t| t.transmission_texture())
-            .map(|info| self.texture_ref(&info, &format!("{label} transmission texture")));
-        let volume = match m.volume() {
-            Some(v) if transmission.is_some() && v.thickness_factor() > 0.0 => {
-                let color = Vec3::from_array(v.attenuation_color());
-                let distance = v.attenuation_distance();
-                if !(color.is_finite() && color.min_element() >= 0.0 && distance > 0.0) {
-                    return Err(format!(
-                        "{label}: KHR_materials_volume needs an attenuationColor of finite values of at least 0 and a positive attenuationDistance (got {color}, {distance})"
-                    ));
-                }
-                Some(super::Volume {
-                    attenuation_color: color,
-                    attenuation_distance: distance,
-                })
-            }
-            _ => None,
-        };
-        let specular = match m.specular() {
-            None => None,
-            Some(sp) => {
-                let (factor, color) = (
-                    sp.specular_factor(),
-                    Vec3::from_array(sp.specular_color_factor()),
-                );
-                if !(factor.is_finite() && (0.0..=1.0).contains(&factor)) {
-                    return Err(format!(
-                        "{label}: KHR_materials_specular specularFactor {factor} is not a number between 0 and 1"
-                    ));
-                }
-                if !(color.is_finite() && color.min_element() >= 0.0) {
-                    return Err(format!(
-                        "{label}: KHR_materials_specular specularColorFactor {color} is not three numbers of at least 0"
-                    ));
-                }
-                let what = format!("{label} specular texture");
-                let texture = sp
-                    .specular_texture()
-                    .map(|info| self.texture_ref(&info, &what));
-                let what = format!("{label} specular colour texture");
-                let color_texture =
-                    (sp.specular_color_texture()).map(|info| self.texture_ref(&info, &what));
-                Some(super::SpecularLayer {
-                    factor,
-                    texture,
-                    color,
-                    color_texture,
-                })
-            }
-        };
-        let clearcoat = self.clearcoat(m, &label)?;
-        let sheen = self.sheen(m, &label)?;
-        let anisotropy = self.anisotropy(m, &label)?;
-        let iridescence = self.iridescence(m, &label)?;
-        if transmission_factor > 0.0 && iridescence.is_some() {
+        // The material extensions, each read by its own file (scene::extensions), in this
+        // order (their warnings and errors come in it).
+        let ior = extensions::ior::read(m, self, &label);
+        let transmission = extensions::transmission::read(m, self, &label)?;
+        let layers = Layers::read(m, self, &label)?;
+        let glass = transmission.factor > 0.0;
+        if glass && layers.iridescence.is_some() {
             self.warnings.push(format!(
                 "{label}: its glass (KHR_materials_transmission) renders without its thin film (KHR_materials_iridescence), which only the opaque part shows"
             ));
         }
-        let dispersion = match m.extension_value("KHR_materials_dispersion") {
-            None => 0.0,
-            Some(ext) => {
-                let what = format!("{label} KHR_materials_dispersion");
-                number_at_least(ext, "dispersion", 0.0, 0.0, &what)?
-            }
-        };
-        if dispersion > 0.0 && !(transmission_factor > 0.0 && volume.is_some()) {
-            self.warnings.push(format!(
-                "{label}: KHR_materials_dispersion needs a refracting volume (KHR_materials_transmission with KHR_materials_volume); without one it has nothing to disperse and is not rendered"
-            ));
-        }
-        if transmission_factor > 0.0 && anisotropy.is_some() {
+        let refracts = glass && transmission.volume.is_some();
+        let dispersion = extensions::dispersion::read(m, self, &label, refracts)?;
+        if glass && layers.anisotropy.is_some() {
             self.warnings.push(format!(
                 "{label}: its glass (KHR_materials_transmission) renders isotropic; its anisotropy (KHR_materials_anisotropy) stretches only the opaque part's reflection"
             ));
         }
-        if transmission_factor > 0.0 && (clearcoat.is_some() || sheen.is_some()) {
+        if glass && (layers.clearcoat.is_some() || layers.sheen.is_some()) {
             self.warnings.push(format!(
                 "{label}: its glass (KHR_materials_transmission) renders without its clear coat and sheen, which only the opaque part shows"
             ));
@@ -943,15 +837,9 @@ impl Loader<'_> {
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
             ior,
-            transmission: transmission_factor,
-            transmission_texture,
-            volume,
-            specular,
-            clearcoat,
-            sheen,
-            anisotropy,
+            transmission,
             dispersion,
-            iridescence,
+            layers,
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
@@ -961,203 +849,12 @@ impl Loader<'_> {
                 .extensions()
                 .into_iter()
                 .flat_map(|map| map.keys())
-                .filter(|k| !RENDERED_MATERIAL_EXTENSIONS.contains(&k.as_str()))
+                .filter(|k| !extensions::RENDERED.contains(&k.as_str()))
                 .cloned()
                 .collect(),
             double_sided: m.double_sided(),
         };
         Ok(material)
-    }
-
-    /// A material's `KHR_materials_clearcoat`, None without it or where its factor is 0.
-    fn clearcoat(
-        &mut self,
-        m: &gltf::Material,
-        label: &str,
-    ) -> Result<Option<super::ClearcoatLayer>> {
-        let Some(ext) = m.extension_value("KHR_materials_clearcoat") else {
-            return Ok(None);
-        };
-        let what = format!("{label} KHR_materials_clearcoat");
-        let factor = unit_number(ext, "clearcoatFactor", 0.0, &what)?;
-        let roughness = unit_number(ext, "clearcoatRoughnessFactor", 0.0, &what)?;
-        let texture = self.extension_texture(ext, "clearcoatTexture", &what)?;
-        let roughness_texture = self.extension_texture(ext, "clearcoatRoughnessTexture", &what)?;
-        let normal_texture = self.extension_texture(ext, "clearcoatNormalTexture", &what)?;
-        let normal_scale = match ext
-            .get("clearcoatNormalTexture")
-            .and_then(|t| t.get("scale"))
-        {
-            None => 1.0,
-            Some(s) => s.as_f64().filter(|s| s.is_finite()).ok_or_else(|| {
-                format!("{what}: clearcoatNormalTexture scale {s} is not a number")
-            })? as f32,
-        };
-        if factor == 0.0 {
-            return Ok(None);
-        }
-        Ok(Some(super::ClearcoatLayer {
-            factor,
-            texture,
-            roughness,
-            roughness_texture,
-            normal_texture,
-            normal_scale,
-        }))
-    }
-
-    /// A material's `KHR_materials_anisotropy`, None without it or where its strength is 0.
-    fn anisotropy(
-        &mut self,
-        m: &gltf::Material,
-        label: &str,
-    ) -> Result<Option<super::AnisotropyLayer>> {
-        let Some(ext) = m.extension_value("KHR_materials_anisotropy") else {
-            return Ok(None);
-        };
-        let what = format!("{label} KHR_materials_anisotropy");
-        let strength = unit_number(ext, "anisotropyStrength", 0.0, &what)?;
-        let rotation = match ext.get("anisotropyRotation") {
-            None => 0.0,
-            Some(r) => (r.as_f64())
-                .filter(|r| r.is_finite())
-                .ok_or_else(|| format!("{what}: anisotropyRotation {r} is not a number"))?
-                as f32,
-        };
-        let texture = self.extension_texture(ext, "anisotropyTexture", &what)?;
-        if strength == 0.0 {
-            return Ok(None);
-        }
-        Ok(Some(super::AnisotropyLayer {
-            strength,
-            rotation,
-            texture,
-        }))
-    }
-
-    /// A material's `KHR_materials_iridescence`, None without it or where its factor is 0.
-    fn iridescence(
-        &mut self,
-        m: &gltf::Material,
-        label: &str,
-    ) -> Result<Option<super::IridescenceLayer>> {
-        let Some(ext) = m.extension_value("KHR_materials_iridescence") else {
-            return Ok(None);
-        };
-        let what = format!("{label} KHR_materials_iridescence");
-        let factor = unit_number(ext, "iridescenceFactor", 0.0, &what)?;
-        let ior = number_at_least(ext, "iridescenceIOR", 1.3, 1.0, &what)?;
-        let thickness_min = number_at_least(ext, "iridescenceThicknessMinimum", 100.0, 0.0, &what)?;
-        let thickness_max = number_at_least(ext, "iridescenceThicknessMaximum", 400.0, 0.0, &what)?;
-        let texture = self.extension_texture(ext, "iridescenceTexture", &what)?;
-        let thickness_texture =
-            self.extension_texture(ext, "iridescenceThicknessTexture", &what)?;
-        if factor == 0.0 {
-            return Ok(None);
-        }
-        Ok(Some(super::IridescenceLayer {
-            factor,
-            texture,
-            ior,
-            thickness_min,
-            thickness_max,
-            thickness_texture,
-        }))
-    }
-
-    /// A material's `KHR_materials_sheen`, None without it or where its colour is black.
-    fn sheen(&mut self, m: &gltf::Material, label: &str) -> Result<Option<super::SheenLayer>> {
-        let Some(ext) = m.extension_value("KHR_materials_sheen") else {
-            return Ok(None);
-        };
-        let what = format!("{label} KHR_materials_sheen");
-        let color = match ext.get("sheenColorFactor") {
-            None => Vec3::ZERO,
-            Some(v) => {
-                let c: Option<Vec<f32>> = (v.as_array()).map(|a| {
-                    a.iter()
-                        .filter_map(|x| x.as_f64().map(|x| x as f32))
-                        .collect()
-                });
-                match c {
-                    Some(c) if c.len() == 3 && c.iter().all(|x| (0.0..=1.0).contains(x)) => {
-                        Vec3::new(c[0], c[1], c[2])
-                    }
-                    _ => {
-                        return Err(format!(
-                            "{what}: sheenColorFactor {v} is not three numbers between 0 and 1"
-                        ))
-                    }
-                }
-            }
-        };
-        let roughness = unit_number(ext, "sheenRoughnessFactor", 0.0, &what)?;
-        let color_texture = self.extension_texture(ext, "sheenColorTexture", &what)?;
-        let roughness_texture = self.extension_texture(ext, "sheenRoughnessTexture", &what)?;
-        if color == Vec3::ZERO {
-            return Ok(None);
-        }
-        Ok(Some(super::SheenLayer {
-            color,
-            color_texture,
-            roughness,
-            roughness_texture,
-        }))
-    }
-
-    /// The texture an extension's JSON binds under `key` (a textureInfo: `index`,
-    /// `texCoord`, `KHR_texture_transform`), read as the core material's are.
-    fn extension_texture(
-        &mut self,
-        ext: &gltf::json::Value,
-        key: &str,
-        what: &str,
-    ) -> Result<Option<TextureRef>> {
-        let Some(info) = ext.get(key) else {
-            return Ok(None);
-        };
-        let index = (info.get("index").and_then(|i| i.as_u64()))
-            .ok_or_else(|| format!("{what}: {key} has no texture index"))?;
-        let texture = (self.document.textures().nth(index as usize))
-            .ok_or_else(|| format!("{what}: {key} names texture {index}, which does not exist"))?;
-        let sampler = texture.sampler();
-        let mut tex_coord = info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32;
-        let mut transform = [Vec2::X, Vec2::Y, Vec2::ZERO];
-        if let Some(t) = (info.get("extensions")).and_then(|e| e.get("KHR_texture_transform")) {
-            let pair = |k: &str, default: [f32; 2]| -> [f32; 2] {
-                match t.get(k).and_then(|v| v.as_array()) {
-                    Some(a) if a.len() == 2 => [
-                        a[0].as_f64().unwrap_or(default[0] as f64) as f32,
-                        a[1].as_f64().unwrap_or(default[1] as f64) as f32,
-                    ],
-                    _ => default,
-                }
-            };
-            let rotation = t.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32;
-            let ([sx, sy], offset) = (pair("scale", [1.0, 1.0]), pair("offset", [0.0, 0.0]));
-            let (s, c) = rotation.sin_cos();
-            // As `texture_ref`: uv' = T · R · S · uv.
-            transform = [
-                Vec2::new(c * sx, -s * sx),
-                Vec2::new(s * sy, c * sy),
-                Vec2::from_array(offset),
-            ];
-            if let Some(tc) = t.get("texCoord").and_then(|t| t.as_u64()) {
-                tex_coord = tc as u32;
-            }
-        }
-        if tex_coord != 0 {
-            self.warnings.push(format!(
-                "{what} {key} uses TEXCOORD_{tex_coord}; strata reads TEXCOORD_0 only"
-            ));
-        }
-        Ok(Some(TextureRef {
-            image: texture.source().index(),
-            tex_coord,
-            wrap_s: wrap(sampler.wrap_s()),
-            wrap_t: wrap(sampler.wrap_t()),
-            transform,
-        }))
     }
 
     /// Where image `i`'s bytes are. Read from the JSON rather than through
@@ -1764,6 +1461,50 @@ impl Loader<'_> {
     }
 }
 
+/// The loader's side of reading a material extension.
+impl extensions::Reader for Loader<'_> {
+    fn texture_info(&mut self, info: &gltf::texture::Info, what: &str) -> TextureRef {
+        self.texture_ref(info, what)
+    }
+
+    /// The texture an extension's JSON binds under `key` (a textureInfo: `index`,
+    /// `texCoord`, `KHR_texture_transform`), read as the core material's are.
+    fn texture(
+        &mut self,
+        ext: &gltf::json::Value,
+        key: &str,
+        what: &str,
+    ) -> Result<Option<TextureRef>> {
+        let Some(info) = ext.get(key) else {
+            return Ok(None);
+        };
+        let index = (info.get("index").and_then(|i| i.as_u64()))
+            .ok_or_else(|| format!("{what}: {key} has no texture index"))?;
+        let texture = (self.document.textures().nth(index as usize))
+            .ok_or_else(|| format!("{what}: {key} names texture {index}, which does not exist"))?;
+        let sampler = texture.sampler();
+        let (transform, tex_coord_override) = extensions::texture_transform::read_json(info);
+        let tex_coord = tex_coord_override
+            .unwrap_or(info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32);
+        if tex_coord != 0 {
+            self.warnings.push(format!(
+                "{what} {key} uses TEXCOORD_{tex_coord}; strata reads TEXCOORD_0 only"
+            ));
+        }
+        Ok(Some(TextureRef {
+            image: texture.source().index(),
+            tex_coord,
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            transform,
+        }))
+    }
+
+    fn warn(&mut self, message: String) {
+        self.warnings.push(message);
+    }
+}
+
 /// Keeps only the vertices some triangle uses, in their order. Run after triangles were
 /// dropped or when a position is not finite: the vertices of dropped triangles (NaN,
 /// infinite, or so large that the area overflows) would otherwise reach the scene bounds,
@@ -1810,36 +1551,6 @@ fn assemble_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
             .collect(),
         _ => Vec::new(),
-    }
-}
-
-/// The number under `key` of an extension's JSON, `default` where it is absent; an error
-/// naming `what` where it is not a number between 0 and 1.
-fn unit_number(ext: &gltf::json::Value, key: &str, default: f32, what: &str) -> Result<f32> {
-    match ext.get(key) {
-        None => Ok(default),
-        Some(v) => match v.as_f64() {
-            Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
-            _ => Err(format!("{what}: {key} {v} is not a number between 0 and 1")),
-        },
-    }
-}
-
-/// The number at `key` of an extension's JSON, `default` where absent; an error naming `what`
-/// where it is not a finite number of at least `least`.
-fn number_at_least(
-    ext: &gltf::json::Value,
-    key: &str,
-    default: f32,
-    least: f64,
-    what: &str,
-) -> Result<f32> {
-    match ext.get(key) {
-        None => Ok(default),
-        Some(v) => (v.as_f64())
-            .filter(|x| x.is_finite() && *x >= least)
-            .map(|x| x as f32)
-            .ok_or_else(|| format!("{what}: {key} {v} is not a number of at least {least}")),
     }
 }
 

@@ -11,6 +11,7 @@ pub mod animation;
 mod camera;
 mod compressed;
 mod draco;
+pub mod extensions;
 mod gltf_loader;
 mod meshopt;
 mod origins;
@@ -18,6 +19,10 @@ mod tangents;
 
 pub use animation::PoseTime;
 pub use camera::{Camera, Projection, RayGenerator};
+pub use extensions::transmission::Transmission;
+pub use extensions::{
+    AnisotropyLayer, ClearcoatLayer, IridescenceLayer, Layers, SheenLayer, SpecularLayer, Volume,
+};
 pub use gltf_loader::{
     load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
 };
@@ -62,6 +67,15 @@ pub enum ImageSource {
     },
 }
 
+/// How an image's colour channels are encoded: glTF's colour textures (base colour,
+/// emission) are sRGB, its data textures (metallic-roughness, normal, occlusion) linear
+/// (glTF 2.0, "Textures" and the material properties' descriptions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    Srgb,
+    Linear,
+}
+
 /// A texture binding of a material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TextureRef {
@@ -94,26 +108,15 @@ pub struct Material {
     /// Index of refraction of the dielectric part (`KHR_materials_ior`; glTF's 1.5 without):
     /// its specular reflectance at normal incidence is ((ior − 1) / (ior + 1))².
     pub ior: f32,
-    /// The fraction of the dielectric part's light that passes through the surface rather
-    /// than scattering diffusely (`KHR_materials_transmission`'s factor; 0 without), and its
-    /// texture (R channel).
-    pub transmission: f32,
-    pub transmission_texture: Option<TextureRef>,
-    /// `KHR_materials_volume`: the transmissive surface bounds a volume (thickness factor
-    /// above 0), else it is a thin wall.
-    pub volume: Option<Volume>,
-    /// `KHR_materials_specular` (None without it).
-    pub specular: Option<SpecularLayer>,
-    /// `KHR_materials_clearcoat` (None without it, or with a clearcoatFactor of 0).
-    pub clearcoat: Option<ClearcoatLayer>,
-    /// `KHR_materials_sheen` (None without it, or with a black sheenColorFactor).
-    pub sheen: Option<SheenLayer>,
-    /// `KHR_materials_anisotropy` (None without it, or with a strength of 0).
-    pub anisotropy: Option<AnisotropyLayer>,
+    /// `KHR_materials_transmission` and `_volume` ([`extensions::transmission`]): the share of
+    /// the dielectric part's light that passes through the surface (factor 0 without), its
+    /// texture, and the volume the surface bounds (None: a thin wall).
+    pub transmission: Transmission,
     /// `KHR_materials_dispersion`'s 20 / Abbe number of the volume's index (0: none).
     pub dispersion: f32,
-    /// `KHR_materials_iridescence` (None without it, or with a factor of 0).
-    pub iridescence: Option<IridescenceLayer>,
+    /// The layers over the metallic-roughness BRDF: `KHR_materials_specular`, `_clearcoat`,
+    /// `_sheen`, `_anisotropy`, `_iridescence` ([`extensions`]).
+    pub layers: Layers,
     /// `metallicRoughnessTexture`: metallic in its blue channel, roughness in its green.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// `normalTexture` and its `scale`.
@@ -125,87 +128,6 @@ pub struct Material {
     /// The material's `KHR_materials_*` extensions that strata does not render.
     pub ignored_extensions: Vec<String>,
     pub double_sided: bool,
-}
-
-/// The dielectric specular layer's strength and colour (`KHR_materials_specular`): specular =
-/// specularFactor × the texture's A, specular colour = specularColorFactor × the colour
-/// texture's RGB (sRGB).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SpecularLayer {
-    pub factor: f32,
-    pub texture: Option<TextureRef>,
-    pub color: Vec3,
-    pub color_texture: Option<TextureRef>,
-}
-
-/// A clear coat over a material (`KHR_materials_clearcoat`): its weight, clearcoatFactor ×
-/// the texture's R; its roughness, clearcoatRoughnessFactor × the roughness texture's G; and
-/// its own normal map (without one, the coat follows the vertex normals, not the base's map).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ClearcoatLayer {
-    pub factor: f32,
-    pub texture: Option<TextureRef>,
-    pub roughness: f32,
-    pub roughness_texture: Option<TextureRef>,
-    pub normal_texture: Option<TextureRef>,
-    pub normal_scale: f32,
-}
-
-/// A sheen of fibres over a material (`KHR_materials_sheen`): its colour, sheenColorFactor ×
-/// the colour texture's RGB (sRGB), and roughness, sheenRoughnessFactor × the roughness
-/// texture's A.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SheenLayer {
-    pub color: Vec3,
-    pub color_texture: Option<TextureRef>,
-    pub roughness: f32,
-    pub roughness_texture: Option<TextureRef>,
-}
-
-/// The specular lobes' anisotropy (`KHR_materials_anisotropy`): `strength` (× the texture's
-/// B) raises the GGX roughness along a direction of the tangent plane to mix(α, 1,
-/// strength²); the direction is the tangent turned by `rotation` radians toward the
-/// bitangent, or the texture's RG (mapped to [−1, 1]², in tangent and bitangent) turned by
-/// it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct AnisotropyLayer {
-    pub strength: f32,
-    pub rotation: f32,
-    pub texture: Option<TextureRef>,
-}
-
-/// A thin film over the specular lobes (`KHR_materials_iridescence`): its strength,
-/// iridescenceFactor × the texture's R; its index of refraction; its thickness in nm,
-/// `thickness_max`, or mix(`thickness_min`, `thickness_max`, the thickness texture's G).
-#[derive(Clone, Debug, PartialEq)]
-pub struct IridescenceLayer {
-    pub factor: f32,
-    pub texture: Option<TextureRef>,
-    pub ior: f32,
-    pub thickness_min: f32,
-    pub thickness_max: f32,
-    pub thickness_texture: Option<TextureRef>,
-}
-
-/// The medium inside a transmissive material's closed surface (`KHR_materials_volume`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Volume {
-    /// Light travelling `attenuation_distance` inside keeps `attenuation_color` of itself
-    /// (Beer–Lambert); infinite: the medium absorbs nothing.
-    pub attenuation_color: Vec3,
-    pub attenuation_distance: f32,
-}
-
-impl Volume {
-    /// The absorption coefficient σ_a = −ln(attenuation colour) / attenuation distance, per
-    /// channel (KHR_materials_volume): transmittance over a distance d is exp(−σ_a d).
-    pub fn absorption(&self) -> Vec3 {
-        if !self.attenuation_distance.is_finite() {
-            return Vec3::ZERO;
-        }
-        let c = self.attenuation_color.max(Vec3::splat(f32::MIN_POSITIVE));
-        -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / self.attenuation_distance
-    }
 }
 
 /// A normal-mapped primitive whose tangent frames MikkTSpace is to make.
@@ -242,15 +164,9 @@ impl Default for Material {
             metallic: 1.0,
             roughness: 1.0,
             ior: DEFAULT_IOR,
-            transmission: 0.0,
-            transmission_texture: None,
-            volume: None,
-            specular: None,
-            clearcoat: None,
-            sheen: None,
-            anisotropy: None,
+            transmission: Transmission::default(),
             dispersion: 0.0,
-            iridescence: None,
+            layers: Layers::default(),
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
@@ -271,9 +187,7 @@ impl Material {
     /// True when shading reads the surface's tangent frames: for its normal map, its clear
     /// coat's normal map, or its anisotropy's direction.
     pub fn needs_tangents(&self) -> bool {
-        self.normal_texture.is_some()
-            || (self.clearcoat.as_ref()).is_some_and(|c| c.normal_texture.is_some())
-            || self.anisotropy.is_some()
+        self.normal_texture.is_some() || self.layers.needs_tangents()
     }
 
     /// True when alpha may leave holes in the surface (glTF 2.0, "Alpha Coverage"): a MASK

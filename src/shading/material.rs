@@ -35,7 +35,7 @@ use super::interaction::SurfaceInteraction;
 use super::layers::{Coat, Layered, Sheen, SheenTable};
 use super::microfacet::AlbedoTable;
 use crate::sampling::Onb;
-use crate::scene::{Scene, TextureRef};
+use crate::scene::{AnisotropyLayer, Layers, Scene, TextureRef};
 use crate::texture::{transform_uv, Encoding, Image};
 
 /// What the integrator needs to read from materials.
@@ -112,17 +112,10 @@ struct Prepared {
     /// The absorption coefficient inside a transmissive volume (`KHR_materials_volume`);
     /// None for a thin wall, or an opaque material.
     volume: Option<Vec3>,
-    /// `KHR_materials_specular`, `KHR_materials_clearcoat` and `KHR_materials_sheen` (glTF
-    /// model only).
-    specular: Option<PreparedSpecular>,
-    coat: Option<PreparedCoat>,
-    sheen: Option<PreparedSheen>,
-    /// `KHR_materials_anisotropy` (glTF model only).
-    anisotropy: Option<PreparedAnisotropy>,
     /// `KHR_materials_dispersion` of the volume (0: none).
     dispersion: f32,
-    /// `KHR_materials_iridescence` (glTF model only).
-    iridescence: Option<PreparedIridescence>,
+    /// The layers over the BRDF, their textures bound (glTF model only; none otherwise).
+    layers: Layers<Binding>,
     /// B = metallic, G = roughness (bound under the glTF model only).
     metallic_roughness_texture: Option<Binding>,
     /// The tangent-space normal map and its `scale` (both models).
@@ -131,56 +124,6 @@ struct Prepared {
     emissive: Vec3,
     emissive_texture: Option<Binding>,
     double_sided: bool,
-}
-
-/// A material's specular layer: weight (× texture A) and colour (× texture RGB, sRGB).
-#[derive(Clone, Debug)]
-struct PreparedSpecular {
-    factor: f32,
-    texture: Option<Binding>,
-    color: Vec3,
-    color_texture: Option<Binding>,
-}
-
-/// A material's clear coat: weight (× texture R), roughness (× texture G), normal map.
-#[derive(Clone, Debug)]
-struct PreparedCoat {
-    factor: f32,
-    texture: Option<Binding>,
-    roughness: f32,
-    roughness_texture: Option<Binding>,
-    normal_texture: Option<Binding>,
-    normal_scale: f32,
-}
-
-/// A material's sheen: colour (× texture RGB, sRGB) and roughness (× texture A).
-#[derive(Clone, Debug)]
-struct PreparedSheen {
-    color: Vec3,
-    color_texture: Option<Binding>,
-    roughness: f32,
-    roughness_texture: Option<Binding>,
-}
-
-/// A material's anisotropy: strength (× texture B), its direction in tangent space (the
-/// rotation's (cos, sin)), and the texture whose RG replace the tangent before that rotation.
-#[derive(Clone, Debug)]
-struct PreparedAnisotropy {
-    strength: f32,
-    rotation: Vec2,
-    texture: Option<Binding>,
-}
-
-/// A material's thin film: strength (× texture R), index, thickness range in nm (the maximum,
-/// or mixed by the thickness texture's G).
-#[derive(Clone, Debug)]
-struct PreparedIridescence {
-    factor: f32,
-    texture: Option<Binding>,
-    ior: f32,
-    thickness_min: f32,
-    thickness_max: f32,
-    thickness_texture: Option<Binding>,
 }
 
 /// A BSDF type that [`Materials`] can give a surface point as ([`Materials::bsdf_as`]): an
@@ -260,11 +203,7 @@ impl Materials {
         // data is decoded twice.
         let mut image_slot: HashMap<(usize, Encoding), usize> = HashMap::new();
         let mut images = Vec::new();
-        let mut bind = |t: &Option<TextureRef>,
-                        encoding: Encoding,
-                        images: &mut Vec<Image>|
-         -> Result<Option<Binding>, String> {
-            let Some(t) = t else { return Ok(None) };
+        let mut bind_one = |t: &TextureRef, encoding: Encoding| -> Result<Binding, String> {
             let src = scene.image_source(t.image, scene_path)?;
             let slot = match image_slot.get(&(t.image, encoding)) {
                 Some(&s) => s,
@@ -274,79 +213,42 @@ impl Materials {
                     images.len() - 1
                 }
             };
-            Ok(Some(Binding {
+            Ok(Binding {
                 texture: t.clone(),
                 image: slot,
-            }))
+            })
         };
         let gltf = options.model == MaterialModel::Gltf;
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (m, &is_used) in scene.materials.iter().zip(&used) {
+            let mut bind = |t: &Option<TextureRef>, encoding: Encoding| {
+                t.as_ref().map(|t| bind_one(t, encoding)).transpose()
+            };
             let normal_texture = match is_used {
-                true => bind(&m.normal_texture, Encoding::Linear, &mut images)?,
+                true => bind(&m.normal_texture, Encoding::Linear)?,
                 false => None,
             };
-            let transmission_texture = match is_used && gltf && m.transmission > 0.0 {
-                true => bind(&m.transmission_texture, Encoding::Linear, &mut images)?,
+            let transmission = &m.transmission;
+            let transmission_texture = match is_used && gltf && transmission.factor > 0.0 {
+                true => bind(&transmission.texture, Encoding::Linear)?,
                 false => None,
             };
-            let specular = match (&m.specular, is_used && gltf) {
-                (Some(sp), true) => Some(PreparedSpecular {
-                    factor: sp.factor,
-                    texture: bind(&sp.texture, Encoding::Linear, &mut images)?,
-                    color: sp.color,
-                    color_texture: bind(&sp.color_texture, Encoding::Srgb, &mut images)?,
-                }),
-                _ => None,
+            let layers = match is_used && gltf {
+                true => m.layers.bind(&mut bind_one)?,
+                false => Layers::default(),
             };
-            let coat = match (&m.clearcoat, is_used && gltf) {
-                (Some(c), true) => Some(PreparedCoat {
-                    factor: c.factor,
-                    texture: bind(&c.texture, Encoding::Linear, &mut images)?,
-                    roughness: c.roughness,
-                    roughness_texture: bind(&c.roughness_texture, Encoding::Linear, &mut images)?,
-                    normal_texture: bind(&c.normal_texture, Encoding::Linear, &mut images)?,
-                    normal_scale: c.normal_scale,
-                }),
-                _ => None,
-            };
-            let sheen = match (&m.sheen, is_used && gltf) {
-                (Some(s), true) => Some(PreparedSheen {
-                    color: s.color,
-                    color_texture: bind(&s.color_texture, Encoding::Srgb, &mut images)?,
-                    roughness: s.roughness,
-                    roughness_texture: bind(&s.roughness_texture, Encoding::Linear, &mut images)?,
-                }),
-                _ => None,
-            };
-            let anisotropy = match (&m.anisotropy, is_used && gltf) {
-                (Some(a), true) => Some(PreparedAnisotropy {
-                    strength: a.strength,
-                    rotation: Vec2::new(a.rotation.cos(), a.rotation.sin()),
-                    texture: bind(&a.texture, Encoding::Linear, &mut images)?,
-                }),
-                _ => None,
-            };
-            let iridescence = match (&m.iridescence, is_used && gltf) {
-                (Some(i), true) => Some(PreparedIridescence {
-                    factor: i.factor,
-                    texture: bind(&i.texture, Encoding::Linear, &mut images)?,
-                    ior: i.ior,
-                    thickness_min: i.thickness_min,
-                    thickness_max: i.thickness_max,
-                    thickness_texture: bind(&i.thickness_texture, Encoding::Linear, &mut images)?,
-                }),
-                _ => None,
+            let mut bind = |t: &Option<TextureRef>, encoding: Encoding| {
+                t.as_ref().map(|t| bind_one(t, encoding)).transpose()
             };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
-                let base = bind(&m.base_color_texture, Encoding::Srgb, &mut images)?;
+                let base = bind(&m.base_color_texture, Encoding::Srgb)?;
                 let metallic_roughness = match gltf {
-                    true => bind(&m.metallic_roughness_texture, Encoding::Linear, &mut images)?,
+                    true => bind(&m.metallic_roughness_texture, Encoding::Linear)?,
                     false => None,
                 };
                 // An emissive texture only matters when the emissive factor is non-zero.
                 let emissive = if m.is_emissive() {
-                    bind(&m.emissive_texture, Encoding::Srgb, &mut images)?
+                    bind(&m.emissive_texture, Encoding::Srgb)?
                 } else {
                     None
                 };
@@ -360,18 +262,13 @@ impl Materials {
                 metallic: m.metallic.clamp(0.0, 1.0),
                 roughness: m.roughness.clamp(0.0, 1.0),
                 ior: m.ior,
-                transmission: m.transmission,
+                transmission: transmission.factor,
                 transmission_texture,
-                volume: m
-                    .volume
-                    .filter(|_| m.transmission > 0.0)
+                volume: (transmission.volume)
+                    .filter(|_| transmission.factor > 0.0)
                     .map(|v| v.absorption()),
-                specular,
-                coat,
-                sheen,
-                anisotropy,
                 dispersion: m.dispersion,
-                iridescence,
+                layers,
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale: m.normal_scale,
@@ -385,37 +282,24 @@ impl Materials {
             // point inside the render (and its timing).
             AlbedoTable::get();
         }
-        if materials.iter().any(|m| m.sheen.is_some()) {
+        if materials.iter().any(|m| m.layers.sheen.is_some()) {
             SheenTable::get();
         }
         if gltf && options.energy_compensation && materials.iter().any(|m| m.volume.is_some()) {
             // Rough glass's compensation table (about 0.2 s), likewise before the render.
             DielectricAlbedoTable::get();
         }
-        let coat_normals =
-            |m: &Prepared| (m.coat.as_ref()).is_some_and(|c| c.normal_texture.is_some());
         let textured = materials.iter().any(|m| {
             m.base_texture.is_some()
                 || m.emissive_texture.is_some()
                 || m.metallic_roughness_texture.is_some()
                 || m.normal_texture.is_some()
                 || m.transmission_texture.is_some()
-                || (m.specular.as_ref())
-                    .is_some_and(|s| s.texture.is_some() || s.color_texture.is_some())
-                || (m.coat.as_ref()).is_some_and(|c| {
-                    c.texture.is_some()
-                        || c.roughness_texture.is_some()
-                        || c.normal_texture.is_some()
-                })
-                || (m.sheen.as_ref())
-                    .is_some_and(|s| s.color_texture.is_some() || s.roughness_texture.is_some())
-                || (m.anisotropy.as_ref()).is_some_and(|a| a.texture.is_some())
-                || (m.iridescence.as_ref())
-                    .is_some_and(|i| i.texture.is_some() || i.thickness_texture.is_some())
+                || m.layers.textured()
         });
         let tangents = match materials
             .iter()
-            .any(|m| m.normal_texture.is_some() || coat_normals(m) || m.anisotropy.is_some())
+            .any(|m| m.normal_texture.is_some() || m.layers.needs_tangents())
         {
             true => scene.tangent_frames(),
             false => Vec::new(),
@@ -553,20 +437,13 @@ impl Materials {
     fn anisotropy_at(
         &self,
         scene: &Scene,
-        anisotropy: &PreparedAnisotropy,
+        anisotropy: &AnisotropyLayer<Binding>,
         si: &SurfaceInteraction,
         shaded: &SurfaceInteraction,
         uv: Vec2,
     ) -> Option<(f32, Vec3)> {
         let [t, b, _] = self.tangent_frame(scene, si)?;
-        let (mut strength, mut direction) = (anisotropy.strength, Vec2::X);
-        if let Some(binding) = &anisotropy.texture {
-            let texel = self.lookup(binding, uv);
-            direction = (Vec2::new(texel.x, texel.y) * 2.0 - Vec2::ONE).normalize_or_zero();
-            strength *= texel.z;
-        }
-        // Turned counter-clockwise from the tangent toward the bitangent.
-        let turned = anisotropy.rotation.rotate(direction);
+        let (strength, turned) = anisotropy.at(|binding| self.lookup(binding, uv));
         let world = t * turned.x + b * turned.y;
         Some((strength, Onb::from_normal(shaded.ns).to_local(world)))
     }
@@ -676,73 +553,49 @@ impl Materials {
             }
         }
         let brdf = self.bsdf_with(base, metallic, roughness, m.ior);
-        if m.specular.is_none()
-            && m.coat.is_none()
-            && m.sheen.is_none()
-            && m.anisotropy.is_none()
-            && m.iridescence.is_none()
-        {
+        if m.layers.is_empty() {
             return brdf;
         }
         let Bsdf::MetallicRoughness(mut brdf) = brdf else {
             return brdf;
         };
-        if let Some(a) = &m.anisotropy {
+        // Each layer at this point, its textures read by `lookup` (scene::extensions).
+        let lookup = |b: &Binding| self.lookup(b, uv);
+        let Layers {
+            specular,
+            clearcoat,
+            sheen,
+            anisotropy,
+            iridescence,
+        } = &m.layers;
+        if let Some(a) = anisotropy {
             if let Some((strength, direction)) = self.anisotropy_at(scene, a, si, shaded, uv) {
                 brdf = brdf.with_anisotropy(strength, direction);
             }
         }
-        if let Some(i) = &m.iridescence {
-            let mut factor = i.factor;
-            if let Some(b) = &i.texture {
-                factor *= self.lookup(b, uv).x;
-            }
-            let thickness = match &i.thickness_texture {
-                None => i.thickness_max,
-                Some(b) => {
-                    let g = self.lookup(b, uv).y;
-                    i.thickness_min + (i.thickness_max - i.thickness_min) * g
-                }
-            };
+        if let Some(i) = iridescence {
+            let (factor, thickness) = i.at(lookup);
             // Under a clear coat the film's outside is the coat (KHR_materials_iridescence,
             // "Clearcoat": index 1.5).
-            let outside = if m.coat.is_some() { 1.5 } else { 1.0 };
+            let outside = if clearcoat.is_some() { 1.5 } else { 1.0 };
             brdf = brdf.with_iridescence(factor, i.ior, thickness, outside);
         }
-        if m.specular.is_none() && m.coat.is_none() && m.sheen.is_none() {
+        if specular.is_none() && clearcoat.is_none() && sheen.is_none() {
             return Bsdf::MetallicRoughness(brdf);
         }
-        if let Some(sp) = &m.specular {
-            let (mut weight, mut color) = (sp.factor, sp.color);
-            if let Some(b) = &sp.texture {
-                weight *= self.lookup(b, uv).w;
-            }
-            if let Some(b) = &sp.color_texture {
-                color *= self.lookup(b, uv).truncate();
-            }
+        if let Some(sp) = specular {
+            let (weight, color) = sp.at(lookup);
             brdf = brdf.with_specular(weight, color);
-            if m.coat.is_none() && m.sheen.is_none() {
+            if clearcoat.is_none() && sheen.is_none() {
                 return Bsdf::MetallicRoughness(brdf);
             }
         }
-        let sheen = m.sheen.as_ref().map(|s| {
-            let (mut color, mut roughness) = (s.color, s.roughness);
-            if let Some(b) = &s.color_texture {
-                color *= self.lookup(b, uv).truncate();
-            }
-            if let Some(b) = &s.roughness_texture {
-                roughness *= self.lookup(b, uv).w;
-            }
+        let sheen = sheen.as_ref().map(|s| {
+            let (color, roughness) = s.at(lookup);
             Sheen::new(color, roughness)
         });
-        let coat = m.coat.as_ref().map(|c| {
-            let (mut weight, mut roughness) = (c.factor, c.roughness);
-            if let Some(b) = &c.texture {
-                weight *= self.lookup(b, uv).x;
-            }
-            if let Some(b) = &c.roughness_texture {
-                roughness *= self.lookup(b, uv).y;
-            }
+        let coat = clearcoat.as_ref().map(|c| {
+            let (weight, roughness) = c.at(lookup);
             let normal = match &c.normal_texture {
                 Some(b) => self.normal_mapped(scene, si, b, c.normal_scale, uv).ns,
                 None => si.ns,

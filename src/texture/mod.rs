@@ -9,16 +9,9 @@ use std::path::Path;
 
 use glam::{Vec2, Vec4};
 
-use crate::scene::{ImageSource, TextureRef, Wrap};
-
-/// How an image's colour channels are encoded: glTF's colour textures (base colour,
-/// emission) are sRGB, its data textures (metallic-roughness, normal, occlusion) linear
-/// (glTF 2.0, "Textures" and the material properties' descriptions).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Encoding {
-    Srgb,
-    Linear,
-}
+pub use crate::scene::extensions::texture_transform::apply as transform_uv;
+pub use crate::scene::Encoding;
+use crate::scene::{ImageSource, Wrap};
 
 /// A decoded image in linear RGBA, row 0 at the top.
 ///
@@ -195,12 +188,6 @@ fn wrap_index(i: i64, n: i64, wrap: Wrap) -> i64 {
             }
         }
     }
-}
-
-/// Applies a texture binding's `KHR_texture_transform` to `uv`.
-#[inline]
-pub fn transform_uv(t: &TextureRef, uv: Vec2) -> Vec2 {
-    t.transform[0] * uv.x + t.transform[1] * uv.y + t.transform[2]
 }
 
 #[cfg(test)]
