@@ -760,12 +760,12 @@ fn the_iridescence_is_read() {
     doc["materials"] = json!([
         film(
             "bubble",
-            json!({"iridescenceFactor": 0.8, "iridescenceIOR": 1.33,
+            json!({"iridescenceFactor": 0.8, "iridescenceIor": 1.33,
                    "iridescenceThicknessMinimum": 250.0, "iridescenceThicknessMaximum": 900.0,
                    "iridescenceTexture": {"index": 0}, "iridescenceThicknessTexture": {"index": 0}})
         ),
         film("plain", json!({"iridescenceFactor": 1.0})),
-        film("off", json!({"iridescenceIOR": 1.8})),
+        film("off", json!({"iridescenceIor": 1.8})),
         {"name": "glass", "extensions": {
             "KHR_materials_iridescence": {"iridescenceFactor": 1.0},
             "KHR_materials_transmission": {"transmissionFactor": 1.0}}},
@@ -816,8 +816,8 @@ fn the_iridescence_is_read() {
     for (ext, words) in [
         (json!({"iridescenceFactor": 2.0}), "iridescenceFactor 2.0"),
         (
-            json!({"iridescenceFactor": 1.0, "iridescenceIOR": 0.5}),
-            "iridescenceIOR 0.5",
+            json!({"iridescenceFactor": 1.0, "iridescenceIor": 0.5}),
+            "iridescenceIor 0.5",
         ),
         (
             json!({"iridescenceFactor": 1.0, "iridescenceThicknessMaximum": -3.0}),

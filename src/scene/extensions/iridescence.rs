@@ -43,7 +43,7 @@ pub fn read(
     };
     let what = format!("{label} {NAME}");
     let factor = unit_number(ext, "iridescenceFactor", 0.0, &what)?;
-    let ior = number_at_least(ext, "iridescenceIOR", 1.3, 1.0, &what)?;
+    let ior = number_at_least(ext, "iridescenceIor", 1.3, 1.0, &what)?;
     let thickness_min = number_at_least(ext, "iridescenceThicknessMinimum", 100.0, 0.0, &what)?;
     let thickness_max = number_at_least(ext, "iridescenceThicknessMaximum", 400.0, 0.0, &what)?;
     let texture = r.texture(ext, "iridescenceTexture", &what)?;
