@@ -7,12 +7,16 @@
 //! each, so that memory grows with the unique geometry. A triangle's index is its primitive
 //! id in the acceleration structure's hits, which also name the instance (`Hit::inst`).
 
+mod accessors;
 pub mod animation;
 mod camera;
 mod compressed;
 mod draco;
 pub mod extensions;
+mod files;
 mod gltf_loader;
+mod instancing;
+mod memory;
 mod meshopt;
 mod origins;
 mod tangents;
@@ -23,14 +27,17 @@ pub use extensions::transmission::Transmission;
 pub use extensions::{
     AnisotropyLayer, ClearcoatLayer, IridescenceLayer, Layers, SheenLayer, SpecularLayer, Volume,
 };
-pub use gltf_loader::{
-    load, load_from_bytes, percent_decode, LoadError, LoadOptions, MemoryEstimate,
-};
+pub use files::percent_decode;
+pub use gltf_loader::{load, load_from_bytes, LoadError, LoadOptions};
+pub use memory::MemoryEstimate;
 pub use origins::{OriginRun, Origins, TriangleOrigin};
 
 use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A, Vec4};
 
 pub use crate::ray::NO_INSTANCE;
+
+/// Deepest node hierarchy accepted (deeper ones are almost certainly cyclic or hostile).
+pub(crate) const MAX_NODE_DEPTH: usize = 256;
 
 /// `bytes` for people: "1.5 GiB", "512.0 KiB", "100 bytes".
 pub fn format_bytes(bytes: u64) -> String {

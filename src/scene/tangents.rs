@@ -11,7 +11,7 @@
 //! Either way the bitangent cross(n, t) w points up the image (toward decreasing v), where a
 //! normal map's +Y (green) points.
 
-use glam::{Vec3, Vec4};
+use glam::{DMat3, Vec3, Vec4};
 
 use super::Scene;
 
@@ -87,6 +87,65 @@ pub(crate) fn mikktspace(scene: &Scene, corners: &[[u32; 3]]) -> Vec<[Vec4; 3]> 
     // The crate's error type has no variants: generation cannot fail.
     let _ = bevy_mikktspace::generate_tangents(&mut primitive);
     primitive.out
+}
+
+/// Adds to `scene` the tangent frames of the triangles from `first` on (those this primitive added, whose
+/// file vertices are `corners`: empty unless its material has a normal map): from the
+/// file's `TANGENT` (`file`: the primitive's first vertex in the scene and its tangents in
+/// object space: xyz by the node's `linear` map, w negated under a mirroring one) or else
+/// by MikkTSpace (later: [`super::Scene::tangent_frames`]).
+pub(super) fn add_frames(
+    scene: &mut Scene,
+    first: usize,
+    corners: &[[u32; 3]],
+    file: Option<(usize, &[[f32; 4]])>,
+    linear: &DMat3,
+    flip: bool,
+) {
+    let added = scene.triangles.len() - first;
+    if corners.is_empty() {
+        if !scene.tangents.is_empty() {
+            scene
+                .tangents
+                .extend(std::iter::repeat_n([Vec4::ZERO; 3], added));
+        }
+        return;
+    }
+    let frames: Vec<[Vec4; 3]> = match file {
+        Some((base, ts)) => {
+            // Once per vertex, then looked up per corner.
+            let m = linear.as_mat3();
+            let sign = if flip { -1.0 } else { 1.0 };
+            let world: Vec<Vec4> = ts
+                .iter()
+                .map(|t| {
+                    let xyz = (m * Vec3::new(t[0], t[1], t[2])).normalize_or_zero();
+                    let w = if t[3] < 0.0 { -sign } else { sign };
+                    match xyz.is_finite() && xyz != Vec3::ZERO {
+                        true => xyz.extend(w),
+                        false => Vec4::ZERO,
+                    }
+                })
+                .collect();
+            corners
+                .iter()
+                .map(|c| c.map(|i| world[i as usize - base]))
+                .collect()
+        }
+        None => {
+            // MikkTSpace waits until a render reads the normal map (ambient occlusion
+            // does not): the frames stay zero, and the primitive's corners are kept.
+            scene.pending_tangents.push(super::PendingTangents {
+                first_triangle: first,
+                corners: corners.to_vec(),
+            });
+            vec![[Vec4::ZERO; 3]; corners.len()]
+        }
+    };
+    if scene.tangents.is_empty() {
+        scene.tangents = vec![[Vec4::ZERO; 3]; first];
+    }
+    scene.tangents.extend(frames);
 }
 
 #[cfg(test)]
