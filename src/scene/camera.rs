@@ -1,7 +1,7 @@
 //! Cameras: glTF perspective and orthographic projections, and the framing camera used when a
 //! file has none.
 
-use glam::{Mat4, Vec3};
+use glam::{DMat4, Mat4, Vec3};
 
 use crate::ray::Ray;
 
@@ -280,6 +280,48 @@ impl RayGenerator {
             .all(|v| v.abs() < 1e30)
             .then(|| rect.map(|v| v as f32))
     }
+}
+
+/// The camera a glTF node places with its world transform `world`; an error for a
+/// projection glTF does not allow.
+pub(super) fn from_gltf(camera: &gltf::Camera, world: &DMat4) -> Result<Camera, String> {
+    let label = format!("camera {}", camera.index());
+    let (projection, aspect_ratio) = match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => {
+            let yfov = p.yfov();
+            if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+                return Err(format!("{label}: yfov {yfov} is not in (0, π)"));
+            }
+            let aspect = p.aspect_ratio();
+            if let Some(a) = aspect {
+                if !(a > 0.0 && a.is_finite()) {
+                    return Err(format!("{label}: aspectRatio {a} is not positive"));
+                }
+            }
+            (Projection::Perspective { yfov }, aspect)
+        }
+        gltf::camera::Projection::Orthographic(o) => {
+            let (xmag, ymag) = (o.xmag(), o.ymag());
+            if !(ymag > 0.0 && ymag.is_finite() && xmag > 0.0 && xmag.is_finite()) {
+                return Err(format!(
+                    "{label}: xmag {xmag} and ymag {ymag} must be positive"
+                ));
+            }
+            (Projection::Orthographic { ymag }, Some(xmag / ymag))
+        }
+    };
+    let to_world = world.as_mat4();
+    if !to_world.is_finite() {
+        return Err(format!(
+            "{label}: its world transform overflows single precision"
+        ));
+    }
+    Ok(Camera {
+        name: camera.name().map(str::to_string),
+        projection,
+        to_world,
+        aspect_ratio,
+    })
 }
 
 #[cfg(test)]

@@ -28,53 +28,11 @@ use super::accessors::{
 use super::extensions::{self, Layers};
 use super::files::{check_glb_header, load_buffers, read_scene_file, read_uri, resolve_uri};
 use super::instancing::{instance_transforms, instanced_mesh};
-use super::memory::estimate_memory;
+use super::memory::{estimate_memory, MemoryEstimate};
 use super::MAX_NODE_DEPTH;
 use super::{
-    format_bytes, AlphaMode, Camera, ImageSource, Instance, Light, Material, Projection, Prototype,
-    Scene, TextureRef, Wrap,
+    format_bytes, AlphaMode, ImageSource, Instance, Material, Prototype, Scene, TextureRef, Wrap,
 };
-
-/// Extensions strata honours when a file lists them in `extensionsRequired`.
-pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
-    "EXT_mesh_gpu_instancing",
-    "EXT_meshopt_compression",
-    "EXT_texture_webp",
-    "KHR_draco_mesh_compression",
-    "KHR_lights_punctual",
-    "KHR_meshopt_compression",
-    "KHR_mesh_quantization",
-    "KHR_materials_anisotropy",
-    "KHR_materials_clearcoat",
-    "KHR_materials_dispersion",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_ior",
-    "KHR_materials_iridescence",
-    "KHR_materials_sheen",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_volume",
-    "KHR_texture_basisu",
-    "KHR_texture_transform",
-];
-
-/// What strata renders instead of what an extension it ignores asks for, for the warning
-/// about a file that uses it.
-fn ignored_extension_effect(ext: &str) -> &'static str {
-    match ext {
-        "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
-        "KHR_materials_variants" => "each mesh renders its default material",
-        "EXT_texture_avif" => {
-            "textures in that format are not decoded; their fallback images, if any, are used"
-        }
-        "EXT_mesh_gpu_instancing" => "each instanced mesh renders once, at its node",
-        "KHR_materials_pbrSpecularGlossiness" => {
-            "materials render from their core metallic-roughness values"
-        }
-        "KHR_animation_pointer" | "KHR_xmp_json_ld" | "KHR_xmp" => "nothing it changes is rendered",
-        _ => "strata renders the file as if it were absent",
-    }
-}
 
 /// Options for [`load`].
 #[derive(Clone, Debug, Default)]
@@ -131,74 +89,7 @@ pub fn load_from_bytes(
 }
 
 fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene> {
-    if bytes.is_empty() {
-        return Err("the file is empty".into());
-    }
-    let is_glb = bytes.starts_with(b"glTF");
-    let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
-    if !is_glb && first != Some(b'{') {
-        return Err("not a glTF file (neither glTF JSON nor binary glTF with 'glTF' magic)".into());
-    }
-    if is_glb {
-        check_glb_header(bytes).map_err(|e| format!("invalid binary glTF: {e}"))?;
-    }
-    let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
-        format!(
-            "invalid {}: {e}",
-            if is_glb { "binary glTF" } else { "glTF" }
-        )
-    })?;
-    // EXT_texture_webp, KHR_texture_basisu: textures read their extension's image.
-    gltf.document = super::compressed::prefer_texture_extensions(gltf.document)?;
-    for ext in gltf.document.extensions_required() {
-        if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&ext) {
-            return Err(format!(
-                "the file requires the extension {ext}, which strata does not support (supported: {})",
-                SUPPORTED_REQUIRED_EXTENSIONS.join(", ")
-            ));
-        }
-    }
-    let mut extension_warnings = Vec::new();
-    for ext in gltf.document.extensions_used() {
-        if !SUPPORTED_REQUIRED_EXTENSIONS.contains(&ext) {
-            extension_warnings.push(format!(
-                "the file uses {ext}, which strata ignores: {}",
-                ignored_extension_effect(ext)
-            ));
-        }
-    }
-    check_before_validation(gltf.document.as_json())?;
-    // Validation checks every index reference in the document (accessors, views, nodes...),
-    // as the `gltf` crate's own does; its verdict on `extensionsRequired` is left out, since
-    // strata checked those above against what it supports (KHR_mesh_quantization, which the
-    // crate does not list).
-    {
-        use gltf::json::validation::{Error as Invalid, Validate};
-        let root = gltf.document.as_json();
-        let mut errors = Vec::new();
-        root.validate(root, gltf::json::Path::new, &mut |path, error| {
-            errors.push((path(), error))
-        });
-        // Accessors a KHR_draco_mesh_compression stream fills have no bufferView by design.
-        let draco = super::compressed::draco_accessors(root);
-        errors.retain(|(path, error)| match error {
-            Invalid::Unsupported => !path.as_str().starts_with("extensionsRequired"),
-            Invalid::Missing => !draco.contains(path.as_str()),
-            _ => true,
-        });
-        if !errors.is_empty() {
-            let shown: Vec<String> = errors
-                .iter()
-                .take(3)
-                .map(|(path, e)| format!("{path}: {}", e.to_string().to_lowercase()))
-                .collect();
-            let more = match errors.len() {
-                n if n > 3 => format!(" (and {} more)", n - 3),
-                _ => String::new(),
-            };
-            return Err(format!("invalid glTF: {}{more}", shown.join("; ")));
-        }
-    }
+    let (mut gltf, extension_warnings) = parse_document(bytes)?;
     let root_scene = gltf
         .document
         .default_scene()
@@ -212,24 +103,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     estimate.input_bytes = gltf.document.buffers().fold(bytes.len() as u64, |sum, b| {
         sum.saturating_add(b.length() as u64)
     });
-    if let Some(limit) = options.memory_limit {
-        let need = estimate.bytes().saturating_add(options.other_memory);
-        if need > limit {
-            return Err(format!(
-                "the scene needs an estimated {} of memory ({} vertices, {} triangles, {} of file and buffers{}), more than the limit of {} (--max-memory)",
-                format_bytes(need),
-                estimate.vertices,
-                estimate.triangles,
-                format_bytes(estimate.input_bytes),
-                if options.other_memory > 0 {
-                    format!(", {} for the image", format_bytes(options.other_memory))
-                } else {
-                    String::new()
-                },
-                format_bytes(limit)
-            ));
-        }
-    }
+    check_memory(&estimate, options)?;
 
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut files = vec![path.to_path_buf()];
@@ -240,32 +114,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     let root_scene =
         (gltf.document.scenes().nth(scene_index)).ok_or("the scene to render vanished")?;
 
-    let mut pose_warnings = Vec::new();
-    let pose = match options.pose {
-        Some(at) => super::animation::pose(&gltf.document, &buffers, at)?,
-        None => super::animation::Pose::default(),
-    };
-    let animations = gltf.document.animations().len();
-    if options.pose.is_none() && animations > 0 {
-        let names: Vec<String> = gltf
-            .document
-            .animations()
-            .map(|a| match a.name() {
-                Some(n) => format!("{} \"{n}\"", a.index()),
-                None => a.index().to_string(),
-            })
-            .collect();
-        pose_warnings.push(format!(
-            "the file has {animations} animation(s) ({}); strata renders the nodes' rest pose (--frame F renders frame F of one, --animation N chooses it)",
-            names.join(", ")
-        ));
-    }
-    if pose.weight_channels > 0 {
-        pose_warnings.push(format!(
-            "{} animation channel(s) animate morph target weights, which strata does not render",
-            pose.weight_channels
-        ));
-    }
+    let (pose, pose_warnings) = pose_of(&gltf.document, &buffers, options)?;
     let mut loader = Loader {
         document: &gltf.document,
         pose,
@@ -308,71 +157,8 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         loader.visit(&node, DMat4::IDENTITY, &mut Vec::new())?;
     }
 
-    let mut scene = loader.scene;
-    scene.instances = Arc::new(loader.instances);
-    let mut warnings = extension_warnings;
-    if loader.singular_placements > 0 {
-        warnings.push(format!(
-            "{} placement(s) of instanced meshes have a singular transform (a scale of 0): drawn as flattened copies",
-            loader.singular_placements
-        ));
-    }
-    warnings.extend(pose_warnings);
-    if loader.skinned > 0 {
-        warnings.push(format!(
-            "{} skinned mesh instance(s) rendered in their bind pose: strata does not apply skins",
-            loader.skinned
-        ));
-    }
-    if loader.morphed > 0 {
-        warnings.push(format!(
-            "{} primitive(s) with morph targets rendered in their base shape: strata does not apply morph targets",
-            loader.morphed
-        ));
-    }
-    warnings.extend(loader.warnings);
-    if loader.bad_colors > 0 {
-        warnings.push(format!(
-            "{} COLOR_0 vertex colour(s) not finite; replaced by white",
-            loader.bad_colors
-        ));
-    }
-    if loader.dropped_triangles > 0 {
-        warnings.push(format!(
-            "dropped {} degenerate triangle(s) (zero area or non-finite vertices)",
-            loader.dropped_triangles
-        ));
-    }
-    if loader.bad_normals > 0 {
-        warnings.push(format!(
-            "{} vertex normal(s) zero or not finite; the {} triangle(s) using them are shaded flat",
-            loader.bad_normals, loader.flat_triangles
-        ));
-    }
-    if loader.bad_uvs > 0 {
-        warnings.push(format!(
-            "{} texture coordinate(s) not finite; set to (0, 0)",
-            loader.bad_uvs
-        ));
-    }
-    if loader.dropped_triangles > 0 || scene.positions.iter().any(|p| !p.is_finite()) {
-        drop_unused_vertices(&mut scene);
-    }
-    // A valid file with nothing to hit is a valid scene: it renders the environment or
-    // background alone.
-    if scene.triangles.is_empty() {
-        warnings.push(if loader.skipped_primitives > 0 {
-            format!(
-                "the scene has no triangles to render ({} primitive(s) of points or lines were skipped): only the environment or background is seen",
-                loader.skipped_primitives
-            )
-        } else {
-            "the scene has no triangles to render: only the environment or background is seen"
-                .into()
-        });
-    }
+    let mut scene = loader.finish(extension_warnings, pose_warnings);
     scene.update_summary();
-    scene.load_warnings = warnings;
     scene.memory_estimate = estimate;
     files.extend(scene.images.iter().filter_map(|image| match image {
         ImageSource::File(file) => Some(file.clone()),
@@ -380,6 +166,141 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     }));
     scene.files = files;
     Ok(scene)
+}
+
+/// The document in `bytes` (glTF JSON or binary glTF), its textures reading their
+/// extensions' images, checked: every extension it requires is one strata supports, and
+/// every index it holds refers to something. Also the warnings for the extensions it uses
+/// that strata ignores.
+fn parse_document(bytes: &[u8]) -> Result<(gltf::Gltf, Vec<String>)> {
+    if bytes.is_empty() {
+        return Err("the file is empty".into());
+    }
+    let is_glb = bytes.starts_with(b"glTF");
+    let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
+    if !is_glb && first != Some(b'{') {
+        return Err("not a glTF file (neither glTF JSON nor binary glTF with 'glTF' magic)".into());
+    }
+    if is_glb {
+        check_glb_header(bytes).map_err(|e| format!("invalid binary glTF: {e}"))?;
+    }
+    let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+        format!(
+            "invalid {}: {e}",
+            if is_glb { "binary glTF" } else { "glTF" }
+        )
+    })?;
+    // EXT_texture_webp, KHR_texture_basisu: textures read their extension's image.
+    gltf.document = super::compressed::prefer_texture_extensions(gltf.document)?;
+    for ext in gltf.document.extensions_required() {
+        if !extensions::SUPPORTED.contains(&ext) {
+            return Err(format!(
+                "the file requires the extension {ext}, which strata does not support (supported: {})",
+                extensions::SUPPORTED.join(", ")
+            ));
+        }
+    }
+    let mut extension_warnings = Vec::new();
+    for ext in gltf.document.extensions_used() {
+        if !extensions::SUPPORTED.contains(&ext) {
+            extension_warnings.push(format!(
+                "the file uses {ext}, which strata ignores: {}",
+                extensions::ignored_effect(ext)
+            ));
+        }
+    }
+    check_before_validation(gltf.document.as_json())?;
+    // Validation checks every index reference in the document (accessors, views, nodes...),
+    // as the `gltf` crate's own does; its verdict on `extensionsRequired` is left out, since
+    // strata checked those above against what it supports (KHR_mesh_quantization, which the
+    // crate does not list).
+    {
+        use gltf::json::validation::{Error as Invalid, Validate};
+        let root = gltf.document.as_json();
+        let mut errors = Vec::new();
+        root.validate(root, gltf::json::Path::new, &mut |path, error| {
+            errors.push((path(), error))
+        });
+        // Accessors a KHR_draco_mesh_compression stream fills have no bufferView by design.
+        let draco = super::compressed::draco_accessors(root);
+        errors.retain(|(path, error)| match error {
+            Invalid::Unsupported => !path.as_str().starts_with("extensionsRequired"),
+            Invalid::Missing => !draco.contains(path.as_str()),
+            _ => true,
+        });
+        if !errors.is_empty() {
+            let shown: Vec<String> = errors
+                .iter()
+                .take(3)
+                .map(|(path, e)| format!("{path}: {}", e.to_string().to_lowercase()))
+                .collect();
+            let more = match errors.len() {
+                n if n > 3 => format!(" (and {} more)", n - 3),
+                _ => String::new(),
+            };
+            return Err(format!("invalid glTF: {}{more}", shown.join("; ")));
+        }
+    }
+    Ok((gltf, extension_warnings))
+}
+
+/// An error where the scene's memory `estimate`, with the image's, exceeds the limit.
+fn check_memory(estimate: &MemoryEstimate, options: &LoadOptions) -> Result<()> {
+    if let Some(limit) = options.memory_limit {
+        let need = estimate.bytes().saturating_add(options.other_memory);
+        if need > limit {
+            return Err(format!(
+                "the scene needs an estimated {} of memory ({} vertices, {} triangles, {} of file and buffers{}), more than the limit of {} (--max-memory)",
+                format_bytes(need),
+                estimate.vertices,
+                estimate.triangles,
+                format_bytes(estimate.input_bytes),
+                if options.other_memory > 0 {
+                    format!(", {} for the image", format_bytes(options.other_memory))
+                } else {
+                    String::new()
+                },
+                format_bytes(limit)
+            ));
+        }
+    }
+
+    Ok(())
+}
+
+/// The nodes' pose at `options.pose` (the rest pose without one), and the warnings about
+/// animations not rendered.
+fn pose_of(
+    document: &gltf::Document,
+    buffers: &[Vec<u8>],
+    options: &LoadOptions,
+) -> Result<(super::animation::Pose, Vec<String>)> {
+    let mut pose_warnings = Vec::new();
+    let pose = match options.pose {
+        Some(at) => super::animation::pose(document, buffers, at)?,
+        None => super::animation::Pose::default(),
+    };
+    let animations = document.animations().len();
+    if options.pose.is_none() && animations > 0 {
+        let names: Vec<String> = document
+            .animations()
+            .map(|a| match a.name() {
+                Some(n) => format!("{} \"{n}\"", a.index()),
+                None => a.index().to_string(),
+            })
+            .collect();
+        pose_warnings.push(format!(
+            "the file has {animations} animation(s) ({}); strata renders the nodes' rest pose (--frame F renders frame F of one, --animation N chooses it)",
+            names.join(", ")
+        ));
+    }
+    if pose.weight_channels > 0 {
+        pose_warnings.push(format!(
+            "{} animation channel(s) animate morph target weights, which strata does not render",
+            pose.weight_channels
+        ));
+    }
+    Ok((pose, pose_warnings))
 }
 
 /// Checks that the `gltf` crate's validation assumes rather than checks (it would panic):
@@ -409,6 +330,29 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
     }
+}
+
+/// A triangle primitive's accessors, checked ([`Loader::primitive_accessors`]).
+struct PrimitiveAccessors<'a> {
+    position: gltf::Accessor<'a>,
+    normal: Option<gltf::Accessor<'a>>,
+    uv: Option<gltf::Accessor<'a>>,
+    tangent: Option<gltf::Accessor<'a>>,
+    color: Option<gltf::Accessor<'a>>,
+}
+
+/// A primitive's attributes as the file holds them ([`Loader::read_primitive`]), one per
+/// vertex; `material` is its index in the scene's materials (0: the default), and
+/// `normal_mapped` whether that material reads tangent frames.
+struct PrimitiveData {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
+    colors: Option<Vec<[f32; 4]>>,
+    tangents: Option<Vec<[f32; 4]>>,
+    indices: Vec<u32>,
+    material: u32,
+    normal_mapped: bool,
 }
 
 struct Loader<'a> {
@@ -441,6 +385,77 @@ struct Loader<'a> {
 }
 
 impl Loader<'_> {
+    /// The scene the loader made, with the load's warnings in order: the extensions ignored
+    /// (`extension_warnings`), instancing, the animation (`pose_warnings`), skins and morph
+    /// targets, the loader's own, and the repairs counted; unused vertices dropped.
+    fn finish(self, extension_warnings: Vec<String>, pose_warnings: Vec<String>) -> Scene {
+        let mut scene = self.scene;
+        scene.instances = Arc::new(self.instances);
+        let mut warnings = extension_warnings;
+        if self.singular_placements > 0 {
+            warnings.push(format!(
+                "{} placement(s) of instanced meshes have a singular transform (a scale of 0): drawn as flattened copies",
+                self.singular_placements
+            ));
+        }
+        warnings.extend(pose_warnings);
+        if self.skinned > 0 {
+            warnings.push(format!(
+                "{} skinned mesh instance(s) rendered in their bind pose: strata does not apply skins",
+                self.skinned
+            ));
+        }
+        if self.morphed > 0 {
+            warnings.push(format!(
+                "{} primitive(s) with morph targets rendered in their base shape: strata does not apply morph targets",
+                self.morphed
+            ));
+        }
+        warnings.extend(self.warnings);
+        if self.bad_colors > 0 {
+            warnings.push(format!(
+                "{} COLOR_0 vertex colour(s) not finite; replaced by white",
+                self.bad_colors
+            ));
+        }
+        if self.dropped_triangles > 0 {
+            warnings.push(format!(
+                "dropped {} degenerate triangle(s) (zero area or non-finite vertices)",
+                self.dropped_triangles
+            ));
+        }
+        if self.bad_normals > 0 {
+            warnings.push(format!(
+                "{} vertex normal(s) zero or not finite; the {} triangle(s) using them are shaded flat",
+                self.bad_normals, self.flat_triangles
+            ));
+        }
+        if self.bad_uvs > 0 {
+            warnings.push(format!(
+                "{} texture coordinate(s) not finite; set to (0, 0)",
+                self.bad_uvs
+            ));
+        }
+        if self.dropped_triangles > 0 || scene.positions.iter().any(|p| !p.is_finite()) {
+            drop_unused_vertices(&mut scene);
+        }
+        // A valid file with nothing to hit is a valid scene: it renders the environment or
+        // background alone.
+        if scene.triangles.is_empty() {
+            warnings.push(if self.skipped_primitives > 0 {
+                format!(
+                    "the scene has no triangles to render ({} primitive(s) of points or lines were skipped): only the environment or background is seen",
+                    self.skipped_primitives
+                )
+            } else {
+                "the scene has no triangles to render: only the environment or background is seen"
+                    .into()
+            });
+        }
+        scene.load_warnings = warnings;
+        scene
+    }
+
     fn texture_ref(&mut self, info: &gltf::texture::Info, what: &str) -> TextureRef {
         let texture = info.texture();
         let sampler = texture.sampler();
@@ -665,11 +680,12 @@ impl Loader<'_> {
             }
         }
         if let Some(camera) = node.camera() {
-            let camera = self.camera(&camera, &world)?;
+            let camera = super::camera::from_gltf(&camera, &world)?;
             self.scene.cameras.push(camera);
         }
         if let Some(light) = node.light() {
-            self.light(&light, &world)?;
+            let light = super::light_from_gltf(&light, &world)?;
+            self.scene.lights.push(light);
         }
         path.push(index);
         for child in node.children() {
@@ -715,92 +731,6 @@ impl Loader<'_> {
         Ok(index)
     }
 
-    fn camera(&self, camera: &gltf::Camera, world: &DMat4) -> Result<Camera> {
-        let label = format!("camera {}", camera.index());
-        let (projection, aspect_ratio) = match camera.projection() {
-            gltf::camera::Projection::Perspective(p) => {
-                let yfov = p.yfov();
-                if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
-                    return Err(format!("{label}: yfov {yfov} is not in (0, π)"));
-                }
-                let aspect = p.aspect_ratio();
-                if let Some(a) = aspect {
-                    if !(a > 0.0 && a.is_finite()) {
-                        return Err(format!("{label}: aspectRatio {a} is not positive"));
-                    }
-                }
-                (Projection::Perspective { yfov }, aspect)
-            }
-            gltf::camera::Projection::Orthographic(o) => {
-                let (xmag, ymag) = (o.xmag(), o.ymag());
-                if !(ymag > 0.0 && ymag.is_finite() && xmag > 0.0 && xmag.is_finite()) {
-                    return Err(format!(
-                        "{label}: xmag {xmag} and ymag {ymag} must be positive"
-                    ));
-                }
-                (Projection::Orthographic { ymag }, Some(xmag / ymag))
-            }
-        };
-        let to_world = world.as_mat4();
-        if !to_world.is_finite() {
-            return Err(format!(
-                "{label}: its world transform overflows single precision"
-            ));
-        }
-        Ok(Camera {
-            name: camera.name().map(str::to_string),
-            projection,
-            to_world,
-            aspect_ratio,
-        })
-    }
-
-    fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: &DMat4) -> Result<()> {
-        let color = Vec3::from_array(light.color()) * light.intensity();
-        if !color.is_finite() || color.min_element() < 0.0 {
-            return Err(format!(
-                "light {}: colour × intensity must be finite and non-negative",
-                light.index()
-            ));
-        }
-        let position = world.transform_point3(DVec3::ZERO).as_vec3();
-        let direction = world
-            .transform_vector3(DVec3::NEG_Z)
-            .normalize_or_zero()
-            .as_vec3();
-        if !position.is_finite() {
-            return Err(format!(
-                "light {}: its world position overflows single precision",
-                light.index()
-            ));
-        }
-        let range = light.range().filter(|r| *r > 0.0);
-        let l = match light.kind() {
-            gltf::khr_lights_punctual::Kind::Point => Light::Point {
-                position,
-                intensity: color,
-                range,
-            },
-            gltf::khr_lights_punctual::Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => Light::Spot {
-                position,
-                direction,
-                intensity: color,
-                range,
-                inner_cone_angle,
-                outer_cone_angle,
-            },
-            gltf::khr_lights_punctual::Kind::Directional => Light::Directional {
-                direction,
-                irradiance: color,
-            },
-        };
-        self.scene.lights.push(l);
-        Ok(())
-    }
-
     fn primitive(&mut self, primitive: &gltf::Primitive, world: &DMat4, label: &str) -> Result<()> {
         let mode = primitive.mode();
         if !matches!(
@@ -813,11 +743,40 @@ impl Loader<'_> {
             ));
             return Ok(());
         }
+        let Some(accessors) = self.primitive_accessors(primitive, label)? else {
+            return Ok(());
+        };
+        let data = self.read_primitive(primitive, &accessors, label)?;
+        // Transform to world space: points by the matrix, normals by its inverse transpose.
+        let linear = DMat3::from_mat4(*world);
+        let flip = linear.determinant() < 0.0;
+        let base = self.add_vertices(&data, world, &linear, label)?;
+        let first_triangle = self.scene.triangles.len();
+        let corners = self.add_triangles(&data, mode, base, flip, label)?;
+        let file_tangents = data.tangents.as_deref().map(|t| (base, t));
+        super::tangents::add_frames(
+            &mut self.scene,
+            first_triangle,
+            &corners,
+            file_tangents,
+            &linear,
+            flip,
+        );
+        Ok(())
+    }
+
+    /// A triangle primitive's accessors, each checked against its buffer and the formats glTF
+    /// allows it, and against POSITION's count; None (with a warning) without POSITION.
+    fn primitive_accessors<'p>(
+        &mut self,
+        primitive: &gltf::Primitive<'p>,
+        label: &str,
+    ) -> Result<Option<PrimitiveAccessors<'p>>> {
         let Some(pos_acc) = primitive.get(&gltf::Semantic::Positions) else {
             self.warnings
                 .push(format!("{label}: no POSITION attribute, skipped"));
             self.skipped_primitives += 1;
-            return Ok(());
+            return Ok(None);
         };
         // KHR_mesh_quantization: positions, normals, tangents and texture coordinates may be
         // (normalized) integers; the node transforms carry any dequantization.
@@ -892,12 +851,36 @@ impl Loader<'_> {
             }
         }
 
+        Ok(Some(PrimitiveAccessors {
+            position: pos_acc,
+            normal: normal_acc,
+            uv: uv_acc,
+            tangent: tangent_acc,
+            color: color_acc,
+        }))
+    }
+
+    /// A primitive's attributes and indices read (tangents only where its material reads
+    /// them), in the file's space.
+    fn read_primitive(
+        &mut self,
+        primitive: &gltf::Primitive,
+        accessors: &PrimitiveAccessors,
+        label: &str,
+    ) -> Result<PrimitiveData> {
+        let PrimitiveAccessors {
+            position: pos_acc,
+            normal: normal_acc,
+            uv: uv_acc,
+            tangent: tangent_acc,
+            color: color_acc,
+        } = accessors;
         let buffers = self.buffers;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let unreadable =
             |what: &str| format!("{label}: the {what} accessor cannot be read from its buffer");
         let positions: Vec<[f32; 3]> =
-            read_floats(&pos_acc, buffers).ok_or_else(|| unreadable("POSITION"))?;
+            read_floats(pos_acc, buffers).ok_or_else(|| unreadable("POSITION"))?;
         let n = positions.len();
         let normals: Option<Vec<[f32; 3]>> = match &normal_acc {
             Some(acc) => Some(read_floats(acc, buffers).ok_or_else(|| unreadable("NORMAL"))?),
@@ -958,18 +941,35 @@ impl Loader<'_> {
                 "{label}: vertex index {bad} out of range ({n} vertices)"
             ));
         }
-        let triangles = assemble_triangles(mode, &indices);
-        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
-            self.warnings.push(format!(
-                "{label}: {} indices is not a multiple of 3; the last {} ignored",
-                indices.len(),
-                indices.len() % 3
-            ));
-        }
+        Ok(PrimitiveData {
+            positions,
+            normals,
+            uvs,
+            colors,
+            tangents,
+            indices,
+            material,
+            normal_mapped,
+        })
+    }
 
-        // Transform to world space: points by the matrix, normals by its inverse transpose.
-        let linear = DMat3::from_mat4(*world);
-        let flip = linear.determinant() < 0.0;
+    /// Adds a primitive's vertices to the scene in world space (`world`, whose linear part is
+    /// `linear`), repairing what is not finite; returns the first one's index.
+    fn add_vertices(
+        &mut self,
+        data: &PrimitiveData,
+        world: &DMat4,
+        linear: &DMat3,
+        label: &str,
+    ) -> Result<usize> {
+        let PrimitiveData {
+            positions,
+            normals,
+            uvs,
+            colors,
+            ..
+        } = data;
+        let n = positions.len();
         let normal_matrix = linear.inverse().transpose();
         let base = self.scene.positions.len();
         if base + n > u32::MAX as usize {
@@ -1043,7 +1043,30 @@ impl Loader<'_> {
             }
             None => {}
         }
-        let first_triangle = self.scene.triangles.len();
+        Ok(base)
+    }
+
+    /// Adds a primitive's triangles (of `mode`, its vertices from `base` on; `flip`: turned
+    /// to keep their front under a mirroring transform), dropping degenerate ones and shading
+    /// flat those with a bad normal; returns the kept triangles' vertices as the file numbers
+    /// them, where the material reads tangent frames.
+    fn add_triangles(
+        &mut self,
+        data: &PrimitiveData,
+        mode: Mode,
+        base: usize,
+        flip: bool,
+        label: &str,
+    ) -> Result<Vec<[u32; 3]>> {
+        let triangles = assemble_triangles(mode, &data.indices);
+        if mode == Mode::Triangles && !data.indices.len().is_multiple_of(3) {
+            self.warnings.push(format!(
+                "{label}: {} indices is not a multiple of 3; the last {} ignored",
+                data.indices.len(),
+                data.indices.len() % 3
+            ));
+        }
+        let (normals, material, normal_mapped) = (&data.normals, data.material, data.normal_mapped);
         // The vertices of each triangle kept, as the file numbers them (before flat-shaded
         // triangles get copies), for its tangent frame.
         let mut corners: Vec<[u32; 3]> = Vec::new();
@@ -1091,16 +1114,7 @@ impl Loader<'_> {
                 .push(if flip { [a, c, b] } else { [a, b, c] });
             self.scene.triangle_materials.push(material);
         }
-        let file_tangents = tangents.as_deref().map(|t| (base, t));
-        super::tangents::add_frames(
-            &mut self.scene,
-            first_triangle,
-            &corners,
-            file_tangents,
-            &linear,
-            flip,
-        );
-        Ok(())
+        Ok(corners)
     }
 }
 

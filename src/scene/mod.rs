@@ -32,7 +32,7 @@ pub use gltf_loader::{load, load_from_bytes, LoadError, LoadOptions};
 pub use memory::MemoryEstimate;
 pub use origins::{OriginRun, Origins, TriangleOrigin};
 
-use glam::{Affine3A, Mat3A, Vec2, Vec3, Vec3A, Vec4};
+use glam::{Affine3A, DMat4, DVec3, Mat3A, Vec2, Vec3, Vec3A, Vec4};
 
 pub use crate::ray::NO_INSTANCE;
 
@@ -251,6 +251,56 @@ pub enum Light {
         direction: Vec3,
         irradiance: Vec3,
     },
+}
+
+/// The `KHR_lights_punctual` light a glTF node places with its world transform `world`, in
+/// world space; an error for a colour or placement that is not finite.
+pub(super) fn light_from_gltf(
+    light: &gltf::khr_lights_punctual::Light,
+    world: &DMat4,
+) -> Result<Light, String> {
+    let color = Vec3::from_array(light.color()) * light.intensity();
+    if !color.is_finite() || color.min_element() < 0.0 {
+        return Err(format!(
+            "light {}: colour × intensity must be finite and non-negative",
+            light.index()
+        ));
+    }
+    let position = world.transform_point3(DVec3::ZERO).as_vec3();
+    let direction = world
+        .transform_vector3(DVec3::NEG_Z)
+        .normalize_or_zero()
+        .as_vec3();
+    if !position.is_finite() {
+        return Err(format!(
+            "light {}: its world position overflows single precision",
+            light.index()
+        ));
+    }
+    let range = light.range().filter(|r| *r > 0.0);
+    let l = match light.kind() {
+        gltf::khr_lights_punctual::Kind::Point => Light::Point {
+            position,
+            intensity: color,
+            range,
+        },
+        gltf::khr_lights_punctual::Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => Light::Spot {
+            position,
+            direction,
+            intensity: color,
+            range,
+            inner_cone_angle,
+            outer_cone_angle,
+        },
+        gltf::khr_lights_punctual::Kind::Directional => Light::Directional {
+            direction,
+            irradiance: color,
+        },
+    };
+    Ok(l)
 }
 
 /// A mesh drawn in several places: its triangles, stored once in [`Scene::triangles`] in the

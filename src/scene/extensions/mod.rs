@@ -1,4 +1,5 @@
-//! glTF material extensions, one file each.
+//! glTF extensions: the material extensions, one file each, and which extensions strata
+//! honours in a file ([`SUPPORTED`]) or ignores with a warning ([`ignored_effect`]).
 //!
 //! Each file opens with the extension's parameter table (its glTF properties, defaults and
 //! ranges) and holds the whole of what strata does with it but the physics of its lobe:
@@ -38,6 +39,47 @@ pub use iridescence::IridescenceLayer;
 pub use sheen::SheenLayer;
 pub use specular::SpecularLayer;
 pub use transmission::Volume;
+
+/// Extensions strata honours when a file lists them in `extensionsRequired`.
+pub const SUPPORTED: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
+    "EXT_texture_webp",
+    "KHR_draco_mesh_compression",
+    "KHR_lights_punctual",
+    "KHR_meshopt_compression",
+    "KHR_mesh_quantization",
+    "KHR_materials_anisotropy",
+    "KHR_materials_clearcoat",
+    "KHR_materials_dispersion",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_iridescence",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_texture_basisu",
+    "KHR_texture_transform",
+];
+
+/// What strata renders instead of what an extension it ignores asks for, for the warning
+/// about a file that uses it.
+pub fn ignored_effect(ext: &str) -> &'static str {
+    match ext {
+        "KHR_materials_unlit" => "unlit materials are shaded as lit ones",
+        "KHR_materials_variants" => "each mesh renders its default material",
+        "EXT_texture_avif" => {
+            "textures in that format are not decoded; their fallback images, if any, are used"
+        }
+        "EXT_mesh_gpu_instancing" => "each instanced mesh renders once, at its node",
+        "KHR_materials_pbrSpecularGlossiness" => {
+            "materials render from their core metallic-roughness values"
+        }
+        "KHR_animation_pointer" | "KHR_xmp_json_ld" | "KHR_xmp" => "nothing it changes is rendered",
+        _ => "strata renders the file as if it were absent",
+    }
+}
 
 /// A loader's error message.
 pub type Result<T> = std::result::Result<T, String>;
