@@ -165,113 +165,16 @@ impl Job {
     /// Checks the options together and resolves them into a job; the error names the
     /// option at fault.
     pub fn from_args(args: &Args) -> Result<Job, JobError> {
-        let mut output = args
-            .output
-            .clone()
-            .unwrap_or_else(|| default_output(&args.scene));
-        output::check_output_path(&output)?;
-        for extra in [&args.variance, &args.spp_image].into_iter().flatten() {
-            output::check_output_path(extra)?;
-        }
-        if !(args.fps > 0.0 && args.fps.is_finite()) {
-            refuse!("--fps must be a positive number (got {})", args.fps);
-        }
-        // One frame's files carry its number ([`frame_path`]); --frames names each frame's
-        // in [`Job::frame_jobs`].
-        let (mut variance, mut spp_image) = (args.variance.clone(), args.spp_image.clone());
-        let share = match (args.shard, args.samples) {
-            (Some((index, count)), _) => Some(Share::Shard { index, count }),
-            (None, Some((begin, end))) => Some(Share::Samples { begin, end }),
-            (None, None) => None,
-        };
-        // A shard's file carries its share before the frame number.
-        if let Some(share) = share {
-            output = share.path(&output);
-        }
-        if let Some(f) = args.frame {
-            output = frame_path(&output, f);
-            variance = variance.map(|p| frame_path(&p, f));
-            spp_image = spp_image.map(|p| frame_path(&p, f));
-        }
+        let (output, variance, spp_image, share) = outputs(args)?;
         let mut warnings = Vec::new();
-
-        let progressive = args.target_error.is_some() || args.time_limit.is_some();
-        let spp = args.spp.unwrap_or(if progressive {
-            PROGRESSIVE_MAX_SPP
-        } else {
-            DEFAULT_SPP
-        });
-        if spp == 0 {
-            refuse!("--spp must be at least 1");
-        }
-        if args.sampler == SamplerKind::Sobol && spp > SOBOL_MAX_SPP {
-            refuse!(
-                "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {spp})"
-            );
-        }
-        if progressive && args.sampler == SamplerKind::Stratified {
-            warnings.push(format!(
-                "--sampler stratified lays its strata out for all --spp {spp} samples; a render that stops early (--target-error, --time-limit) keeps little of its stratification. --sampler sobol (the default) is progressive: any prefix of its samples is well spread"
-            ));
-        }
-        let min_spp = args.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
-        if min_spp == 0 || min_spp > spp {
-            refuse!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
-        }
-        if let Some(share) = share {
-            let option = share.option();
-            let refused = [
-                (args.target_error.is_some(), "--target-error: adaptive sampling stops each pixel at its own count, so a shard's share of samples is not fixed"),
-                (args.time_limit.is_some(), "--time-limit: a time limit stops the render after as many samples as the machine managed, not a fixed share"),
-                (args.checkpoint.is_some(), "--checkpoint: a checkpoint of a shard holds only part of its samples, and a merge must not take it for the whole"),
-                (args.pixel.is_some(), "--pixel: a shard renders the whole image"),
-                (args.denoise, "--denoise: denoise the merged image (render denoise MERGED.exr)"),
-                (args.variance.is_some() || args.spp_image.is_some(), "--variance and --spp-image: the shards' files would overwrite each other; the merged image's variance follows from its sums"),
-            ];
-            if let Some((_, why)) = refused.iter().find(|(given, _)| *given) {
-                refuse!("{option} cannot be combined with {why}");
-            }
-            match share {
-                Share::Shard { count, .. } if count > spp => refuse!(
-                    "{option}: {count} shards of --spp {spp} would leave some without samples; use at most {spp} shards"
-                ),
-                Share::Samples { end, .. } if end > spp => {
-                    refuse!("{option} passes --spp {spp}: the last sample index is {}", spp - 1)
-                }
-                _ => {}
-            }
-        }
-        if args.target_error.is_some() && spp < 2 {
-            refuse!("--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp {spp})");
-        }
-        if args.target_error.is_some() && min_spp < 2 {
-            refuse!(
-                "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance"
-            );
-        }
-
+        let (spp, min_spp) = samples(args, share, &mut warnings)?;
         if !(args.env_intensity >= 0.0 && args.env_intensity.is_finite()) {
             refuse!(
                 "--env-intensity must be a finite number of at least 0 (got {})",
                 args.env_intensity
             );
         }
-        // The denoiser reads the albedo and normal passes; they are written too, so that
-        // `render denoise` can denoise the raw image again.
-        let mut passes = args.passes.clone();
-        let denoise = match args.denoise {
-            false => None,
-            true if !crate::denoise::available() => {
-                refuse!("--denoise: {}", crate::denoise::NOT_BUILT)
-            }
-            true => {
-                passes.extend([Pass::Albedo, Pass::Normal]);
-                Some(crate::denoise::Options {
-                    threads: 0,
-                    prefilter: args.denoise_prefilter.is_on(),
-                })
-            }
-        };
+        let (passes, denoise) = denoise_and_passes(args)?;
         if !args.preview.exposure.is_finite() {
             refuse!("--exposure must be a finite number of stops");
         }
@@ -286,44 +189,7 @@ impl Job {
                 refuse!("{}: no such environment map", env.display());
             }
         }
-        if args.ao_samples == 0 {
-            refuse!("--ao-samples must be at least 1");
-        }
-        let ao_distance = match args.ao_distance {
-            None => f32::INFINITY,
-            Some(d) if d > 0.0 => d,
-            Some(d) => refuse!("--ao-distance must be positive (got {d})"),
-        };
-        if args.hemisphere == Hemisphere::UniformUnweighted && args.integrator != IntegratorKind::Ao
-        {
-            refuse!("--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform");
-        }
-        if args.hemisphere == Hemisphere::Uniform
-            && args.integrator != IntegratorKind::Ao
-            && args.materials != MaterialModel::Lambertian
-        {
-            refuse!("--hemisphere uniform samples Lambertian reflection only; add --materials lambertian (the glTF BRDF samples its own lobes)");
-        }
-        let path_settings = PathSettings {
-            max_depth: args.max_depth,
-            rr_depth: args.rr_depth,
-            strategy: args.strategy,
-            emitter_samples: args.emitter_samples,
-            camera_emission: true,
-        };
-        let integrator = match args.integrator {
-            IntegratorKind::Ao => Integrator::Ao(AoSettings {
-                max_distance: ao_distance,
-                hemisphere: args.hemisphere,
-                samples: args.ao_samples,
-            }),
-            IntegratorKind::Direct => Integrator::Direct(PathSettings {
-                max_depth: 1,
-                ..path_settings
-            }),
-            IntegratorKind::Path => Integrator::Path(path_settings),
-        };
-
+        let integrator = integrator(args)?;
         let memory_limit = match args.max_memory {
             Some(MemoryLimit(limit)) => limit,
             None => match default_memory_limit() {
@@ -359,27 +225,7 @@ impl Job {
             alpha: !args.no_alpha,
             flatten_instances: args.flatten_instances,
             integrator,
-            shading: ShadingOptions {
-                environment: Environment::Constant(Vec3::from_array(
-                    args.background.unwrap_or([0.0; 3]),
-                )),
-                materials: MaterialOptions {
-                    model: args.materials,
-                    energy_compensation: args.energy_compensation.is_on(),
-                    diffuse_sampling: match args.hemisphere {
-                        Hemisphere::Cosine => DiffuseSampling::Cosine,
-                        Hemisphere::Uniform | Hemisphere::UniformUnweighted => {
-                            DiffuseSampling::Uniform
-                        }
-                    },
-                },
-                triangle_sampling: args.triangle_sampling,
-                // With a map, --background is what the camera sees behind the scene.
-                camera_background: match env_file {
-                    Some(_) => args.background.map(Vec3::from_array),
-                    None => None,
-                },
-            },
+            shading: shading_options(args, env_file.is_some()),
             hemisphere: args.hemisphere,
             default_sky: args.env.is_none() && args.background.is_none(),
             env: env_file
@@ -590,6 +436,196 @@ impl Job {
             min_pass_seconds: self.min_pass_seconds,
             stopping: self.stopping(),
         }
+    }
+}
+
+/// Where a job's files go (`-o`, `--variance`, `--spp-image`, carrying a shard's share and a
+/// frame's number), checked writable, and the share of samples it renders.
+#[allow(clippy::type_complexity)]
+fn outputs(
+    args: &Args,
+) -> Result<(PathBuf, Option<PathBuf>, Option<PathBuf>, Option<Share>), JobError> {
+    let mut output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.scene));
+    output::check_output_path(&output)?;
+    for extra in [&args.variance, &args.spp_image].into_iter().flatten() {
+        output::check_output_path(extra)?;
+    }
+    if !(args.fps > 0.0 && args.fps.is_finite()) {
+        refuse!("--fps must be a positive number (got {})", args.fps);
+    }
+    // One frame's files carry its number ([`frame_path`]); --frames names each frame's
+    // in [`Job::frame_jobs`].
+    let (mut variance, mut spp_image) = (args.variance.clone(), args.spp_image.clone());
+    let share = match (args.shard, args.samples) {
+        (Some((index, count)), _) => Some(Share::Shard { index, count }),
+        (None, Some((begin, end))) => Some(Share::Samples { begin, end }),
+        (None, None) => None,
+    };
+    // A shard's file carries its share before the frame number.
+    if let Some(share) = share {
+        output = share.path(&output);
+    }
+    if let Some(f) = args.frame {
+        output = frame_path(&output, f);
+        variance = variance.map(|p| frame_path(&p, f));
+        spp_image = spp_image.map(|p| frame_path(&p, f));
+    }
+    Ok((output, variance, spp_image, share))
+}
+
+/// The samples per pixel and the adaptive minimum, checked against the sampler, the stopping
+/// rule and the farm `share`.
+fn samples(
+    args: &Args,
+    share: Option<Share>,
+    warnings: &mut Vec<String>,
+) -> Result<(u32, u32), JobError> {
+    let progressive = args.target_error.is_some() || args.time_limit.is_some();
+    let spp = args.spp.unwrap_or(if progressive {
+        PROGRESSIVE_MAX_SPP
+    } else {
+        DEFAULT_SPP
+    });
+    if spp == 0 {
+        refuse!("--spp must be at least 1");
+    }
+    if args.sampler == SamplerKind::Sobol && spp > SOBOL_MAX_SPP {
+        refuse!(
+            "--sampler sobol supports at most {SOBOL_MAX_SPP} samples per pixel (asked for {spp})"
+        );
+    }
+    if progressive && args.sampler == SamplerKind::Stratified {
+        warnings.push(format!(
+            "--sampler stratified lays its strata out for all --spp {spp} samples; a render that stops early (--target-error, --time-limit) keeps little of its stratification. --sampler sobol (the default) is progressive: any prefix of its samples is well spread"
+        ));
+    }
+    let min_spp = args.min_spp.unwrap_or(Stopping::DEFAULT_MIN_SPP.min(spp));
+    if min_spp == 0 || min_spp > spp {
+        refuse!("--min-spp must be between 1 and --spp ({spp}), got {min_spp}");
+    }
+    if let Some(share) = share {
+        let option = share.option();
+        let refused = [
+            (args.target_error.is_some(), "--target-error: adaptive sampling stops each pixel at its own count, so a shard's share of samples is not fixed"),
+            (args.time_limit.is_some(), "--time-limit: a time limit stops the render after as many samples as the machine managed, not a fixed share"),
+            (args.checkpoint.is_some(), "--checkpoint: a checkpoint of a shard holds only part of its samples, and a merge must not take it for the whole"),
+            (args.pixel.is_some(), "--pixel: a shard renders the whole image"),
+            (args.denoise, "--denoise: denoise the merged image (render denoise MERGED.exr)"),
+            (args.variance.is_some() || args.spp_image.is_some(), "--variance and --spp-image: the shards' files would overwrite each other; the merged image's variance follows from its sums"),
+        ];
+        if let Some((_, why)) = refused.iter().find(|(given, _)| *given) {
+            refuse!("{option} cannot be combined with {why}");
+        }
+        match share {
+            Share::Shard { count, .. } if count > spp => refuse!(
+                "{option}: {count} shards of --spp {spp} would leave some without samples; use at most {spp} shards"
+            ),
+            Share::Samples { end, .. } if end > spp => {
+                refuse!("{option} passes --spp {spp}: the last sample index is {}", spp - 1)
+            }
+            _ => {}
+        }
+    }
+    if args.target_error.is_some() && spp < 2 {
+        refuse!("--target-error needs --spp of at least 2: a pixel's error is estimated from its samples' variance (got --spp {spp})");
+    }
+    if args.target_error.is_some() && min_spp < 2 {
+        refuse!(
+            "--min-spp must be at least 2: a pixel's error is estimated from its samples' variance"
+        );
+    }
+
+    Ok((spp, min_spp))
+}
+
+/// The passes written beside the beauty, with the albedo and normal that `--denoise` reads,
+/// and the denoiser's options (an error where the build has no denoiser).
+fn denoise_and_passes(
+    args: &Args,
+) -> Result<(Vec<Pass>, Option<crate::denoise::Options>), JobError> {
+    // The denoiser reads the albedo and normal passes; they are written too, so that
+    // `render denoise` can denoise the raw image again.
+    let mut passes = args.passes.clone();
+    let denoise = match args.denoise {
+        false => None,
+        true if !crate::denoise::available() => {
+            refuse!("--denoise: {}", crate::denoise::NOT_BUILT)
+        }
+        true => {
+            passes.extend([Pass::Albedo, Pass::Normal]);
+            Some(crate::denoise::Options {
+                threads: 0,
+                prefilter: args.denoise_prefilter.is_on(),
+            })
+        }
+    };
+    Ok((passes, denoise))
+}
+
+/// The integrator and its settings, checked against the hemisphere sampling asked for.
+fn integrator(args: &Args) -> Result<Integrator, JobError> {
+    if args.ao_samples == 0 {
+        refuse!("--ao-samples must be at least 1");
+    }
+    let ao_distance = match args.ao_distance {
+        None => f32::INFINITY,
+        Some(d) if d > 0.0 => d,
+        Some(d) => refuse!("--ao-distance must be positive (got {d})"),
+    };
+    if args.hemisphere == Hemisphere::UniformUnweighted && args.integrator != IntegratorKind::Ao {
+        refuse!("--hemisphere uniform-unweighted is an AO test estimator; direct and path take cosine or uniform");
+    }
+    if args.hemisphere == Hemisphere::Uniform
+        && args.integrator != IntegratorKind::Ao
+        && args.materials != MaterialModel::Lambertian
+    {
+        refuse!("--hemisphere uniform samples Lambertian reflection only; add --materials lambertian (the glTF BRDF samples its own lobes)");
+    }
+    let path_settings = PathSettings {
+        max_depth: args.max_depth,
+        rr_depth: args.rr_depth,
+        strategy: args.strategy,
+        emitter_samples: args.emitter_samples,
+        camera_emission: true,
+    };
+    let integrator = match args.integrator {
+        IntegratorKind::Ao => Integrator::Ao(AoSettings {
+            max_distance: ao_distance,
+            hemisphere: args.hemisphere,
+            samples: args.ao_samples,
+        }),
+        IntegratorKind::Direct => Integrator::Direct(PathSettings {
+            max_depth: 1,
+            ..path_settings
+        }),
+        IntegratorKind::Path => Integrator::Path(path_settings),
+    };
+
+    Ok(integrator)
+}
+
+/// How materials and lights are shaded; `env_map`: an environment map is loaded, in front
+/// of which `--background` is what the camera sees.
+fn shading_options(args: &Args, env_map: bool) -> ShadingOptions {
+    ShadingOptions {
+        environment: Environment::Constant(Vec3::from_array(args.background.unwrap_or([0.0; 3]))),
+        materials: MaterialOptions {
+            model: args.materials,
+            energy_compensation: args.energy_compensation.is_on(),
+            diffuse_sampling: match args.hemisphere {
+                Hemisphere::Cosine => DiffuseSampling::Cosine,
+                Hemisphere::Uniform | Hemisphere::UniformUnweighted => DiffuseSampling::Uniform,
+            },
+        },
+        triangle_sampling: args.triangle_sampling,
+        // With a map, --background is what the camera sees behind the scene.
+        camera_background: match env_map {
+            true => args.background.map(Vec3::from_array),
+            false => None,
+        },
     }
 }
 
