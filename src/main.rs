@@ -259,20 +259,7 @@ fn run(args: Args) -> Result<Outcome> {
 fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     // A shard's settings, from the options alone (before the scene changes the job).
     let settings_hash = job.share.map(|_| header::settings_hash(&job));
-    // Load.
-    let t_load = Instant::now();
-    let scene = scene::load(&job.scene, &job.load_options())?;
-    let load_time = t_load.elapsed();
-    render::passes::check_exact(&job.passes, scene.largest_origin())
-        .map_err(|e| anyhow!("{}: {e}", job.scene.display()))?;
-    for w in &scene.load_warnings {
-        eprintln!("warning: {}: {w}", job.scene.display());
-    }
-    if job.integrator.material_need() == Need::Shading {
-        for w in scene.material_warnings() {
-            eprintln!("warning: {}: {w}", job.scene.display());
-        }
-    }
+    let (scene, load_time) = load_scene(&job)?;
 
     // Camera and resolution.
     let view = job.view(&scene)?;
@@ -292,28 +279,7 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     let build_time = t_build.elapsed();
 
     // Materials and lights: only what the integrator reads.
-    let t_prepare = Instant::now();
-    if job.light_a_scene_without_lights(&scene) {
-        eprintln!(
-            "note: {} has no light source (no punctual light, no emissive surface): it is lit by a uniform white sky of radiance {} (--background R,G,B or --env FILE to choose another)",
-            job.scene.display(),
-            strata::job::DEFAULT_SKY
-        );
-    }
-    if job.integrator.needs_lights() {
-        job.load_environment()?;
-    } else if job.env.is_some() {
-        eprintln!("warning: --env lights direct and path tracing; ambient occlusion ignores it");
-    }
-    let prepared = Prepared::with_options(&scene, &job.scene, &job.integrator, &job.shading)
-        .map_err(|e| anyhow!(e))?;
-    if job.integrator.needs_lights() && prepared.lights.is_empty() {
-        eprintln!(
-            "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
-            job.scene.display()
-        );
-    }
-    let prepare_time = t_prepare.elapsed();
+    let (prepared, prepare_time) = prepare(&mut job, &scene)?;
 
     // Render, writing checkpoints on the way when asked to.
     let ctx = strata::integrators::Context {
@@ -379,23 +345,8 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     // Denoise. If the denoiser fails, the raw image is still written before the error.
     let t_denoise = Instant::now();
     let mut attrs = header::result_attributes(&job, &result);
-    let denoised = job.denoise.map(|options| {
-        let options = strata::denoise::Options { threads, ..options };
-        let denoised = strata::denoise::denoise_film(&result.film, &options);
-        if denoised.is_ok() {
-            let about = strata::denoise::describe(&options, result.film.keeps_features());
-            attrs.push(("strata:denoiser".into(), Attr::Text(about)));
-            let seconds = t_denoise.elapsed().as_secs_f32();
-            attrs.push(("strata:denoise_seconds".into(), Attr::Float(seconds)));
-        }
-        denoised
-    });
-    let denoise_time = t_denoise.elapsed();
-    let (denoised, denoise_error) = match denoised {
-        Some(Err(e)) => (None, Some(e)),
-        Some(Ok(d)) => (Some(d), None),
-        None => (None, None),
-    };
+    let (denoised, denoise_error, denoise_time) =
+        denoise(&job, &result.film, threads, &mut attrs, t_denoise);
 
     // Write.
     let t_write = Instant::now();
@@ -416,8 +367,13 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
         });
     }
 
-    // Report.
-    eprint!("{}", report::bad_samples(&result.stats));
+    let phases = Phases {
+        load: load_time,
+        build: build_time,
+        prepare: prepare_time,
+        denoise: denoise_time,
+        write: write_time,
+    };
     let run = Run {
         job: &job,
         view: &view,
@@ -426,23 +382,11 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
         prepared: &prepared,
         threads,
         result: &result,
-        phases: Phases {
-            load: load_time,
-            build: build_time,
-            prepare: prepare_time,
-            denoise: denoise_time,
-            write: write_time,
-        },
+        phases,
         checkpoints,
         checkpoint_seconds,
     };
-    print!("{}", report::summary(&run));
-    if job.stats {
-        print!("{}", report::stats(&run));
-    }
-    if let Some((x, y)) = job.pixel {
-        print!("{}", report::pixel(&run, x, y));
-    }
+    print_report(&run);
     Ok(if result.interrupted {
         let (spp_min, spp_max) = result.film.count_range();
         eprintln!("saved the image rendered so far ({spp_min}-{spp_max} samples per pixel)");
@@ -450,4 +394,101 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     } else {
         Outcome::Finished
     })
+}
+
+/// Loads the job's scene and prints its warnings; the time it took.
+fn load_scene(job: &Job) -> Result<(scene::Scene, Duration)> {
+    let t_load = Instant::now();
+    let scene = scene::load(&job.scene, &job.load_options())?;
+    let load_time = t_load.elapsed();
+    render::passes::check_exact(&job.passes, scene.largest_origin())
+        .map_err(|e| anyhow!("{}: {e}", job.scene.display()))?;
+    for w in &scene.load_warnings {
+        eprintln!("warning: {}: {w}", job.scene.display());
+    }
+    if job.integrator.material_need() == Need::Shading {
+        for w in scene.material_warnings() {
+            eprintln!("warning: {}: {w}", job.scene.display());
+        }
+    }
+
+    Ok((scene, load_time))
+}
+
+/// Lights a scene that brings no light (the default sky), loads the environment map, and
+/// prepares the materials and lights the integrator reads; the time it took.
+fn prepare(job: &mut Job, scene: &scene::Scene) -> Result<(Prepared, Duration)> {
+    let t_prepare = Instant::now();
+    if job.light_a_scene_without_lights(scene) {
+        eprintln!(
+            "note: {} has no light source (no punctual light, no emissive surface): it is lit by a uniform white sky of radiance {} (--background R,G,B or --env FILE to choose another)",
+            job.scene.display(),
+            strata::job::DEFAULT_SKY
+        );
+    }
+    if job.integrator.needs_lights() {
+        job.load_environment()?;
+    } else if job.env.is_some() {
+        eprintln!("warning: --env lights direct and path tracing; ambient occlusion ignores it");
+    }
+    let prepared = Prepared::with_options(scene, &job.scene, &job.integrator, &job.shading)
+        .map_err(|e| anyhow!(e))?;
+    if job.integrator.needs_lights() && prepared.lights.is_empty() {
+        eprintln!(
+            "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
+            job.scene.display()
+        );
+    }
+    let prepare_time = t_prepare.elapsed();
+
+    Ok((prepared, prepare_time))
+}
+
+/// The denoised beauty of `film` where the job asks for it, or the denoiser's error (the raw
+/// image is written either way), with its attributes added to `attrs`; the time since
+/// `t_denoise`.
+#[allow(clippy::type_complexity)]
+fn denoise(
+    job: &Job,
+    film: &Film,
+    threads: usize,
+    attrs: &mut Vec<(String, Attr)>,
+    t_denoise: Instant,
+) -> (
+    Option<Vec<glam::Vec3>>,
+    Option<strata::denoise::DenoiseError>,
+    Duration,
+) {
+    let denoised = job.denoise.map(|options| {
+        let options = strata::denoise::Options { threads, ..options };
+        let denoised = strata::denoise::denoise_film(film, &options);
+        if denoised.is_ok() {
+            let about = strata::denoise::describe(&options, film.keeps_features());
+            attrs.push(("strata:denoiser".into(), Attr::Text(about)));
+            let seconds = t_denoise.elapsed().as_secs_f32();
+            attrs.push(("strata:denoise_seconds".into(), Attr::Float(seconds)));
+        }
+        denoised
+    });
+    let denoise_time = t_denoise.elapsed();
+    let (denoised, denoise_error) = match denoised {
+        Some(Err(e)) => (None, Some(e)),
+        Some(Ok(d)) => (Some(d), None),
+        None => (None, None),
+    };
+
+    (denoised, denoise_error, denoise_time)
+}
+
+/// Prints what the render did: bad samples, the summary, and `--stats` and `--pixel` where
+/// asked for.
+fn print_report(run: &Run) {
+    eprint!("{}", report::bad_samples(&run.result.stats));
+    print!("{}", report::summary(run));
+    if run.job.stats {
+        print!("{}", report::stats(run));
+    }
+    if let Some((x, y)) = run.job.pixel {
+        print!("{}", report::pixel(run, x, y));
+    }
 }
