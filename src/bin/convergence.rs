@@ -533,30 +533,7 @@ fn main() -> Result<()> {
         register_font()?;
         return replot(&cli.out);
     }
-    if cli.max_spp == 0 || cli.seeds == 0 {
-        bail!("--max-spp and --seeds must be at least 1");
-    }
-    if let Some(t) = cli
-        .time_limits
-        .iter()
-        .find(|t| !(**t > 0.0 && t.is_finite()))
-    {
-        bail!("--time-limits: {t} is not a positive number of seconds");
-    }
-    if let Some(a) = cli
-        .adaptive
-        .iter()
-        .find(|a| !["none", "relative", "absolute"].contains(&a.as_str()))
-    {
-        bail!("--adaptive: '{a}': expected none, relative or absolute");
-    }
-    if let Some(b) = cli
-        .bounces
-        .iter()
-        .find(|b| !["joint", "padded"].contains(&b.as_str()))
-    {
-        bail!("--bounces: '{b}': expected joint or padded");
-    }
+    check_options(&cli)?;
     let reference = read_manifest(&cli)?;
     let (rw, rh, ref_pixels) = read_exr_rgb(&cli.reference)
         .with_context(|| format!("{}: cannot read the reference", cli.reference.display()))?;
@@ -603,67 +580,19 @@ fn main() -> Result<()> {
             cli.time_limits.iter().map(|&t| (None, Some(t))).collect()
         };
         for (spp, time_limit) in rungs {
-            let (mut seconds, mut rays, mut mean_spp) = (0.0, 0.0, 0.0);
-            let mut errors = Vec::new();
-            for seed in 0..cli.seeds {
-                let mut args = reference.args.clone();
-                args.extend(config.args(cli.target_error));
-                if let Some(spp) = spp {
-                    args.extend(["--spp".into(), spp.to_string()]);
-                }
-                if let Some(t) = time_limit {
-                    args.extend(["--time-limit".into(), t.to_string()]);
-                }
-                args.extend([
-                    "--seed".into(),
-                    seed.to_string(),
-                    "--threads".into(),
-                    cli.threads.to_string(),
-                ]);
-                let img = scratch.join("image.exr");
-                let run = run_render(&render, &reference.scene, &args, &img)?;
-                let (w, h, px) = read_exr_rgb(&img)?;
-                if (w, h) != (rw, rh) {
-                    bail!("render gave {w}x{h}, the reference is {rw}x{rh}");
-                }
-                errors.push(image_error(&px, &ref_pixels, ref_var.as_deref()));
-                seconds += run.seconds;
-                rays += run.rays;
-                mean_spp += run.spp;
-            }
-            let k = cli.seeds as f64;
-            let error = ImageError::mean(&errors).expect("at least one seed");
-            let point = Point {
-                spp: mean_spp / k,
-                seconds: seconds / k,
-                rays: rays / k,
-                error,
-            };
-            writeln!(
-                csv,
-                "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{},{},{}",
-                reference.integrator,
-                config.sampler,
-                config.hemisphere.as_deref().unwrap_or(""),
-                config.strategy.as_deref().unwrap_or(""),
-                point.spp,
-                cli.seeds,
-                point.seconds,
-                point.rays,
-                error.rmse(),
-                error.rmse_corrected(),
-                error.relmse,
-                error.mae,
-                error.reference_variance,
-                config.adaptive.as_deref().unwrap_or(""),
-                time_limit.map(|t| t.to_string()).unwrap_or_default(),
-                config
-                    .emitter_samples
-                    .map(|n| n.to_string())
-                    .unwrap_or_default(),
-                config.bounces.as_deref().unwrap_or(""),
-            )
-            .unwrap();
+            let point = measure(
+                &cli,
+                &render,
+                &reference,
+                &config,
+                (spp, time_limit),
+                &scratch,
+                (rw, rh, &ref_pixels, ref_var.as_deref()),
+            )?;
+            let error = point.error;
+            csv_row(
+                &mut csv, &name, &cli, &reference, &config, &point, time_limit,
+            );
             eprintln!(
                 "  {:<24} {:>8.1} spp {:>9.3} s  RMSE {:.4e}  relMSE {:.4e}",
                 config.label(),
@@ -728,6 +657,125 @@ fn main() -> Result<()> {
         cli.out.display()
     );
     Ok(())
+}
+
+/// Refuses option values the tool cannot use.
+fn check_options(cli: &Cli) -> Result<()> {
+    if cli.max_spp == 0 || cli.seeds == 0 {
+        bail!("--max-spp and --seeds must be at least 1");
+    }
+    if let Some(t) = cli
+        .time_limits
+        .iter()
+        .find(|t| !(**t > 0.0 && t.is_finite()))
+    {
+        bail!("--time-limits: {t} is not a positive number of seconds");
+    }
+    if let Some(a) = cli
+        .adaptive
+        .iter()
+        .find(|a| !["none", "relative", "absolute"].contains(&a.as_str()))
+    {
+        bail!("--adaptive: '{a}': expected none, relative or absolute");
+    }
+    if let Some(b) = cli
+        .bounces
+        .iter()
+        .find(|b| !["joint", "padded"].contains(&b.as_str()))
+    {
+        bail!("--bounces: '{b}': expected joint or padded");
+    }
+    Ok(())
+}
+
+/// One rung of a configuration's ladder (`spp`, `time_limit`), rendered once per seed and
+/// measured against the reference (`width × height` `pixels`, with its variance image if
+/// any): the mean over the seeds.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn measure(
+    cli: &Cli,
+    render: &Path,
+    reference: &Reference,
+    config: &Config,
+    (spp, time_limit): (Option<u32>, Option<f64>),
+    scratch: &Path,
+    (rw, rh, ref_pixels, ref_var): (usize, usize, &[[f32; 3]], Option<&[[f32; 3]]>),
+) -> Result<Point> {
+    let (mut seconds, mut rays, mut mean_spp) = (0.0, 0.0, 0.0);
+    let mut errors = Vec::new();
+    for seed in 0..cli.seeds {
+        let mut args = reference.args.clone();
+        args.extend(config.args(cli.target_error));
+        if let Some(spp) = spp {
+            args.extend(["--spp".into(), spp.to_string()]);
+        }
+        if let Some(t) = time_limit {
+            args.extend(["--time-limit".into(), t.to_string()]);
+        }
+        args.extend([
+            "--seed".into(),
+            seed.to_string(),
+            "--threads".into(),
+            cli.threads.to_string(),
+        ]);
+        let img = scratch.join("image.exr");
+        let run = run_render(render, &reference.scene, &args, &img)?;
+        let (w, h, px) = read_exr_rgb(&img)?;
+        if (w, h) != (rw, rh) {
+            bail!("render gave {w}x{h}, the reference is {rw}x{rh}");
+        }
+        errors.push(image_error(&px, ref_pixels, ref_var));
+        seconds += run.seconds;
+        rays += run.rays;
+        mean_spp += run.spp;
+    }
+    let k = cli.seeds as f64;
+    let error = ImageError::mean(&errors).expect("at least one seed");
+    let point = Point {
+        spp: mean_spp / k,
+        seconds: seconds / k,
+        rays: rays / k,
+        error,
+    };
+    Ok(point)
+}
+
+/// Appends a rung's row to the CSV.
+fn csv_row(
+    csv: &mut String,
+    name: &str,
+    cli: &Cli,
+    reference: &Reference,
+    config: &Config,
+    point: &Point,
+    time_limit: Option<f64>,
+) {
+    let error = point.error;
+    writeln!(
+        csv,
+        "{name},{},{},{},{},{},{},{:.6},{:.0},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{},{},{},{}",
+        reference.integrator,
+        config.sampler,
+        config.hemisphere.as_deref().unwrap_or(""),
+        config.strategy.as_deref().unwrap_or(""),
+        point.spp,
+        cli.seeds,
+        point.seconds,
+        point.rays,
+        error.rmse(),
+        error.rmse_corrected(),
+        error.relmse,
+        error.mae,
+        error.reference_variance,
+        config.adaptive.as_deref().unwrap_or(""),
+        time_limit.map(|t| t.to_string()).unwrap_or_default(),
+        config
+            .emitter_samples
+            .map(|n| n.to_string())
+            .unwrap_or_default(),
+        config.bounces.as_deref().unwrap_or(""),
+    )
+    .unwrap();
 }
 
 /// A scratch directory inside `out` for the renders' images.

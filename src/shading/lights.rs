@@ -250,147 +250,9 @@ impl LightSet {
     ) -> LightSet {
         let (lo, hi) = scene.bounds;
         let radius = 0.5 * (hi - lo).length();
-        let mut emitters = Vec::new();
-        let mut weights = Vec::new();
-        let pi = std::f64::consts::PI;
-        for light in &scene.lights {
-            let (e, power) = match *light {
-                Light::Point {
-                    position,
-                    intensity,
-                    ..
-                } => (
-                    Emitter::Point {
-                        position,
-                        intensity,
-                    },
-                    4.0 * pi * luminance(intensity) as f64,
-                ),
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    inner_cone_angle,
-                    outer_cone_angle,
-                    ..
-                } => {
-                    let (ci, co) = (inner_cone_angle.cos(), outer_cone_angle.cos());
-                    (
-                        Emitter::Spot {
-                            position,
-                            direction,
-                            intensity,
-                            cos_inner: ci,
-                            cos_outer: co,
-                        },
-                        2.0 * pi * luminance(intensity) as f64 * (1.0 - 0.5 * (ci + co) as f64),
-                    )
-                }
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => (
-                    Emitter::Directional {
-                        direction,
-                        irradiance,
-                    },
-                    pi * (radius as f64).powi(2) * luminance(irradiance) as f64,
-                ),
-            };
-            if power > 0.0 {
-                emitters.push(e);
-                weights.push(power);
-            }
-        }
-        let mut triangle_light = Vec::new();
-        let mut instance_lights = Vec::new();
-        let mut alpha_tested_emitters = false;
-        if scene.summary.emissive_triangles > 0 {
-            triangle_light = vec![u32::MAX; scene.triangles.len()];
-            // Each material's mean emission (a texture's mean reads every texel), once.
-            let mut emission: Vec<Option<(Vec3, bool)>> = vec![None; scene.materials.len()];
-            let mut power_of = |prim: u32, [a, b, c]: [Vec3; 3]| {
-                let m = scene.triangle_materials[prim as usize];
-                let (le, two_sided) =
-                    *emission[m as usize].get_or_insert_with(|| materials.emission_power_factor(m));
-                let area = 0.5 * (b - a).cross(c - a).length() as f64;
-                pi * area * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 }
-            };
-            let light = |prim: u32, inst: u32, [a, b, c]: [Vec3; 3]| {
-                let cross = (b - a).cross(c - a);
-                let area = 0.5 * cross.length();
-                let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
-                let point_error =
-                    gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
-                Emitter::Triangle(TriangleLight {
-                    prim,
-                    inst,
-                    area,
-                    normal: cross / (2.0 * area),
-                    vertices: [a, b, c],
-                    point_error,
-                })
-            };
-            let world = match scene.prototypes.is_empty() {
-                true => (0..scene.triangles.len() as u32).collect(),
-                false => scene.flat_triangles(),
-            };
-            for prim in world {
-                if !materials.is_emissive_triangle(scene, prim) {
-                    continue;
-                }
-                let corners = scene.triangle_positions(prim);
-                let power = power_of(prim, corners);
-                if power > 0.0 {
-                    triangle_light[prim as usize] = emitters.len() as u32;
-                    alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
-                    emitters.push(light(prim, NO_INSTANCE, corners));
-                    weights.push(power);
-                }
-            }
-            // A prototype's emitting triangles (those of positive power in its own space,
-            // which an invertible placement keeps positive), a light each per instance.
-            let emitting: Vec<Vec<u32>> = scene
-                .prototypes
-                .iter()
-                .map(|p| {
-                    let prims = p.triangles.clone().filter(|&prim| {
-                        materials.is_emissive_triangle(scene, prim)
-                            && power_of(prim, scene.triangle_positions(prim)) > 0.0
-                    });
-                    prims.collect()
-                })
-                .collect();
-            if emitting.iter().any(|e| !e.is_empty()) {
-                for prims in &emitting {
-                    for (k, &prim) in prims.iter().enumerate() {
-                        triangle_light[prim as usize] = k as u32;
-                    }
-                }
-                for (k, instance) in scene.instances.iter().enumerate() {
-                    let prims = &emitting[instance.prototype as usize];
-                    instance_lights.push(match prims.is_empty() {
-                        true => u32::MAX,
-                        false => emitters.len() as u32,
-                    });
-                    for &prim in prims {
-                        let corners = scene.placed_positions(prim, k as u32);
-                        alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
-                        // The front is where the prototype's normal points once carried to
-                        // world space, as for a hit on it (a mirroring placement winds the
-                        // placed corners the other way).
-                        let [a, b, c] = scene.triangle_positions(prim);
-                        let front = scene.normal_to_world(k as u32, (b - a).cross(c - a));
-                        let mut emitter = light(prim, k as u32, corners);
-                        if let Emitter::Triangle(t) = &mut emitter {
-                            t.normal = front;
-                        }
-                        emitters.push(emitter);
-                        weights.push(power_of(prim, corners));
-                    }
-                }
-            }
-        }
+        let (mut emitters, mut weights) = punctual_emitters(scene, radius);
+        let (triangle_light, instance_lights, alpha_tested_emitters) =
+            triangle_emitters(scene, materials, &mut emitters, &mut weights);
         let mut environment_light = None;
         if !environment.is_black() {
             environment_light = Some(emitters.len());
@@ -736,6 +598,168 @@ impl LightSet {
         };
         Some((s, pmf))
     }
+}
+
+/// The scene's punctual lights as emitters, each with its power (in luminance) for light
+/// selection; those of no power left out. `radius`: the scene's bounding sphere's, over which
+/// a directional light's power is taken.
+fn punctual_emitters(scene: &Scene, radius: f32) -> (Vec<Emitter>, Vec<f64>) {
+    let mut emitters = Vec::new();
+    let mut weights = Vec::new();
+    let pi = std::f64::consts::PI;
+    for light in &scene.lights {
+        let (e, power) = match *light {
+            Light::Point {
+                position,
+                intensity,
+                ..
+            } => (
+                Emitter::Point {
+                    position,
+                    intensity,
+                },
+                4.0 * pi * luminance(intensity) as f64,
+            ),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_cone_angle,
+                outer_cone_angle,
+                ..
+            } => {
+                let (ci, co) = (inner_cone_angle.cos(), outer_cone_angle.cos());
+                (
+                    Emitter::Spot {
+                        position,
+                        direction,
+                        intensity,
+                        cos_inner: ci,
+                        cos_outer: co,
+                    },
+                    2.0 * pi * luminance(intensity) as f64 * (1.0 - 0.5 * (ci + co) as f64),
+                )
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => (
+                Emitter::Directional {
+                    direction,
+                    irradiance,
+                },
+                pi * (radius as f64).powi(2) * luminance(irradiance) as f64,
+            ),
+        };
+        if power > 0.0 {
+            emitters.push(e);
+            weights.push(power);
+        }
+    }
+    (emitters, weights)
+}
+
+/// Adds the scene's emissive triangles of positive power to `emitters` and `weights`: those
+/// in world space once, a prototype's once per instance. Returns the light of each triangle
+/// (`u32::MAX`: none; a prototype's triangle: its number among the prototype's emitting
+/// ones), each instance's first light (`u32::MAX`: none), and whether any emitter may cut
+/// holes by alpha.
+fn triangle_emitters(
+    scene: &Scene,
+    materials: &Materials,
+    emitters: &mut Vec<Emitter>,
+    weights: &mut Vec<f64>,
+) -> (Vec<u32>, Vec<u32>, bool) {
+    let pi = std::f64::consts::PI;
+    let mut triangle_light = Vec::new();
+    let mut instance_lights = Vec::new();
+    let mut alpha_tested_emitters = false;
+    if scene.summary.emissive_triangles > 0 {
+        triangle_light = vec![u32::MAX; scene.triangles.len()];
+        // Each material's mean emission (a texture's mean reads every texel), once.
+        let mut emission: Vec<Option<(Vec3, bool)>> = vec![None; scene.materials.len()];
+        let mut power_of = |prim: u32, [a, b, c]: [Vec3; 3]| {
+            let m = scene.triangle_materials[prim as usize];
+            let (le, two_sided) =
+                *emission[m as usize].get_or_insert_with(|| materials.emission_power_factor(m));
+            let area = 0.5 * (b - a).cross(c - a).length() as f64;
+            pi * area * luminance(le) as f64 * if two_sided { 2.0 } else { 1.0 }
+        };
+        let light = |prim: u32, inst: u32, [a, b, c]: [Vec3; 3]| {
+            let cross = (b - a).cross(c - a);
+            let area = 0.5 * cross.length();
+            let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
+            let point_error = gamma(7) * (a.abs().max(b.abs()).max(c.abs()) + Vec3::splat(extent));
+            Emitter::Triangle(TriangleLight {
+                prim,
+                inst,
+                area,
+                normal: cross / (2.0 * area),
+                vertices: [a, b, c],
+                point_error,
+            })
+        };
+        let world = match scene.prototypes.is_empty() {
+            true => (0..scene.triangles.len() as u32).collect(),
+            false => scene.flat_triangles(),
+        };
+        for prim in world {
+            if !materials.is_emissive_triangle(scene, prim) {
+                continue;
+            }
+            let corners = scene.triangle_positions(prim);
+            let power = power_of(prim, corners);
+            if power > 0.0 {
+                triangle_light[prim as usize] = emitters.len() as u32;
+                alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
+                emitters.push(light(prim, NO_INSTANCE, corners));
+                weights.push(power);
+            }
+        }
+        // A prototype's emitting triangles (those of positive power in its own space,
+        // which an invertible placement keeps positive), a light each per instance.
+        let emitting: Vec<Vec<u32>> = scene
+            .prototypes
+            .iter()
+            .map(|p| {
+                let prims = p.triangles.clone().filter(|&prim| {
+                    materials.is_emissive_triangle(scene, prim)
+                        && power_of(prim, scene.triangle_positions(prim)) > 0.0
+                });
+                prims.collect()
+            })
+            .collect();
+        if emitting.iter().any(|e| !e.is_empty()) {
+            for prims in &emitting {
+                for (k, &prim) in prims.iter().enumerate() {
+                    triangle_light[prim as usize] = k as u32;
+                }
+            }
+            for (k, instance) in scene.instances.iter().enumerate() {
+                let prims = &emitting[instance.prototype as usize];
+                instance_lights.push(match prims.is_empty() {
+                    true => u32::MAX,
+                    false => emitters.len() as u32,
+                });
+                for &prim in prims {
+                    let corners = scene.placed_positions(prim, k as u32);
+                    alpha_tested_emitters |= scene.may_cut_holes(prim as usize);
+                    // The front is where the prototype's normal points once carried to
+                    // world space, as for a hit on it (a mirroring placement winds the
+                    // placed corners the other way).
+                    let [a, b, c] = scene.triangle_positions(prim);
+                    let front = scene.normal_to_world(k as u32, (b - a).cross(c - a));
+                    let mut emitter = light(prim, k as u32, corners);
+                    if let Emitter::Triangle(t) = &mut emitter {
+                        t.normal = front;
+                    }
+                    emitters.push(emitter);
+                    weights.push(power_of(prim, corners));
+                }
+            }
+        }
+    }
+    (triangle_light, instance_lights, alpha_tested_emitters)
 }
 
 #[cfg(test)]
