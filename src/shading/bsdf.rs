@@ -151,7 +151,13 @@ macro_rules! each_variant {
 impl LocalBsdf for Bsdf {
     #[inline(always)]
     fn depends_on_cos_theta_only(&self) -> bool {
-        matches!(self, Bsdf::Diffuse(_))
+        // Every variant named, here and below, so that a new one must say.
+        match self {
+            Bsdf::Diffuse(_) => true,
+            Bsdf::MetallicRoughness(_) | Bsdf::Layered(_) | Bsdf::Glass(_) | Bsdf::ThinGlass(_) => {
+                false
+            }
+        }
     }
 
     #[inline]
@@ -172,7 +178,10 @@ impl LocalBsdf for Bsdf {
 
     #[inline(always)]
     fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Glass(_) | Bsdf::ThinGlass(_))
+        match self {
+            Bsdf::Glass(_) | Bsdf::ThinGlass(_) => true,
+            Bsdf::Diffuse(_) | Bsdf::MetallicRoughness(_) | Bsdf::Layered(_) => false,
+        }
     }
 
     #[inline]
@@ -226,14 +235,23 @@ impl LocalBsdf for Bsdf {
 
     #[inline(always)]
     fn disperses(&self) -> bool {
-        matches!(self, Bsdf::Glass(g) if g.dispersion > 0.0)
+        match self {
+            Bsdf::Glass(g) => g.dispersion > 0.0,
+            Bsdf::Diffuse(_)
+            | Bsdf::MetallicRoughness(_)
+            | Bsdf::Layered(_)
+            | Bsdf::ThinGlass(_) => false,
+        }
     }
 
     #[inline]
     fn at_wavelength(self, lambda: f32) -> Bsdf {
         match self {
             Bsdf::Glass(g) => Bsdf::Glass(g.at_wavelength(lambda)),
-            other => other,
+            b @ (Bsdf::Diffuse(_)
+            | Bsdf::MetallicRoughness(_)
+            | Bsdf::Layered(_)
+            | Bsdf::ThinGlass(_)) => b,
         }
     }
 
