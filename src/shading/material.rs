@@ -35,6 +35,7 @@ use super::interaction::SurfaceInteraction;
 use super::layers::{Coat, Layered, Sheen, SheenTable};
 use super::microfacet::AlbedoTable;
 use crate::sampling::Onb;
+use crate::scene::extensions::bind_texture;
 use crate::scene::{AnisotropyLayer, Layers, Scene, TextureRef};
 use crate::texture::{transform_uv, Encoding, Image};
 
@@ -221,34 +222,32 @@ impl Materials {
         let gltf = options.model == MaterialModel::Gltf;
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (m, &is_used) in scene.materials.iter().zip(&used) {
-            let mut bind = |t: &Option<TextureRef>, encoding: Encoding| {
-                t.as_ref().map(|t| bind_one(t, encoding)).transpose()
-            };
             let normal_texture = match is_used {
-                true => bind(&m.normal_texture, Encoding::Linear)?,
+                true => bind_texture(&m.normal_texture, Encoding::Linear, &mut bind_one)?,
                 false => None,
             };
             let transmission = &m.transmission;
             let transmission_texture = match is_used && gltf && transmission.factor > 0.0 {
-                true => bind(&transmission.texture, Encoding::Linear)?,
+                true => bind_texture(&transmission.texture, Encoding::Linear, &mut bind_one)?,
                 false => None,
             };
             let layers = match is_used && gltf {
                 true => m.layers.bind(&mut bind_one)?,
                 false => Layers::default(),
             };
-            let mut bind = |t: &Option<TextureRef>, encoding: Encoding| {
-                t.as_ref().map(|t| bind_one(t, encoding)).transpose()
-            };
             let (base_texture, metallic_roughness_texture, emissive_texture) = if is_used {
-                let base = bind(&m.base_color_texture, Encoding::Srgb)?;
+                let base = bind_texture(&m.base_color_texture, Encoding::Srgb, &mut bind_one)?;
                 let metallic_roughness = match gltf {
-                    true => bind(&m.metallic_roughness_texture, Encoding::Linear)?,
+                    true => bind_texture(
+                        &m.metallic_roughness_texture,
+                        Encoding::Linear,
+                        &mut bind_one,
+                    )?,
                     false => None,
                 };
                 // An emissive texture only matters when the emissive factor is non-zero.
                 let emissive = if m.is_emissive() {
-                    bind(&m.emissive_texture, Encoding::Srgb)?
+                    bind_texture(&m.emissive_texture, Encoding::Srgb, &mut bind_one)?
                 } else {
                     None
                 };
