@@ -38,6 +38,7 @@ const LAYERS: &[&str] = &[
     "sampling",
     "embree",
     "ray",
+    "math",
 ];
 
 /// A module path, e.g. `["shading", "bsdf"]`.
