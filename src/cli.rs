@@ -12,7 +12,7 @@ use crate::render::view::ViewTransform;
 use crate::render::DEFAULT_MIN_PASS_SECONDS;
 use crate::sampling::SamplerKind;
 use crate::shading::lights::TriangleSampling;
-use crate::shading::MaterialModel;
+use crate::shading::{MapSampling, MaterialModel};
 
 /// The options of `render`, one field each; a field's doc comment is its `--help` text, and
 /// `--help` opens with the package's description.
@@ -110,6 +110,17 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub env_intensity: f32,
+
+    /// What light sampling draws the map's directions in proportion to: its luminance, or its
+    /// luminance less the mean (MIS compensation: light samples go to what outshines the
+    /// average, BSDF samples find the rest). With --strategy light or bsdf: radiance.
+    #[arg(
+        long,
+        default_value = "compensated",
+        value_name = "radiance|compensated",
+        hide_possible_values = true
+    )]
+    pub env_sampling: MapSampling,
 
     /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]

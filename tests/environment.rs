@@ -14,7 +14,7 @@ use strata::integrators::{Integrator, PathSettings, Prepared, ShadingOptions};
 use strata::render::RenderSettings;
 use strata::sampling::SamplerKind;
 use strata::scene::{self, LoadOptions, Material, Scene};
-use strata::shading::{EnvMap, Environment, MaterialOptions};
+use strata::shading::{EnvMap, Environment, MapSampling, MaterialOptions};
 
 /// The Suzanne scene path-traced at 32 × 24, 64 spp, under `environment`, with the camera
 /// seeing `camera_background` behind it where given.
@@ -120,7 +120,8 @@ fn hdr_and_exr_files_load_with_their_orientation() {
     })
     .unwrap();
     for path in [&hdr, &exr_path] {
-        let map = EnvMap::load(path, 0.0, 1.0).unwrap_or_else(|e| panic!("{e}"));
+        let map =
+            EnvMap::load(path, 0.0, 1.0, Default::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(map.size(), (w, h));
         // Straight up and straight down see the top and bottom rows; +X looks at u = 0.5,
         // between columns 1 and 2, on the boundary of the rows (θ = 90°).
@@ -255,10 +256,10 @@ fn mean_radiance(
     scene: &Scene,
     eye: Vec3,
     map: &std::path::Path,
-    integrator: Integrator,
+    (integrator, sampling): (Integrator, MapSampling),
 ) -> (f64, f64) {
     let accel = Accel::build(scene, &AccelOptions::default()).unwrap();
-    let environment = Environment::Map(Arc::new(EnvMap::load(map, 0.0, 1.0).unwrap()));
+    let environment = Environment::Map(Arc::new(EnvMap::load(map, 0.0, 1.0, sampling).unwrap()));
     let options = ShadingOptions {
         environment,
         materials: MaterialOptions::lambertian(),
@@ -302,16 +303,19 @@ fn agrees(mean: f64, sem: f64, expected: f64) -> bool {
     (mean - expected).abs() < 5.0 * sem + bias
 }
 
-fn direct_and_path() -> [(&'static str, Integrator); 2] {
+/// Direct lighting and path tracing, under each way of sampling the map.
+fn direct_and_path() -> [(&'static str, (Integrator, MapSampling)); 4] {
+    let path = Integrator::Path(PathSettings::default());
+    let direct = Integrator::Direct(PathSettings {
+        max_depth: 1,
+        ..Default::default()
+    });
+    let (radiance, compensated) = (MapSampling::Radiance, MapSampling::Compensated);
     [
-        (
-            "direct",
-            Integrator::Direct(PathSettings {
-                max_depth: 1,
-                ..Default::default()
-            }),
-        ),
-        ("path", Integrator::Path(PathSettings::default())),
+        ("direct", (direct, radiance)),
+        ("direct, compensated", (direct, compensated)),
+        ("path", (path, radiance)),
+        ("path, compensated", (path, compensated)),
     ]
 }
 

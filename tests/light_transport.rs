@@ -837,7 +837,7 @@ fn light_points_keep_the_stratification_of_their_samples() {
             );
             let (ls, _) = prepared
                 .lights
-                .sample(&scene, &prepared.materials, None, &si, u)
+                .sample(&scene, &prepared.materials, None, &si, u, false)
                 .expect("a light sample");
             // Where the direction meets the light's plane, on which half, and the sample
             // that the uniform triangle warp took there (barycentrics of the first two

@@ -47,6 +47,7 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
         "bsdf-plastic-0.5",
         "bsdf-metal-0.3-anisotropic",
         "environment-studio",
+        "environment-studio-compensated",
     ];
     assert_eq!(
         rows.len(),
@@ -59,8 +60,14 @@ fn every_picture_agrees_with_its_pdf_and_the_control_does_not() {
         let (statistic, dof, p) = rows[name];
         eprintln!("{name}: χ² {statistic:.1}, {dof} dof, p {p:.3}");
         assert!(p >= alpha, "{name}: p = {p:e} < {alpha}");
+        // The compensated map's pdf is 0 outside its two softboxes: about a hundred cells.
+        let min_dof = if name.ends_with("compensated") {
+            50
+        } else {
+            500
+        };
         assert!(
-            dof > 500,
+            dof > min_dof,
             "{name}: the grid should keep its cells ({dof} dof)"
         );
         let png = image::open(dir.path().join(format!("{name}.png"))).unwrap();

@@ -43,7 +43,7 @@ use strata::plot::{float_label, register_font};
 use strata::sampling::chi2::{chi2_test, Chi2Outcome};
 use strata::sampling::warps;
 use strata::sampling::{PixelSampler, SamplerKind};
-use strata::shading::{Bsdf, EnvMap, GltfBrdf, LocalBsdf};
+use strata::shading::{Bsdf, EnvMap, GltfBrdf, LocalBsdf, MapSampling};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -833,9 +833,26 @@ fn main() -> Result<()> {
         record(case.name, case.title, &m)?;
     }
     let studio = Path::new(env!("CARGO_MANIFEST_DIR")).join(STUDIO);
-    let map = EnvMap::load(&studio, 0.0, 1.0).map_err(|e| anyhow!("{}: {e}", studio.display()))?;
-    let m = measure_env(&map, cli.samples, seed(200));
-    record("environment-studio", "Environment map, studio_small_05", &m)?;
+    for (k, (sampling, name, title)) in [
+        (
+            MapSampling::Radiance,
+            "environment-studio",
+            "Environment map, studio_small_05",
+        ),
+        (
+            MapSampling::Compensated,
+            "environment-studio-compensated",
+            "Environment map, studio_small_05, compensated",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let map = EnvMap::load(&studio, 0.0, 1.0, sampling)
+            .map_err(|e| anyhow!("{}: {e}", studio.display()))?;
+        let m = measure_env(&map, cli.samples, seed(200 + k as u64));
+        record(name, title, &m)?;
+    }
     let csv = cli.out.join("summary.csv");
     std::fs::write(&csv, summary).with_context(|| format!("{}: cannot write", csv.display()))?;
     let path = cli.out.join("points.png");

@@ -153,20 +153,18 @@ fn li_as<B: ShadeAs>(
         let Some(hit) = next_hit else {
             // Possibly add the environment, weighted against sampling it as a light (the
             // camera's own view of it may be a background of its own).
-            let le = match prev {
-                None => lights.camera_miss_radiance(ray.dir),
-                Some(_) => lights.environment().radiance(ray.dir),
+            // Radiance and weight from one lookup of the environment.
+            let (le, w) = match (prev, settings.strategy) {
+                (None, _) => (lights.camera_miss_radiance(ray.dir), 1.0),
+                (Some(_), _) if specular => (lights.environment().radiance(ray.dir), 1.0),
+                (Some(_), Strategy::Bsdf) => (lights.environment().radiance(ray.dir), 1.0),
+                (Some(_), Strategy::Light) => (Vec3::ZERO, 0.0),
+                (Some((pdf_bsdf, _)), Strategy::Mis) => {
+                    let (le, pdf_light) = lights.environment_radiance_pdf(ray.dir);
+                    (le, power_heuristic(pdf_bsdf, pdf_light))
+                }
             };
             if le.max_element() > 0.0 {
-                let w = match prev {
-                    None => 1.0,
-                    Some(_) if specular => 1.0,
-                    Some((pdf_bsdf, _)) => match settings.strategy {
-                        Strategy::Mis => power_heuristic(pdf_bsdf, lights.environment_pdf(ray.dir)),
-                        Strategy::Bsdf => 1.0,
-                        Strategy::Light => 0.0,
-                    },
-                };
                 l += beta * le * w;
             }
             break;
@@ -253,19 +251,21 @@ fn li_as<B: ShadeAs>(
 
         // Next-event estimation: sample a light, test visibility, weight against the BSDF
         // (not through delta lobes, which no light sample can hit).
+        // BSDF sampling alone leaves to itself every emitter a ray can reach, and samples
+        // only the delta lights it cannot.
+        let deltas_only = settings.strategy == Strategy::Bsdf;
         let light = match bsdf.flags().has_non_specular() {
-            true => lights.sample(scene, materials, coverage, &si, u_light),
+            true => lights.sample(scene, materials, coverage, &si, u_light, deltas_only),
             false => None,
         };
         if let Some((ls, pmf)) = light {
-            let use_it = ls.is_delta || settings.strategy != Strategy::Bsdf;
             // MIS weighs an area light's sample by the BSDF's pdf too: both at once.
             let mis = !ls.is_delta && settings.strategy == Strategy::Mis;
             let (f, pdf_bsdf) = match mis {
                 true => bsdf.eval_pdf(ls.wi),
                 false => (bsdf.eval(ls.wi), 0.0),
             };
-            if use_it && ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
+            if ls.pdf > 0.0 && ls.li.max_element() > 0.0 && f.max_element() > 0.0 {
                 let pdf_light = pmf * ls.pdf;
                 let w = match mis {
                     true => power_heuristic(pdf_light, pdf_bsdf),

@@ -17,7 +17,7 @@ use crate::accel::{AccelOptions, Backend, BuildQuality};
 use crate::cli::{Args, MemoryLimit};
 use crate::experiments::Experiments;
 use crate::integrators::{
-    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions,
+    AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions, Strategy,
 };
 use crate::render::adaptive::ErrorMetric;
 use crate::render::merge::Share;
@@ -28,7 +28,9 @@ use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
 use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
-use crate::shading::{DiffuseSampling, EnvMap, Environment, MaterialModel, MaterialOptions};
+use crate::shading::{
+    DiffuseSampling, EnvMap, Environment, MapSampling, MaterialModel, MaterialOptions,
+};
 
 /// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
 /// has, so the target error or the time limit is what stops it.
@@ -119,6 +121,9 @@ pub struct Job {
     /// The environment map to load (`--env`), its rotation about +Y in degrees and its scale;
     /// [`Job::load_environment`] puts it into `shading`.
     pub env: Option<(PathBuf, f32, f32)>,
+    /// What light sampling draws the map's directions in proportion to (`--env-sampling`;
+    /// radiance unless light sampling is combined with BSDF sampling by MIS).
+    pub env_sampling: MapSampling,
     /// Switches for measurements (`--no-camera-packets`, `--padded-bounces`,
     /// `--sample-variance-error`); the defaults otherwise.
     pub experiments: Experiments,
@@ -231,6 +236,10 @@ impl Job {
             env: env_file
                 .cloned()
                 .map(|p| (p, args.env_rotate, args.env_intensity)),
+            env_sampling: match args.strategy {
+                Strategy::Mis => args.env_sampling,
+                Strategy::Light | Strategy::Bsdf => MapSampling::Radiance,
+            },
             experiments: Experiments {
                 camera_packets: !args.no_camera_packets,
                 joint_bounces: !args.padded_bounces,
@@ -393,7 +402,8 @@ impl Job {
     /// Reads the environment map (`--env`), if any, into the shading options.
     pub fn load_environment(&mut self) -> Result<(), JobError> {
         if let Some((path, degrees, scale)) = &self.env {
-            let map = EnvMap::load(path, degrees.to_radians(), *scale).map_err(JobError)?;
+            let map = EnvMap::load(path, degrees.to_radians(), *scale, self.env_sampling)
+                .map_err(JobError)?;
             self.shading.environment = Environment::Map(std::sync::Arc::new(map));
         }
         Ok(())

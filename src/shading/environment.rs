@@ -68,6 +68,16 @@ impl Environment {
         }
     }
 
+    /// The radiance along unit direction `dir` and the solid-angle pdf with which
+    /// [`Environment::sample`] draws it, from one lookup.
+    #[inline]
+    pub fn radiance_pdf(&self, dir: Vec3) -> (Vec3, f32) {
+        match self {
+            Environment::Constant(l) => (*l, UNIFORM_SPHERE_PDF),
+            Environment::Map(map) => map.radiance_pdf(dir),
+        }
+    }
+
     /// The solid-angle pdf with which [`Environment::sample`] draws `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {

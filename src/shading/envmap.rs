@@ -6,7 +6,8 @@
 //! u = 0.5 + atan2(d.z, d.x) / 2π, v = acos(d.y) / π, with v = 0 the image's top row: the
 //! image's centre lies toward +X, u = 0.25 toward −Z, the top row straight up. `rotation`
 //! turns the environment about +Y, counter-clockwise seen from above (the right-hand rule):
-//! the radiance seen along d is the unrotated map's along R_y(−rotation)·d.
+//! the radiance seen along d is the unrotated map's along R_y(−rotation)·d. The inverse
+//! trigonometry is [`crate::math`]'s polynomials (within 5·10⁻⁷ rad, far below a texel).
 //!
 //! Radiance is looked up bilinearly between texel centres (u wraps around, v is clamped at
 //! the poles). Directions are sampled from a piecewise-constant distribution over the image
@@ -15,89 +16,142 @@
 //! weighted 1/8, 3/4, 1/8 along each axis) times sin θ of its row. The mean is positive
 //! wherever the lookup is, so every direction that sees radiance can be sampled, and the
 //! weight follows the luminance the lookup returns (pbrt-v4 §12.5).
+//!
+//! What a lookup costs is kept to a constant's: the texels carry their own sampling density
+//! beside their radiance, so the pdf of a direction is one read in the cache lines its
+//! radiance already touched; each row holds one extra texel, a copy of its first, so the
+//! bilinear lookup never wraps; and the inversion of each cdf starts from a guide table (Chen
+//! and Asau's cutpoint method, 1974: entry k names the piece that holds k/n), so it finds
+//! its piece in an expected constant number of steps instead of a binary search over the
+//! row. The inversion is still the inversion: a stratified point set stays stratified over
+//! the map, which an alias table (Walker 1977) would scatter. The cdfs and guides of all
+//! rows live in one allocation.
 
+use std::f32::consts::{FRAC_1_PI, PI, TAU};
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::spectrum::luminance;
-use crate::scene::Wrap;
-use crate::texture::Image;
+use crate::math;
 
-/// A piecewise-constant density on [0, 1) (pbrt-v4's `PiecewiseConstant1D`).
-#[derive(Clone, Debug, PartialEq)]
-struct Distribution1D {
-    func: Vec<f32>,
-    /// cdf[i] = ∫₀^{i/n} of the normalised density; n + 1 entries, the last exactly 1.
-    cdf: Vec<f32>,
-    /// ∫₀¹ func.
-    integral: f32,
+/// What light sampling draws directions of the map in proportion to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum MapSampling {
+    /// The luminance of the lookup (the module documentation): every direction that sees
+    /// radiance can be drawn. Needed where light sampling is the only strategy.
+    Radiance,
+    /// MIS compensation (Karlík, Šik, Vévoda, Skřivan and Křivánek, "MIS Compensation",
+    /// ACM TOG 38(6), 2019, §5): the luminance less its mean over the sphere, so light
+    /// sampling spends its samples on what outshines the average (a sun, softboxes) and
+    /// leaves the rest to BSDF sampling, which MIS combines it with. Directions dimmer than
+    /// the mean get pdf 0: only for MIS. A map of one colour keeps `Radiance`. The default
+    /// under MIS: at equal time it lowers the RMSE on every HDRI-lit scene measured
+    /// (BENCHMARKS.md, "Environment maps").
+    #[default]
+    Compensated,
 }
 
-impl Distribution1D {
-    fn new(func: Vec<f32>) -> Distribution1D {
-        let n = func.len();
-        // The running sum in f64, normalised at the end.
-        let integral = func.iter().map(|&f| f as f64).sum::<f64>() / n as f64;
-        let cdf = if integral > 0.0 {
-            let scale = 1.0 / (integral * n as f64);
-            let mut sum = 0.0f64;
-            std::iter::once(0.0)
-                .chain(func.iter().map(|&f| {
-                    sum += f as f64;
-                    (sum * scale) as f32
-                }))
-                .collect()
-        } else {
-            // No weight anywhere: uniform, so that sampling stays defined.
-            (0..=n).map(|i| i as f32 / n as f32).collect()
-        };
-        Distribution1D {
-            func,
-            cdf,
-            integral: integral as f32,
+/// One texel as lookups read it: linear RGB radiance, and the sampling density of the
+/// texel's area over the (u, v) square divided by 2π² (the solid-angle pdf of a direction in
+/// it is this over sin θ).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(16))]
+struct Texel {
+    rgb: [f32; 3],
+    density: f32,
+}
+
+/// One entry of a piecewise-constant 1D distribution over n pieces (pbrt-v4's
+/// `PiecewiseConstant1D`): `cdf` at the start of piece i (entry n holds 1), and the guide:
+/// the piece that holds u = i/n.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Cell {
+    cdf: f32,
+    guide: u32,
+}
+
+/// Fills `cells` (n + 1 of them) with the distribution of `func` (n values, at least 0) and
+/// returns ∫₀¹ func; with no weight anywhere the distribution is uniform.
+fn build_distribution(func: &[f32], cells: &mut [Cell]) -> f32 {
+    let n = func.len();
+    debug_assert_eq!(cells.len(), n + 1);
+    // The running sum in f64, normalised at the end.
+    let integral = func.iter().map(|&f| f as f64).sum::<f64>() / n as f64;
+    cells[0].cdf = 0.0;
+    if integral > 0.0 {
+        let scale = 1.0 / (integral * n as f64);
+        let mut sum = 0.0f64;
+        for (cell, &f) in cells[1..].iter_mut().zip(func) {
+            sum += f as f64;
+            cell.cdf = (sum * scale) as f32;
+        }
+    } else {
+        for (i, cell) in cells.iter_mut().enumerate() {
+            cell.cdf = i as f32 / n as f32;
         }
     }
-
-    /// A point drawn with `u`, its density, and the index of its piece.
-    fn sample(&self, u: f32) -> (f32, f32, usize) {
-        let n = self.func.len();
-        // The last cdf entry at most u.
-        let i = self.cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let du = if width > 0.0 {
-            (u - self.cdf[i]) / width
-        } else {
-            0.5
-        };
-        let x = ((i as f32 + du.clamp(0.0, 1.0)) / n as f32).min(1.0 - f32::EPSILON / 2.0);
-        (x, self.density(i), i)
-    }
-
-    /// The density of piece `i`.
-    fn density(&self, i: usize) -> f32 {
-        if self.integral > 0.0 {
-            self.func[i] / self.integral
-        } else {
-            1.0
+    // guide[k] = the piece that u = k/n falls in, by the rule `invert` uses.
+    let mut piece = 0;
+    for k in 0..n {
+        let u = k as f32 / n as f32;
+        while piece < n - 1 && cells[piece + 1].cdf <= u {
+            piece += 1;
         }
+        cells[k].guide = piece as u32;
     }
+    integral as f32
+}
+
+/// The piece of `cells`' distribution (n + 1 cells) that holds `u` ∈ [0, 1): the number of
+/// pieces whose end is at most u, at most n − 1 (pieces of zero weight are never chosen) —
+/// what a binary search over the cdf finds, found from the guide in an expected constant
+/// number of steps. Returns the piece and u's position within it, in [0, 1].
+#[inline]
+fn invert(cells: &[Cell], u: f32) -> (usize, f32) {
+    let n = cells.len() - 1;
+    let nf = n as f32;
+    // The guide's slot k with k/n ≤ u < (k + 1)/n, exactly as the guide computed k/n.
+    let mut k = ((u * nf) as usize).min(n - 1);
+    if k as f32 / nf > u {
+        k -= 1;
+    } else if k + 1 < n && (k + 1) as f32 / nf <= u {
+        k += 1;
+    }
+    // The answer lies between the pieces holding k/n and (k + 1)/n.
+    let lo = cells[k].guide as usize;
+    let hi = if k + 1 < n {
+        cells[k + 1].guide as usize
+    } else {
+        n - 1
+    };
+    let i = lo + cells[lo + 1..=hi].partition_point(|c| c.cdf <= u);
+    let (start, end) = (cells[i].cdf, cells[i + 1].cdf);
+    let du = match end - start {
+        width if width > 0.0 => ((u - start) / width).clamp(0.0, 1.0),
+        _ => 0.5,
+    };
+    (i, du)
 }
 
 /// An equirectangular environment map (see the module documentation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
-    /// Linear RGB radiance (alpha 1), row 0 the top (straight up), looked up as textures
-    /// are ([`Image::bilinear`]: u repeats, v clamps at the poles).
-    image: Image,
+    width: usize,
+    height: usize,
+    /// (width + 1) × height texels, row 0 the top (straight up), the last of each row a copy
+    /// of its first.
+    texels: Vec<Texel>,
+    /// The rows' marginal distribution (height + 1 cells), then each row's conditional one
+    /// over its columns (width + 1 cells each).
+    cells: Vec<Cell>,
+    /// ∫ over [0, 1]² of L sin θ, L the lookup's luminance.
+    integral: f32,
     /// sin and cos of the rotation about +Y.
     rotation: (f32, f32),
     /// Radiance scale (`--env-intensity`).
     scale: f32,
-    /// The rows' marginal and each row's conditional distribution.
-    marginal: Distribution1D,
-    conditional: Vec<Distribution1D>,
 }
 
 impl EnvMap {
@@ -110,58 +164,100 @@ impl EnvMap {
         rotation: f32,
         scale: f32,
     ) -> EnvMap {
+        EnvMap::sampled(
+            width,
+            height,
+            texels,
+            rotation,
+            scale,
+            MapSampling::Radiance,
+        )
+    }
+
+    /// [`EnvMap::new`], light sampling drawing directions as `sampling` says.
+    pub fn sampled(
+        width: usize,
+        height: usize,
+        texels: Vec<Vec3>,
+        rotation: f32,
+        scale: f32,
+        sampling: MapSampling,
+    ) -> EnvMap {
         assert_eq!(texels.len(), width * height, "texel count");
         assert!(width > 0 && height > 0, "an empty map");
-        // RGBA texels as textures hold them, negative and non-finite values zeroed.
-        let texels: Vec<glam::Vec4> = texels
+        assert!(
+            width < u32::MAX as usize,
+            "a map wider than a guide entry counts"
+        );
+        let texels: Vec<Vec3> = texels
             .par_iter()
             .map(|t| Vec3::select(t.cmpgt(Vec3::ZERO) & t.is_finite_mask(), *t, Vec3::ZERO))
-            .map(|t| t.extend(1.0))
             .collect();
-        // Each texel's weight: the mean of the bilinear lookup over its area, times sin θ.
-        // The mean's kernel (1/8, 3/4, 1/8 along each axis; u wraps, v is clamped) is
-        // separable: a pass along the rows, then one along the columns, rows in parallel.
-        let (k0, k1) = (0.125f32, 0.75f32);
-        let mut along_rows = vec![0f32; width * height];
-        along_rows
-            .par_chunks_mut(width)
-            .zip(texels.par_chunks(width))
-            .for_each(|(out, row)| {
-                let lum = |x: usize| luminance(row[x].truncate());
-                for (x, o) in out.iter_mut().enumerate() {
-                    let (left, right) = ((x + width - 1) % width, (x + 1) % width);
-                    *o = k0 * lum(left) + k1 * lum(x) + k0 * lum(right);
-                }
-            });
-        let conditional: Vec<Distribution1D> = (0..height)
-            .into_par_iter()
-            .map(|y| {
-                let sin_theta = (std::f32::consts::PI * (y as f32 + 0.5) / height as f32).sin();
-                let (up, down) = (y.saturating_sub(1), (y + 1).min(height - 1));
-                let row = |r: usize| &along_rows[r * width..(r + 1) * width];
-                let (a, b, c) = (row(up), row(y), row(down));
-                let func = (0..width)
-                    .map(|x| (k0 * a[x] + k1 * b[x] + k0 * c[x]) * sin_theta)
-                    .collect();
-                Distribution1D::new(func)
+        let means = lookup_means(width, height, &texels);
+        // ∫ L sin θ du dv over [0, 1]², in f64 (the mean luminance is π/2 times it).
+        let integral = (means
+            .par_chunks(width)
+            .enumerate()
+            .map(|(y, row)| {
+                sin_theta_of_row(y, height) as f64 * row.iter().map(|&m| m as f64).sum::<f64>()
             })
+            .sum::<f64>()
+            / (width * height) as f64) as f32;
+        let mean = integral * PI / 2.0;
+        let func = match sampling {
+            // Nothing brighter than the mean: a map of one colour, sampled by its radiance.
+            MapSampling::Compensated if means.par_iter().any(|&m| m > mean) => {
+                sampling_weights(width, height, &means, mean)
+            }
+            _ => sampling_weights(width, height, &means, 0.0),
+        };
+        drop(means);
+        // The conditional distribution of each row, rows in parallel, then the marginal.
+        let (w1, h1) = (width + 1, height + 1);
+        let mut cells = vec![Cell::default(); h1 + height * w1];
+        let (marginal, rows) = cells.split_at_mut(h1);
+        let row_integrals: Vec<f32> = rows
+            .par_chunks_mut(w1)
+            .zip(func.par_chunks(width))
+            .map(|(row, f)| build_distribution(f, row))
             .collect();
-        let row_integrals = conditional.iter().map(|row| row.integral).collect();
+        let sampled = build_distribution(&row_integrals, marginal);
+        // Each texel's density over the (u, v) square is its weight over the integral (the
+        // marginal's density times the conditional's); uniform where nothing weighs.
+        let two_pi2 = 2.0 * PI * PI;
+        let mut padded = vec![Texel::default(); w1 * height];
+        padded
+            .par_chunks_mut(w1)
+            .zip(texels.par_chunks(width).zip(func.par_chunks(width)))
+            .for_each(|(out, (row, f))| {
+                for (o, (t, &f)) in out.iter_mut().zip(row.iter().zip(f)) {
+                    let density = if sampled > 0.0 { f / sampled } else { 1.0 };
+                    *o = Texel {
+                        rgb: t.to_array(),
+                        density: density / two_pi2,
+                    };
+                }
+                out[width] = out[0];
+            });
         EnvMap {
-            image: Image {
-                width: width as u32,
-                height: height as u32,
-                texels,
-            },
+            width,
+            height,
+            texels: padded,
+            cells,
+            integral,
             rotation: rotation.sin_cos(),
             scale,
-            marginal: Distribution1D::new(row_integrals),
-            conditional,
         }
     }
 
-    /// Reads a Radiance `.hdr` or OpenEXR `.exr` file (linear RGB; alpha ignored).
-    pub fn load(path: &Path, rotation: f32, scale: f32) -> Result<EnvMap, String> {
+    /// Reads a Radiance `.hdr` or OpenEXR `.exr` file (linear RGB; alpha ignored), light
+    /// sampling drawing directions as `sampling` says.
+    pub fn load(
+        path: &Path,
+        rotation: f32,
+        scale: f32,
+        sampling: MapSampling,
+    ) -> Result<EnvMap, String> {
         let name = path.display();
         let ext = path
             .extension()
@@ -185,96 +281,204 @@ impl EnvMap {
         if width == 0 || height == 0 {
             return Err(format!("{name}: the image is empty"));
         }
-        Ok(EnvMap::new(width, height, texels, rotation, scale))
+        Ok(EnvMap::sampled(
+            width, height, texels, rotation, scale, sampling,
+        ))
     }
 
     /// (width, height) in texels.
     pub fn size(&self) -> (usize, usize) {
-        (self.image.width as usize, self.image.height as usize)
+        (self.width, self.height)
     }
 
-    /// Bytes held (texels and the sampling distributions), for `--stats`.
+    /// Bytes held (texels with their densities, and the sampling distributions), for
+    /// `--stats`.
     pub fn memory(&self) -> usize {
-        let (texels, rows) = (self.image.texels.len(), self.conditional.len());
-        texels * std::mem::size_of::<glam::Vec4>() + 2 * 4 * (texels + rows)
+        self.texels.len() * std::mem::size_of::<Texel>()
+            + self.cells.len() * std::mem::size_of::<Cell>()
     }
 
     /// True when no texel holds any radiance.
     pub fn is_black(&self) -> bool {
-        self.marginal.integral <= 0.0 || self.scale <= 0.0
+        self.integral <= 0.0 || self.scale <= 0.0
     }
 
     /// The mean of the radiance over the sphere, by luminance (for choosing among emitters).
     pub fn mean_luminance(&self) -> f32 {
         // ∫ over [0,1]² of the weights is ∫ L sin θ du dv; the sphere's ∫ L dω = 2π² times
         // that, and the mean divides by 4π.
-        self.marginal.integral * self.scale * std::f32::consts::PI / 2.0
+        self.integral * self.scale * PI / 2.0
     }
 
-    /// The direction's (u, v) in the unrotated map.
+    /// The direction's (u, v) in the unrotated map, for a direction of unit length.
     #[inline]
-    fn uv(&self, dir: Vec3) -> Vec2 {
-        let d = dir.normalize();
+    fn uv(&self, d: Vec3) -> Vec2 {
         let (s, c) = self.rotation;
         // R_y(−rotation)·d.
         let x = c * d.x - s * d.z;
         let z = s * d.x + c * d.z;
-        let u = 0.5 + z.atan2(x) * (0.5 * std::f32::consts::FRAC_1_PI);
-        let v = d.y.clamp(-1.0, 1.0).acos() * std::f32::consts::FRAC_1_PI;
+        let u = 0.5 + math::atan2(z, x) * (0.5 * FRAC_1_PI);
+        let v = math::acos(d.y) * FRAC_1_PI;
         Vec2::new(u, v)
     }
 
-    /// The world direction of unrotated (u, v).
+    /// The world direction of unrotated (u, v), and sin θ there.
     #[inline]
-    fn direction(&self, uv: Vec2) -> Vec3 {
-        let phi = std::f32::consts::TAU * (uv.x - 0.5);
-        let theta = std::f32::consts::PI * uv.y;
-        let (sin_t, cos_t) = theta.sin_cos();
-        let (sin_p, cos_p) = phi.sin_cos();
+    fn direction(&self, uv: Vec2) -> (Vec3, f32) {
+        let (sin_t, cos_t) = (PI * uv.y).sin_cos();
+        let (sin_p, cos_p) = (TAU * (uv.x - 0.5)).sin_cos();
         let (x, z) = (sin_t * cos_p, sin_t * sin_p);
         // R_y(rotation)·(x, y, z).
         let (s, c) = self.rotation;
-        Vec3::new(c * x + s * z, cos_t, -s * x + c * z)
+        (Vec3::new(c * x + s * z, cos_t, -s * x + c * z), sin_t)
     }
 
-    /// The radiance seen along `dir` (bilinear between texel centres).
+    /// The texel at `row`, `col` (col ≤ width: the padding column).
+    #[inline]
+    fn texel(&self, row: usize, col: usize) -> &Texel {
+        &self.texels[row * (self.width + 1) + col]
+    }
+
+    /// The texel whose area holds (u, v) ∈ [0, 1]².
+    #[inline]
+    fn texel_holding(&self, uv: Vec2) -> &Texel {
+        let col = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let row = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        self.texel(row, col)
+    }
+
+    /// The scaled radiance at (u, v) ∈ [0, 1]², bilinear between texel centres.
+    #[inline]
+    fn bilinear(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        // Texel centres sit at half-integers; left of the first centre, u wraps to the last
+        // texel, whose right neighbour is the padding copy of the first.
+        let x = uv.x * w - 0.5;
+        let x = if x < 0.0 { x + w } else { x };
+        let x0 = (x as usize).min(self.width - 1);
+        let fx = (x - x0 as f32).clamp(0.0, 1.0);
+        // v is clamped at the poles.
+        let y = (uv.y * h - 0.5).max(0.0);
+        let y0 = (y as usize).min(self.height - 1);
+        let y1 = (y0 + 1).min(self.height - 1);
+        let fy = (y - y0 as f32).clamp(0.0, 1.0);
+        let row = |r: usize| {
+            let (a, b) = (self.texel(r, x0), self.texel(r, x0 + 1));
+            Vec3::from_array(a.rgb).lerp(Vec3::from_array(b.rgb), fx)
+        };
+        row(y0).lerp(row(y1), fy) * self.scale
+    }
+
+    /// The radiance seen along unit direction `dir` (bilinear between texel centres).
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         let uv = self.uv(dir);
-        let texel = self.image.bilinear(uv, Wrap::Repeat, Wrap::ClampToEdge);
-        texel.truncate() * self.scale
+        if !uv.is_finite() {
+            return Vec3::ZERO;
+        }
+        self.bilinear(uv)
+    }
+
+    /// The radiance seen along unit direction `dir` and the solid-angle pdf of
+    /// [`EnvMap::sample`] drawing it, from one parametrisation and the same cache lines.
+    #[inline]
+    pub fn radiance_pdf(&self, dir: Vec3) -> (Vec3, f32) {
+        let uv = self.uv(dir);
+        if !uv.is_finite() {
+            return (Vec3::ZERO, 0.0);
+        }
+        (self.bilinear(uv), self.pdf_at(uv, dir))
+    }
+
+    /// The solid-angle pdf at (u, v), the direction `dir`: the texel's density over sin θ
+    /// (0 at the poles, where the parametrisation degenerates).
+    #[inline]
+    fn pdf_at(&self, uv: Vec2, dir: Vec3) -> f32 {
+        let sin_theta = (dir.x * dir.x + dir.z * dir.z).sqrt();
+        match sin_theta > 0.0 {
+            true => self.texel_holding(uv).density / sin_theta,
+            false => 0.0,
+        }
     }
 
     /// A direction drawn with `u`, its radiance and its solid-angle pdf (0 at the poles,
     /// where the map's parametrisation degenerates).
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3, f32) {
-        let (v, pdf_v, row) = self.marginal.sample(u.y);
-        let (uu, pdf_u, _) = self.conditional[row].sample(u.x);
-        let dir = self.direction(Vec2::new(uu, v));
-        let sin_theta = (std::f32::consts::PI * v).sin();
-        let pdf = if sin_theta > 0.0 {
-            pdf_u * pdf_v / (2.0 * std::f32::consts::PI * std::f32::consts::PI * sin_theta)
-        } else {
-            0.0
+        let (w1, h1) = (self.width + 1, self.height + 1);
+        let (row, dv) = invert(&self.cells[..h1], u.y);
+        let start = h1 + row * w1;
+        let (col, du) = invert(&self.cells[start..start + w1], u.x);
+        let below_one = 1.0 - f32::EPSILON / 2.0;
+        let uv = Vec2::new(
+            ((col as f32 + du) / self.width as f32).min(below_one),
+            ((row as f32 + dv) / self.height as f32).min(below_one),
+        );
+        let (dir, sin_theta) = self.direction(uv);
+        let pdf = match sin_theta > 0.0 {
+            true => self.texel(row, col).density / sin_theta,
+            false => 0.0,
         };
-        (dir, self.radiance(dir), pdf)
+        (dir, self.bilinear(uv), pdf)
     }
 
-    /// The solid-angle pdf of [`EnvMap::sample`] drawing `dir`.
+    /// The solid-angle pdf of [`EnvMap::sample`] drawing unit direction `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        let uv = self.uv(dir);
-        let sin_theta = (std::f32::consts::PI * uv.y).sin();
-        if sin_theta <= 0.0 {
-            return 0.0;
-        }
-        let (width, height) = self.size();
-        let row = ((uv.y * height as f32) as usize).min(height - 1);
-        let col = ((uv.x.rem_euclid(1.0) * width as f32) as usize).min(width - 1);
-        let p = self.marginal.density(row) * self.conditional[row].density(col);
-        p / (2.0 * std::f32::consts::PI * std::f32::consts::PI * sin_theta)
+        self.radiance_pdf(dir).1
     }
+}
+
+/// Each texel's mean of the bilinear lookup's luminance over its area. The mean's kernel
+/// (1/8, 3/4, 1/8 along each axis; u wraps, v is clamped) is separable: a pass along the
+/// rows, then one along the columns, rows in parallel.
+fn lookup_means(width: usize, height: usize, texels: &[Vec3]) -> Vec<f32> {
+    let (k0, k1) = (0.125f32, 0.75f32);
+    let mut along_rows = vec![0f32; width * height];
+    along_rows
+        .par_chunks_mut(width)
+        .zip(texels.par_chunks(width))
+        .for_each(|(out, row)| {
+            let lum = |x: usize| luminance(row[x]);
+            for (x, o) in out.iter_mut().enumerate() {
+                let (left, right) = ((x + width - 1) % width, (x + 1) % width);
+                *o = k0 * lum(left) + k1 * lum(x) + k0 * lum(right);
+            }
+        });
+    let mut means = vec![0f32; width * height];
+    means
+        .par_chunks_mut(width)
+        .enumerate()
+        .for_each(|(y, out)| {
+            let (up, down) = (y.saturating_sub(1), (y + 1).min(height - 1));
+            let row = |r: usize| &along_rows[r * width..(r + 1) * width];
+            let (a, b, c) = (row(up), row(y), row(down));
+            for (x, o) in out.iter_mut().enumerate() {
+                *o = k0 * a[x] + k1 * b[x] + k0 * c[x];
+            }
+        });
+    means
+}
+
+/// sin θ at the centre of row `y` of `height`.
+fn sin_theta_of_row(y: usize, height: usize) -> f32 {
+    (PI * (y as f32 + 0.5) / height as f32).sin()
+}
+
+/// Each texel's sampling weight over the (u, v) square: its lookup mean less `minus` (at
+/// least 0), times sin θ of its row.
+fn sampling_weights(width: usize, height: usize, means: &[f32], minus: f32) -> Vec<f32> {
+    let mut func = vec![0f32; width * height];
+    func.par_chunks_mut(width)
+        .zip(means.par_chunks(width))
+        .enumerate()
+        .for_each(|(y, (out, m))| {
+            let sin_theta = sin_theta_of_row(y, height);
+            for (o, &m) in out.iter_mut().zip(m) {
+                *o = (m - minus).max(0.0) * sin_theta;
+            }
+        });
+    func
 }
 
 /// The first RGB(A) layer of an OpenEXR file as linear f32 texels, row 0 at the top; a clear
@@ -359,7 +563,7 @@ mod tests {
             Vec2::new(0.45, 0.5),
         ] {
             assert!(
-                (turned.uv(turned.direction(uv)) - uv).length() < 1e-4,
+                (turned.uv(turned.direction(uv).0) - uv).length() < 1e-4,
                 "{uv}"
             );
         }
@@ -382,7 +586,7 @@ mod tests {
             for i in 0..qn {
                 let uv = Vec2::new((i as f32 + 0.5) / qn as f32, (j as f32 + 0.5) / qm as f32);
                 let sin_t = (std::f32::consts::PI * uv.y).sin() as f64;
-                quadrature += luminance(map.radiance(map.direction(uv))) as f64 * sin_t;
+                quadrature += luminance(map.radiance(map.direction(uv).0)) as f64 * sin_t;
             }
         }
         quadrature *= 2.0 * std::f64::consts::PI.powi(2) / (qn * qm) as f64;
@@ -425,7 +629,7 @@ mod tests {
                         (by as f32 + (j as f32 + 0.5) / k as f32) / 8.0,
                     );
                     let sin_t = (std::f32::consts::PI * uv.y).sin() as f64;
-                    mass += map.pdf(map.direction(uv)) as f64 * sin_t;
+                    mass += map.pdf(map.direction(uv).0) as f64 * sin_t;
                 }
             }
             mass *= 2.0 * std::f64::consts::PI.powi(2) / (16.0 * 8.0 * (k * k) as f64);
@@ -437,6 +641,64 @@ mod tests {
                 "block {b}: {got} against {mass}"
             );
         }
+    }
+
+    /// MIS compensation: light samples land only on texels brighter than the mean, the dim
+    /// ones get pdf 0, and light sampling combined with uniform sphere sampling by the power
+    /// heuristic still integrates the map as quadrature does (1%); light sampling alone then
+    /// misses the dim quadrants (the negative control).
+    #[test]
+    fn compensated_sampling_needs_and_survives_mis() {
+        let (w, h) = (64, 32);
+        let mut texels = quadrants(w, h);
+        texels[10 * w + 40] = Vec3::splat(500.0);
+        let map = EnvMap::sampled(w, h, texels.clone(), 0.4, 2.0, MapSampling::Compensated);
+        // The mean luminance (light selection's weight) is the map's, not the compensated
+        // distribution's.
+        let plain = EnvMap::new(w, h, texels, 0.4, 2.0);
+        assert_eq!(map.mean_luminance(), plain.mean_luminance());
+        let (qn, qm) = (1024, 512);
+        let mut quadrature = 0.0f64;
+        let mut dim_without_pdf = 0;
+        for j in 0..qm {
+            for i in 0..qn {
+                let uv = Vec2::new((i as f32 + 0.5) / qn as f32, (j as f32 + 0.5) / qm as f32);
+                let (d, sin_t) = map.direction(uv);
+                let (l, pdf) = map.radiance_pdf(d);
+                quadrature += luminance(l) as f64 * sin_t as f64;
+                dim_without_pdf += (luminance(l) > 0.0 && pdf == 0.0) as usize;
+            }
+        }
+        quadrature *= 2.0 * std::f64::consts::PI.powi(2) / (qn * qm) as f64;
+        assert!(dim_without_pdf > qn * qm / 4, "{dim_without_pdf}");
+        let uniform_pdf = 0.25 * FRAC_1_PI;
+        let n = 512;
+        let (mut mis, mut light_alone) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let (_, l, pdf) = map.sample(u);
+                if pdf > 0.0 {
+                    let f = luminance(l) as f64 / pdf as f64;
+                    light_alone += f;
+                    let w = pdf * pdf / (pdf * pdf + uniform_pdf * uniform_pdf);
+                    mis += f * w as f64;
+                }
+                let d2 = crate::sampling::warps::square_to_uniform_sphere(u);
+                let (l2, pdf2) = map.radiance_pdf(d2);
+                let w2 = uniform_pdf * uniform_pdf / (pdf2 * pdf2 + uniform_pdf * uniform_pdf);
+                mis += luminance(l2) as f64 / uniform_pdf as f64 * w2 as f64;
+            }
+        }
+        let (mis, light_alone) = (mis / (n * n) as f64, light_alone / (n * n) as f64);
+        assert!(
+            (mis - quadrature).abs() < 0.01 * quadrature,
+            "{mis} against {quadrature}"
+        );
+        assert!(
+            light_alone < 0.9 * quadrature,
+            "{light_alone} against {quadrature}"
+        );
     }
 
     /// Every direction whose lookup sees radiance can be sampled: a single bright texel's
@@ -453,7 +715,7 @@ mod tests {
                     (i as f32 + 0.5) / (4 * w) as f32,
                     (j as f32 + 0.5) / (4 * h) as f32,
                 );
-                let d = map.direction(uv);
+                let d = map.direction(uv).0;
                 if map.radiance(d).max_element() > 0.0 {
                     assert!(map.pdf(d) > 0.0, "uv {uv}: radiance without a pdf");
                 }
@@ -461,11 +723,67 @@ mod tests {
         }
     }
 
+    /// The guided inversion finds the piece a binary search over the cdf finds, for every u
+    /// of a fine grid and at and around every cdf entry, on distributions with pieces of
+    /// zero weight, one piece holding almost everything, and none weighing anything.
+    #[test]
+    fn the_guide_finds_what_a_binary_search_finds() {
+        let mut sun = vec![1e-3f32; 1000];
+        sun[617] = 1e6;
+        let funcs: Vec<Vec<f32>> = vec![
+            vec![1.0, 0.0, 0.0, 2.0, 0.0, 5.0, 0.0],
+            sun,
+            vec![0.0; 5],
+            (0..333).map(|i| ((i * 7919) % 13) as f32).collect(),
+            vec![3.0],
+        ];
+        for func in funcs {
+            let n = func.len();
+            let mut cells = vec![Cell::default(); n + 1];
+            build_distribution(&func, &mut cells);
+            let binary = |u: f32| cells.partition_point(|c| c.cdf <= u).clamp(1, n) - 1;
+            let mut us: Vec<f32> = (0..10_000).map(|i| i as f32 / 10_000.0).collect();
+            for c in &cells {
+                for u in [c.cdf, f32::from_bits(c.cdf.to_bits().saturating_sub(1))] {
+                    if (0.0..1.0).contains(&u) {
+                        us.push(u);
+                        us.push(f32::from_bits(u.to_bits() + 1).min(0.999_999_94));
+                    }
+                }
+            }
+            for u in us {
+                let (i, du) = invert(&cells, u);
+                assert_eq!(i, binary(u), "n {n}, u {u}");
+                assert!((0.0..=1.0).contains(&du));
+                if n > 1 && func.iter().any(|&f| f > 0.0) {
+                    assert!(func[i] > 0.0, "a piece of no weight chosen at u {u}");
+                }
+            }
+        }
+    }
+
+    /// A negative control for the test above: a guide that names the piece after the right
+    /// one is caught.
+    #[test]
+    fn a_wrong_guide_is_caught() {
+        let func = vec![1.0f32, 2.0, 3.0, 4.0];
+        let mut cells = vec![Cell::default(); 5];
+        build_distribution(&func, &mut cells);
+        let right: Vec<usize> = (0..100)
+            .map(|i| invert(&cells, i as f32 / 100.0).0)
+            .collect();
+        cells[1].guide += 1;
+        let wrong: Vec<usize> = (0..100)
+            .map(|i| invert(&cells, i as f32 / 100.0).0)
+            .collect();
+        assert_ne!(right, wrong);
+    }
+
     #[test]
     fn negative_and_non_finite_texels_are_zero() {
         let texels = vec![Vec3::new(-1.0, f32::NAN, f32::INFINITY), Vec3::ONE];
         let map = EnvMap::new(2, 1, texels, 0.0, 1.0);
-        assert_eq!(map.image.texels[0].truncate(), Vec3::ZERO);
+        assert_eq!(map.texels[0].rgb, [0.0; 3]);
         assert!(map.radiance(Vec3::X).is_finite());
     }
 }

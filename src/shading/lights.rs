@@ -322,13 +322,18 @@ impl LightSet {
             .or_else(|| self.environment.constant())
     }
 
-    /// Selection probability × solid-angle pdf with which light sampling would have drawn
-    /// direction `dir` toward the environment: 0 when light sampling leaves the environment
-    /// to BSDF sampling.
+    /// The environment's radiance along unit direction `dir`, and the selection probability ×
+    /// solid-angle pdf with which light sampling would have drawn `dir` toward it (0 when
+    /// light sampling leaves the environment to BSDF sampling), from one lookup.
     #[inline]
-    pub fn environment_pdf(&self, dir: Vec3) -> f32 {
-        self.environment_light
-            .map_or(0.0, |i| self.table.pmf(i) * self.environment.pdf(dir))
+    pub fn environment_radiance_pdf(&self, dir: Vec3) -> (Vec3, f32) {
+        match self.environment_light {
+            Some(i) => {
+                let (l, pdf) = self.environment.radiance_pdf(dir);
+                (l, self.table.pmf(i) * pdf)
+            }
+            None => (self.environment.radiance(dir), 0.0),
+        }
     }
 
     /// Selection probability × solid-angle pdf with which light sampling from `p_ref` would
@@ -520,8 +525,10 @@ impl LightSet {
     /// gives stratified points on each emitter, where a separate choice would scatter the
     /// points of an emitter made of several triangles (a quad light's two halves) at random
     /// between them. An alpha-tested emitter's radiance is weighed by `coverage` (the
-    /// acceleration structure's, [`AlphaCoverage::stopping_fraction`]). Returns the sample
-    /// and the selection probability.
+    /// acceleration structure's, [`AlphaCoverage::stopping_fraction`]). With `deltas_only`
+    /// (BSDF sampling alone, which finds every other emitter by itself), a chosen emitter
+    /// that is not a delta light gives None without being sampled. Returns the sample and
+    /// the selection probability.
     #[inline(always)]
     pub fn sample(
         &self,
@@ -530,8 +537,12 @@ impl LightSet {
         coverage: Option<&AlphaCoverage>,
         si: &SurfaceInteraction,
         u: Vec2,
+        deltas_only: bool,
     ) -> Option<(LightSample, f32)> {
         let (emitter, pmf, u) = self.choose(u)?;
+        if deltas_only && matches!(emitter, Emitter::Triangle(_) | Emitter::Environment) {
+            return None;
+        }
         let p = si.p;
         let s = match emitter {
             &Emitter::Point {

@@ -37,7 +37,7 @@ pub mod thin_film;
 pub use bsdf::{Bsdf, BsdfFlags, BsdfSample, Lambertian, LocalBsdf, SurfaceBsdf};
 pub use dielectric::{fresnel_dielectric, refract, Dielectric, ThinDielectric};
 pub use environment::Environment;
-pub use envmap::EnvMap;
+pub use envmap::{EnvMap, MapSampling};
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use layers::{Coat, Layered, Sheen};
