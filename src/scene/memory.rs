@@ -30,7 +30,7 @@ impl MemoryEstimate {
     pub const BYTES_PER_VERTEX: u64 = 64;
     /// Per triangle: the scene's indices and material (16 bytes), the loader's index list and
     /// assembled triangles (16 bytes), and the BVH: Embree keeps about 85 bytes per triangle
-    /// (BVH and its geometry buffers, BENCHMARKS.md "BVH memory per backend"), obvhs about 64;
+    /// (BVH and its geometry buffers, BENCHMARKS.md "Decisions measured earlier"), obvhs about 64;
     /// 90 covers either.
     pub const BYTES_PER_TRIANGLE: u64 = 32 + 90;
     /// Per instance: the scene's record (128 bytes), the loader's placement (128), and the
