@@ -52,6 +52,7 @@ import json
 import math
 import os
 import resource
+import struct
 import sys
 import time
 
@@ -378,11 +379,22 @@ def replace_materials(doc, s, mode):
                 sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
 
 
+def gltf_json(path):
+    """The glTF document of a .gltf, or of a .glb (its first chunk, JSON)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] == b"glTF":
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:
+            sys.exit(f"cycles_worker: {path}: the first GLB chunk is not JSON")
+        data = data[20:20 + length]
+    return json.loads(data.decode("utf-8"))
+
+
 def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian", environment=None):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=scene_path, convert_lighting_mode="COMPAT")
-    with open(scene_path) as f:
-        doc = json.load(f)
+    doc = gltf_json(scene_path)
     if doc.get("extensions", {}).get("KHR_lights_punctual") and mode != "ao":
         sys.exit("cycles_worker: punctual lights are not set up here (only emissive meshes)")
     s = bpy.context.scene

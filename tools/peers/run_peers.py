@@ -17,6 +17,11 @@ same glTF scene at the reference's resolution at 1, 2, 4, ... spp:
   cycles          Blender 3.4 Cycles on the CPU, set up by tools/peers/cycles_worker.py;
                   time = the bpy.ops.render.render() call, after a warm-up render (persistent data)
 
+The jobs are rows of scenes/references/manifest.json, or of another references' manifest given
+by --manifest (e.g. ~/.cache/strata/races/references/manifest.json, which
+`make_references.sh --manifest tools/peers/hdri-races.json` writes: the HDRI races on real
+assets, whose scenes and references live in a cache, named by absolute paths).
+
 Jobs lit by an environment map (the manifest row's `environment`, e.g. suzanne-studio.path) get
 it in every renderer: strata through its strata_args (--env, --env-rotate, --env-intensity),
 Mitsuba through the reference's own envmap emitter (mitsuba_refs.convert), Cycles as a world
@@ -250,6 +255,8 @@ def start(name, job, args, logdir):
     if name.startswith("mitsuba-"):
         variant = {"mitsuba-scalar": "scalar_rgb", "mitsuba-llvm": "llvm_ad_rgb"}[name]
         argv = [sys.executable, os.path.abspath(__file__), "--mitsuba-worker", variant, job, str(args.threads)]
+        if MANIFEST != DEFAULT_MANIFEST:
+            argv += ["--manifest", MANIFEST]
         return Worker(name, argv, os.path.join(logdir, f"{job}.{name}.log"))
     if name == "cycles":
         c = cycles_settings(job)
@@ -269,12 +276,14 @@ def start(name, job, args, logdir):
 # ---------------------------------------------------------------------------------------
 
 _manifest = None
+DEFAULT_MANIFEST = os.path.join(REPO, "scenes", "references", "manifest.json")
+MANIFEST = DEFAULT_MANIFEST  # --manifest: the references' manifest whose jobs run
 
 
 def manifest_entry(job):
     global _manifest
     if _manifest is None:
-        with open(os.path.join(REPO, "scenes", "references", "manifest.json")) as f:
+        with open(MANIFEST) as f:
             _manifest = {os.path.basename(e["reference"])[:-4]: e for e in json.load(f)["references"]}
     return _manifest[job]
 
@@ -328,7 +337,7 @@ def cycles_own_reference(worker, job, spp, cache_root, workdir):
     e = manifest_entry(job)
     with open(os.path.join(HERE, "cycles_worker.py"), "rb") as f:
         worker_sha = hashlib.sha256(f.read()).hexdigest()
-    settings = {"scene_sha256": scene_hash.scene_sha256(os.path.join(REPO, e["scene"])), **cycles_settings(job),
+    settings = {"scene_sha256": mitsuba_refs.scene_sha256(os.path.join(REPO, e["scene"])), **cycles_settings(job),
                 "spp": spp, "seeds": list(CYCLES_REF_SEEDS), "blender": worker.info.get("blender"),
                 "cycles_worker_sha256": worker_sha}
     key = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
@@ -615,8 +624,13 @@ def machine():
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--mitsuba-worker", nargs=3, metavar=("VARIANT", "JOB", "THREADS"), help=argparse.SUPPRESS)
-    ap.add_argument("--jobs", default="cornell-box.path,cornell-box.ao,ao-wall.ao",
-                    help="reference jobs (scenes/references/manifest.json), comma-separated")
+    ap.add_argument("--manifest", default=DEFAULT_MANIFEST,
+                    help="the references' manifest (default scenes/references/manifest.json), e.g. "
+                         "~/.cache/strata/races/references/manifest.json made by make_references.sh --manifest "
+                         "tools/peers/hdri-races.json")
+    ap.add_argument("--jobs", default=None,
+                    help="reference jobs of the manifest, comma-separated (default cornell-box.path,cornell-box.ao,"
+                         "ao-wall.ao; with another --manifest, all of its jobs)")
     ap.add_argument("--renderers", default=",".join(RENDERERS))
     ap.add_argument("--max-spp", type=int, default=4096)
     ap.add_argument("--time-cap", type=float, default=20.0, help="a renderer leaves the ladder after a render slower than this")
@@ -631,6 +645,14 @@ def main():
     ap.add_argument("--cache", default=os.path.join(os.path.expanduser("~"), ".cache", "strata", "peers"),
                     help="where Cycles' own references are kept between runs")
     args = ap.parse_args()
+    global MANIFEST
+    MANIFEST = os.path.abspath(os.path.expanduser(args.manifest))
+    if args.jobs is None:
+        if MANIFEST == DEFAULT_MANIFEST:
+            args.jobs = "cornell-box.path,cornell-box.ao,ao-wall.ao"
+        else:
+            with open(MANIFEST) as f:
+                args.jobs = ",".join(os.path.basename(e["reference"])[:-4] for e in json.load(f)["references"])
     if args.mitsuba_worker:
         variant, job, threads = args.mitsuba_worker
         return mitsuba_worker(variant, job, int(threads))

@@ -5,6 +5,8 @@
 #   tools/references/make_references.sh cornell-box.path ao-wall.ao   # only these; the manifest is merged
 #   tools/references/make_references.sh --list          # job names, spp, passes
 #   tools/references/make_references.sh --materials gltf [jobs...]   # shaded jobs with the glTF BRDF
+#   tools/references/make_references.sh --manifest tools/peers/hdri-races.json --materials gltf [jobs...]
+#                                       # another job manifest's references, into its out_dir (or --out-dir)
 #
 # Makes (once) a virtualenv with the pinned packages of requirements.txt beside this script, in
 # $STRATA_REFS_VENV (default ~/.cache/strata/refs-venv), then runs the conversion's own checks

@@ -6,6 +6,9 @@ Run through tools/references/make_references.sh (which makes the pinned virtuale
     make_references.sh                         # every reference in JOBS, then the manifest
     make_references.sh cornell-box.path ao-wall.ao   # only these (the manifest is merged)
     make_references.sh --materials gltf        # shaded jobs with the glTF BRDF (see "material")
+    make_references.sh --manifest tools/peers/hdri-races.json --materials gltf [jobs]
+                                               # another job manifest's references, into its out_dir
+                                               # (or --out-dir DIR), with a manifest.json there
     python3 mitsuba_refs.py --list             # the job names
     python3 mitsuba_refs.py --check DIR   # orientation (textured quad, camera), radiometry, environment map,
                                           # glass and coat refusals
@@ -1170,6 +1173,61 @@ def run_job(scene_name, integrator, spp, passes, seed_base=0, materials="lambert
                           materials)
 
 
+def manifest_path(path):
+    """A path as a manifest row records it: relative to the repository when inside it (every
+    reference of scenes/references/), else absolute (references of a race manifest, in a cache)."""
+    path = os.path.abspath(path)
+    return os.path.relpath(path, REPO) if os.path.commonpath([path, REPO]) == REPO else path
+
+
+def scene_sha256(path):
+    """The manifest's scene_sha256 (scene_hash.py): file names relative to the repository, or, for
+    a scene outside it (a race scene in a cache), relative to the scene's own folder."""
+    path = os.path.abspath(path)
+    inside = os.path.commonpath([path, REPO]) == REPO
+    return scene_hash.scene_sha256(path) if inside else scene_hash.scene_sha256(path, os.path.dirname(path))
+
+
+# Options of the command that made the references, recorded in each row's "command" (set by
+# --manifest and --out-dir; empty for scenes/references/).
+COMMAND_OPTIONS = ""
+
+
+def load_job_manifest(path):
+    """Replaces SCENES, ENVIRONMENTS and JOBS by the jobs of a job manifest (e.g.
+    tools/peers/hdri-races.json; --manifest), so that its references are made like the others.
+
+    The file: {"description", "scene_dir" (where the scenes are; "~" expanded, relative to the
+    repository), "out_dir" (default output folder of the references and their manifest.json),
+    "environments": {KEY: {"file": map, relative to the repository}}, "jobs": [{"name", "scene"
+    (file under scene_dir), "resolution": [W, H], "integrator", "environment": KEY, "rotate"
+    (degrees about +Y), optional "intensity", "spp", "passes"}]}. A job NAME gives the reference
+    NAME.INTEGRATOR. Scene and map paths are made absolute, so the rows' strata_args work from
+    any folder. Returns the file's content."""
+    with open(path) as f:
+        spec = json.load(f)
+
+    def absolute(p):
+        return os.path.normpath(os.path.join(REPO, os.path.expanduser(p)))
+
+    scene_dir = absolute(spec["scene_dir"])
+    envs = {k: absolute(v["file"]) for k, v in spec["environments"].items()}
+    SCENES.clear()
+    ENVIRONMENTS.clear()
+    JOBS[:] = []
+    for j in spec["jobs"]:
+        name = j["name"]
+        if name in SCENES or name in CONTROLS or name in PATH_DEPTH:
+            raise ValueError(f"{path}: job name {name!r} used twice or taken by scenes/references")
+        SCENES[name] = (os.path.join(scene_dir, j["scene"]), tuple(j["resolution"]))
+        env = {"file": envs[j["environment"]], "rotate": float(j["rotate"])}
+        if "intensity" in j:
+            env["intensity"] = float(j["intensity"])
+        ENVIRONMENTS[name] = env
+        JOBS.append((name, j.get("integrator", "path"), int(j["spp"]), int(j["passes"])))
+    return spec
+
+
 def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, info, mean, var_mean, seconds,
                    materials="lambertian"):
     rel, res = SCENES[scene_name]
@@ -1178,10 +1236,10 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
         materials = "lambertian"  # AO renders every surface white diffuse whatever the model
     base = os.path.join(OUT_DIR, job_name(scene_name, integrator))
     entry = {
-        "reference": os.path.relpath(base + ".exr", REPO),
-        "variance": os.path.relpath(base + ".var.exr", REPO),
+        "reference": manifest_path(base + ".exr"),
+        "variance": manifest_path(base + ".var.exr"),
         "scene": rel,
-        "scene_sha256": scene_hash.scene_sha256(os.path.join(REPO, rel)),
+        "scene_sha256": scene_sha256(os.path.join(REPO, rel)),
         "integrator": integrator,
         "max_depth": strata_depth,
         "mitsuba_max_depth": mdepth,
@@ -1202,11 +1260,11 @@ def manifest_entry(scene_name, integrator, spp, passes, seed_base, scene_dict, i
                        if integrator == "ao" else info["background"]),
         "triangles": info["triangles"],
         "lights": info["lights"],
-        "command": "tools/references/make_references.sh "
+        "command": "tools/references/make_references.sh " + COMMAND_OPTIONS
                    + ("" if materials == "lambertian" else f"--materials {materials} ")
                    + job_name(scene_name, integrator),
         "standard_error": error_stats(mean, var_mean),
-        "mask": os.path.relpath(os.path.join(OUT_DIR, scene_name + ".mask.exr"), REPO),
+        "mask": manifest_path(os.path.join(OUT_DIR, scene_name + ".mask.exr")),
         "mask_stats": mask_stats(os.path.join(OUT_DIR, scene_name + ".mask.exr")),
         "render_seconds": None if seconds is None else round(seconds, 1),
         "warnings": info["warnings"],
@@ -1641,6 +1699,13 @@ def main():
     ap.add_argument("--resolution", metavar="WxH",
                     help="override every job's resolution (testing; not for committed references)")
     ap.add_argument("--out", help="output folder (default scenes/references; the manifest is only written there)")
+    ap.add_argument("--manifest", metavar="JOBS.json",
+                    help="make the references of this job manifest (e.g. tools/peers/hdri-races.json; see "
+                         "load_job_manifest) instead of scenes/references/'s, into --out-dir")
+    ap.add_argument("--out-dir", metavar="DIR",
+                    help="output folder whose manifest.json is written (merged) like scenes/references/'s "
+                         "(default: scenes/references, or with --manifest the file's out_dir); rows name files "
+                         "outside the repository by absolute path")
     ap.add_argument("--no-manifest", action="store_true")
     ap.add_argument("--rebuild-manifest", action="store_true",
                     help="recompute the manifest entries of the jobs from the EXRs on disk, without rendering")
@@ -1649,6 +1714,18 @@ def main():
                     help="material model of the shaded jobs (default lambertian; ao jobs are always white "
                          "diffuse): " + "; ".join(f"{k}: {v}" for k, v in MATERIAL_MODELS.items()))
     args = ap.parse_args()
+    global OUT_DIR, COMMAND_OPTIONS, MANIFEST_HEADER
+    if args.manifest:
+        spec = load_job_manifest(args.manifest)
+        COMMAND_OPTIONS = f"--manifest {args.manifest} "
+        MANIFEST_HEADER = dict(MANIFEST_HEADER, description=spec["description"] + " " + MANIFEST_HEADER["description"],
+                               regenerate_all=f"tools/references/make_references.sh --manifest {args.manifest} "
+                                              "--materials gltf")
+        if not args.out_dir:
+            OUT_DIR = os.path.normpath(os.path.join(REPO, os.path.expanduser(spec["out_dir"])))
+    if args.out_dir:
+        OUT_DIR = os.path.abspath(os.path.expanduser(args.out_dir))
+        COMMAND_OPTIONS += f"--out-dir {args.out_dir} "
     mi.set_variant(VARIANT)
     if args.check:
         ok1, lines1 = check_orientation(args.check)
@@ -1664,7 +1741,6 @@ def main():
         for s, i, spp, k in JOBS:
             print(job_name(s, i), spp, k)
         return 0
-    global OUT_DIR
     if args.out:
         OUT_DIR = os.path.abspath(args.out)
     os.makedirs(OUT_DIR, exist_ok=True)
@@ -1677,6 +1753,12 @@ def main():
         print("note: in scalar variants Mitsuba calls the glTF BRDF's Python code once per sample (about 50x "
               "slower than twosided(diffuse)); STRATA_MITSUBA_VARIANT=llvm_ad_rgb compiles it once", file=sys.stderr)
     write_manifest = not args.no_manifest and not args.out and not args.spp and not args.resolution
+    if args.manifest or args.out_dir:
+        # a manifest of its own: every row records its spp and resolution, so an override is
+        # written down rather than passed off as the default (--out still writes none)
+        write_manifest = not args.no_manifest and not args.out
+        if OUT_DIR == os.path.join(REPO, "scenes", "references") and (args.spp or args.resolution):
+            write_manifest = False  # never an override into the CI's manifest
     if args.resolution:
         w, h = (int(x) for x in args.resolution.lower().split("x"))
         for name, (rel, _) in SCENES.items():
