@@ -52,7 +52,6 @@ import json
 import math
 import os
 import resource
-import struct
 import sys
 import time
 
@@ -61,6 +60,9 @@ import numpy
 numpy.bool = bool  # Blender 3.4's glTF importer still uses the removed numpy.bool alias
 
 import bpy  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "references"))
+from scene_hash import gltf_json  # noqa: E402  (a .gltf's or a .glb's JSON)
 from mathutils import Matrix  # noqa: E402
 
 
@@ -377,18 +379,6 @@ def replace_materials(doc, s, mode):
                 slot.material = ours[slot.material.name]
             elif not slot.material.name.startswith("peer_"):
                 sys.exit(f"cycles_worker: no glTF material named '{slot.material.name}'")
-
-
-def gltf_json(path):
-    """The glTF document of a .gltf, or of a .glb (its first chunk, JSON)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:4] == b"glTF":
-        length, kind = struct.unpack_from("<II", data, 12)
-        if kind != 0x4E4F534A:
-            sys.exit(f"cycles_worker: {path}: the first GLB chunk is not JSON")
-        data = data[20:20 + length]
-    return json.loads(data.decode("utf-8"))
 
 
 def setup(scene_path, mode, width, height, bounces, threads, materials="lambertian", environment=None):

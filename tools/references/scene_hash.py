@@ -35,7 +35,8 @@ ALGORITHM = (
 )
 
 
-def _json_of(path):
+def gltf_json(path):
+    """The glTF document of a .gltf, or of a .glb (its first chunk, JSON)."""
     with open(path, "rb") as f:
         data = f.read()
     if data[:4] == b"glTF":
@@ -49,7 +50,7 @@ def _json_of(path):
 def scene_files(scene, repo=REPO):
     """Sorted repo-relative POSIX paths of the scene and the files it references."""
     scene = os.path.abspath(scene)
-    doc = _json_of(scene)
+    doc = gltf_json(scene)
     base = os.path.dirname(scene)
     files = {scene}
     for item in doc.get("buffers", []) + doc.get("images", []):
