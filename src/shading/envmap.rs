@@ -425,7 +425,11 @@ impl EnvMap {
     /// The solid-angle pdf of [`EnvMap::sample`] drawing unit direction `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        self.radiance_pdf(dir).1
+        let uv = self.uv(dir);
+        match uv.is_finite() {
+            true => self.pdf_at(uv, dir),
+            false => 0.0,
+        }
     }
 }
 
