@@ -2028,10 +2028,11 @@ fn env_direction(u: f64, v: f64) -> Vec3 {
 }
 
 /// Draws [`CHI2_SAMPLES`] directions from `sampler` and bins them on cells of `cell` × `cell`
-/// texels of a `w` × `h` map; the expected counts come from `pdf`. A map's pdf is constant
-/// over each texel (its density in (u, v) is piecewise constant, divided by the Jacobian
-/// 2π² sin θ), so a texel's probability is pdf at its centre times its exact solid angle,
-/// (2π/w)·(cos θ₀ − cos θ₁): no quadrature error.
+/// texels of a `w` × `h` map; the expected counts come from `pdf`. A map's density over (u, v)
+/// (pdf times the Jacobian 2π² sin θ) is bilinear between texel centres, so over each quarter
+/// of a texel it is one bilinear patch, which the midpoint rule integrates exactly: a texel's
+/// probability is the mean of the density at its quarters' centres times its area in (u, v),
+/// with no quadrature error.
 fn env_chi2(
     sampler: &strata::shading::EnvMap,
     pdf: &strata::shading::EnvMap,
@@ -2042,12 +2043,16 @@ fn env_chi2(
     assert!(w % cell == 0 && h % cell == 0);
     let (cw, ch) = (w / cell, h / cell);
     let mut probabilities = vec![0.0f64; cw * ch];
+    let area = 1.0 / (w * h) as f64;
     for y in 0..h {
-        let (t0, t1) = (PI * y as f64 / h as f64, PI * (y + 1) as f64 / h as f64);
-        let solid_angle = TAU / w as f64 * (t0.cos() - t1.cos());
         for x in 0..w {
-            let centre = env_direction((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
-            probabilities[(y / cell) * cw + x / cell] += pdf.pdf(centre) as f64 * solid_angle;
+            let mut density = 0.0;
+            for (qx, qy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                let (u, v) = ((x as f64 + qx) / w as f64, (y as f64 + qy) / h as f64);
+                let jacobian = 2.0 * PI * PI * (PI * v).sin();
+                density += 0.25 * pdf.pdf(env_direction(u, v)) as f64 * jacobian;
+            }
+            probabilities[(y / cell) * cw + x / cell] += density * area;
         }
     }
     let total: f64 = probabilities.iter().sum();

@@ -18,7 +18,7 @@
 //! The same two maps (sampled beside claimed, Mitsuba's `ChiSquareTest` layout) for the glTF
 //! BSDF's sampling (`Bsdf::sample` against `Bsdf::pdf`, integrated over each cell by
 //! Simpson's rule) at a few roughnesses and angles, grazing included, and for the
-//! environment map's sampler on the bundled studio HDRI (its exact texel probabilities).
+//! environment map's sampler on the bundled studio HDRI (its texels' probabilities, exact).
 //!
 //! `points.png` shows the first samples of one pixel from each sampler (`random`,
 //! `stratified`, `sobol`): the film position (the sample's first slot) and a later slot's 2D
@@ -386,9 +386,10 @@ fn env_uv(d: Vec3) -> (f64, f64) {
     (u, d.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI)
 }
 
-/// The environment map's samples against its pdf over its own (u, v) grid: the pdf is
-/// constant over a texel, so a cell's probability is the sum over its texels of the pdf at
-/// the centre times the texel's exact solid angle.
+/// The environment map's samples against its pdf over its own (u, v) grid: the density over
+/// (u, v) (pdf times 2π² sin θ) is bilinear over each quarter of a texel, which the midpoint
+/// rule integrates exactly, so a cell's probability is the sum over its texels of the mean
+/// density at their quarters' centres times a texel's area.
 fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
     use std::f64::consts::PI;
     let grid = Grid {
@@ -406,20 +407,22 @@ fn measure_env(map: &EnvMap, samples: usize, seed: u64) -> Measured {
     };
     let (w, h) = map.size();
     let mut probability = vec![0.0; cells];
+    let area = 1.0 / (w * h) as f64;
     for y in 0..h {
-        let (t0, t1) = (PI * y as f64 / h as f64, PI * (y + 1) as f64 / h as f64);
-        let texel = TAU / w as f64 * (t0.cos() - t1.cos());
-        let v = (y as f64 + 0.5) / h as f64;
         for x in 0..w {
-            let u = (x as f64 + 0.5) / w as f64;
-            let (phi, theta) = (TAU * (u - 0.5), PI * v);
-            let centre = Vec3::new(
-                (theta.sin() * phi.cos()) as f32,
-                theta.cos() as f32,
-                (theta.sin() * phi.sin()) as f32,
-            );
-            let i = cell_of(u, v);
-            probability[i] += map.pdf(centre) as f64 * texel;
+            let mut density = 0.0;
+            for (qx, qy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                let (u, v) = ((x as f64 + qx) / w as f64, (y as f64 + qy) / h as f64);
+                let (phi, theta) = (TAU * (u - 0.5), PI * v);
+                let d = Vec3::new(
+                    (theta.sin() * phi.cos()) as f32,
+                    theta.cos() as f32,
+                    (theta.sin() * phi.sin()) as f32,
+                );
+                density += 0.25 * map.pdf(d) as f64 * 2.0 * PI * PI * theta.sin();
+            }
+            let i = cell_of((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
+            probability[i] += density * area;
         }
     }
     // A point that lands exactly on a pole (u.y = 0 or 1, 2^-24 of the points) gets pdf 0:
