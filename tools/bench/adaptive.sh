@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Adaptive sampling against uniform sampling at equal time: behind BENCHMARKS.md's
+# Adaptive sampling against uniform sampling at equal time: behind the journal's
 # "Adaptive sampling at equal time". For each reference, renders with --time-limit at a ladder
 # of budgets, uniformly and adaptively (relative and absolute error metric, with a target
 # small enough that the time limit decides), and writes CSV + plots into OUT_DIR.

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """How much adaptive sampling could gain on one reference, and what its error estimate sees.
 
-Behind "What adaptive sampling could gain on the Cornell box" in BENCHMARKS.md's "Adaptive
-sampling at equal time" (the full table is in docs/journal/benchmarks-2026-11.md). For a
+Behind "What adaptive sampling could gain on the Cornell box" in "Adaptive sampling at equal
+time" (docs/journal/benchmarks-2026-11.md, with the full table). For a
 reference of scenes/references/manifest.json, renders SEEDS seeds at SPP/2 and SPP samples
 per pixel (the same sample sequences: a pixel's first SPP/2 samples are the SPP/2 render) and
 compares, per pixel, against the reference (net of its own noise, from its variance image):

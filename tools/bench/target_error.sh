@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Adaptive sampling to a target error, with the two-halves error estimate (the default) and
 # with the sample variance alone (`render --sample-variance-error`): behind "A target error,
-# estimated from two halves" in BENCHMARKS.md's "Adaptive sampling at equal time" (the full
-# table is in docs/journal/benchmarks-2026-11.md). For each case: render time, mean and most
-# samples per pixel, pixels that hit the --spp cap, and the RMSE against the reference net
+# estimated from two halves" in "Adaptive sampling at equal time" (in
+# docs/journal/benchmarks-2026-11.md, with the full table). For each case: render time, mean
+# and most samples per pixel, pixels that hit the --spp cap, and the RMSE against the reference net
 # of the reference's own noise. Prints a Markdown table.
 #
 #   cargo build --release && tools/bench/target_error.sh
