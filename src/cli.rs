@@ -81,15 +81,16 @@ pub struct Args {
     #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
     pub emitter_samples: u32,
 
-    /// Constant environment radiance, linear RGB [default: black]; with --env, what the camera
-    /// sees behind the scene while the map lights it.
+    /// Constant environment radiance, linear RGB [default: black, or a white sky of radiance 1
+    /// for a scene that brings no light meant to light it]; with --env, what the camera sees
+    /// behind the scene while the map lights it.
     #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
     pub background: Option<[f32; 3]>,
 
     /// Environment map: an equirectangular (latitude-longitude) Radiance .hdr or OpenEXR .exr
     /// of linear radiance, oriented as Blender orients a world environment texture, and
     /// importance-sampled (direct and path tracing). `none`: no environment, and no default
-    /// sky for a scene that brings no light (a file named so: ./none).
+    /// sky for a scene that brings no light meant to light it (a file named so: ./none).
     #[arg(long, value_name = "FILE")]
     pub env: Option<PathBuf>,
 

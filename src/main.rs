@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use strata::accel::Accel;
 use strata::cli::{Args, DenoiseArgs, MergeArgs};
 use strata::integrators::Prepared;
-use strata::job::{header, Job};
+use strata::job::{header, DefaultLight, Job};
 use strata::render::merge::{self, Part};
 use strata::render::output::{self, Attr, Ids};
 use strata::render::{self, Checkpoint, Film, RenderStats};
@@ -415,24 +415,33 @@ fn load_scene(job: &Job) -> Result<(scene::Scene, Duration)> {
     Ok((scene, load_time))
 }
 
-/// Lights a scene that brings no light (the default sky), loads the environment map, and
-/// prepares the materials and lights the integrator reads; the time it took.
+/// Loads the environment map, prepares the materials and lights the integrator reads, and
+/// lights a scene that brings no light meant to light it with the default sky; the time it
+/// took.
 fn prepare(job: &mut Job, scene: &scene::Scene) -> Result<(Prepared, Duration)> {
     let t_prepare = Instant::now();
-    if job.light_a_scene_without_lights(scene) {
-        eprintln!(
-            "note: {} has no light source (no punctual light, no emissive surface): it is lit by a uniform white sky of radiance {} (--background R,G,B or --env FILE to choose another)",
-            job.scene.display(),
-            strata::job::DEFAULT_SKY
-        );
-    }
     if job.integrator.needs_lights() {
         job.load_environment()?;
     } else if job.env.is_some() {
         eprintln!("warning: --env lights direct and path tracing; ambient occlusion ignores it");
     }
-    let prepared = Prepared::with_options(scene, &job.scene, &job.integrator, &job.shading)
+    let mut prepared = Prepared::with_options(scene, &job.scene, &job.integrator, &job.shading)
         .map_err(|e| anyhow!(e))?;
+    if let Some(why) = job.default_light(scene, &prepared.lights) {
+        job.use_default_sky();
+        prepared.relight(scene, &job.integrator, &job.shading);
+        let name = job.scene.display();
+        let sky = strata::job::DEFAULT_SKY;
+        match why {
+            DefaultLight::NoLight => eprintln!(
+                "note: {name} has no light source (no punctual light, no emissive surface): it is lit by a uniform white sky of radiance {sky} (--env FILE or --background R,G,B to choose another)"
+            ),
+            DefaultLight::FaintEmitters(share) => eprintln!(
+                "note: {name}'s emissive surfaces (radiance at most 1) give {} of the light a white sky would: taken as glowing details, not its light, so it is lit by a uniform white sky of radiance {sky} as well (--env FILE or --background R,G,B to choose another light, --env none for the emitters alone)",
+                percent(share)
+            ),
+        }
+    }
     if job.integrator.needs_lights() && prepared.lights.is_empty() {
         eprintln!(
             "warning: {} has no light source (no punctual light, no emissive surface) and the background is black: the image is black. --background R,G,B adds a constant environment.",
@@ -442,6 +451,16 @@ fn prepare(job: &mut Job, scene: &scene::Scene) -> Result<(Prepared, Duration)> 
     let prepare_time = t_prepare.elapsed();
 
     Ok((prepared, prepare_time))
+}
+
+/// A share as a percentage to two significant digits ("2.7%", "0.0021%").
+fn percent(share: f64) -> String {
+    let pct = 100.0 * share;
+    if pct <= 0.0 || !pct.is_finite() {
+        return format!("{pct}%");
+    }
+    let decimals = (1.0 - pct.log10().floor()).max(0.0) as usize;
+    format!("{pct:.decimals$}%")
 }
 
 /// The denoised beauty of `film` where the job asks for it, or the denoiser's error (the raw

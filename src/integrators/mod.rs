@@ -93,16 +93,27 @@ impl Prepared {
             integrator.material_need(),
             &options.materials,
         )?;
+        let mut prepared = Prepared {
+            materials,
+            lights: LightSet::default(),
+        };
+        prepared.relight(scene, integrator, options);
+        Ok(prepared)
+    }
+
+    /// Collects the lights again as `options` say (another environment), keeping the
+    /// materials.
+    pub fn relight(&mut self, scene: &Scene, integrator: &Integrator, options: &ShadingOptions) {
         let mut lights = if integrator.needs_lights() {
             LightSet::build(
                 scene,
-                &materials,
+                &self.materials,
                 options.environment.clone(),
                 match options.environment.constant() {
                     // An environment that varies is found by light sampling (importance
                     // sampling of the map), always.
                     None => BackgroundSampling::Lights,
-                    Some(_) => integrator.background_sampling(&materials),
+                    Some(_) => integrator.background_sampling(&self.materials),
                 },
             )
         } else {
@@ -110,7 +121,7 @@ impl Prepared {
         };
         lights.triangle_sampling = options.triangle_sampling;
         lights.camera_background = options.camera_background;
-        Ok(Prepared { materials, lights })
+        self.lights = lights;
     }
 
     /// The integrator context for `scene` traced through `accel`.

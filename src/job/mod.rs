@@ -29,7 +29,7 @@ use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
 use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
 use crate::shading::{
-    DiffuseSampling, EnvMap, Environment, MapSampling, MaterialModel, MaterialOptions,
+    DiffuseSampling, EnvMap, Environment, LightSet, MapSampling, MaterialModel, MaterialOptions,
 };
 
 /// The default `--spp` of an adaptive or time-limited render: as many as the Sobol sampler
@@ -40,6 +40,26 @@ pub const PROGRESSIVE_MAX_SPP: u32 = SOBOL_MAX_SPP;
 /// when neither `--background` nor `--env` says what else to use: the light of ambient
 /// occlusion, so such a scene renders as AO would, with its materials' colours.
 pub const DEFAULT_SKY: f32 = 1.0;
+
+/// The share of [`DEFAULT_SKY`]'s power below which emissive surfaces that are no brighter
+/// than glTF's core allows (radiance 1) are taken as glowing details — an emissive texture
+/// that is mostly black, lit labels, lamps on a model — rather than as the light the scene is
+/// meant to be seen by: such a scene is lit by the sky as well. A sky of radiance L sends
+/// 4π²r²L into the bounding sphere of radius r; the emitters' power is by luminance, as light
+/// selection weighs them. Measured (docs/lights.md, "Light by default"): the six Khronos
+/// models with emissive details give 0.002–2.7% of the sky's power; emitters of radiance 1
+/// covering a tenth of the bounding sphere's area give 10%.
+pub const FAINT_EMITTERS: f64 = 0.1;
+
+/// Why a scene is lit by [`DEFAULT_SKY`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DefaultLight {
+    /// No punctual light and no emissive surface.
+    NoLight,
+    /// No punctual light, and emissive surfaces of radiance at most 1 whose power is this
+    /// share of the sky's, below [`FAINT_EMITTERS`].
+    FaintEmitters(f64),
+}
 
 /// The default `--spp` of a render that takes every pixel's samples.
 pub const DEFAULT_SPP: u32 = 64;
@@ -116,7 +136,7 @@ pub struct Job {
     /// `--hemisphere`, as given (AO's estimator and the diffuse BSDF's sampling).
     pub hemisphere: Hemisphere,
     /// Neither `--background` nor `--env` was given: a scene that brings no light of its own
-    /// is lit by [`DEFAULT_SKY`] ([`Job::light_a_scene_without_lights`]).
+    /// is lit by [`DEFAULT_SKY`] ([`Job::default_light`]).
     pub default_sky: bool,
     /// The environment map to load (`--env`), its rotation about +Y in degrees and its scale;
     /// [`Job::load_environment`] puts it into `shading`.
@@ -387,16 +407,34 @@ impl Job {
     }
 
     /// The BVH build's options, for a pool of `threads` worker threads.
-    /// Where neither `--background` nor `--env` was given and `scene` brings no light (no
-    /// punctual light, no emissive surface), lights it with [`DEFAULT_SKY`] for the integrators
-    /// that need light, and says so; returns whether it did.
-    pub fn light_a_scene_without_lights(&mut self, scene: &Scene) -> bool {
-        let dark = scene.lights.is_empty() && scene.summary.emissive_triangles == 0;
-        if !(self.default_sky && dark && self.integrator.needs_lights()) {
-            return false;
+    /// Whether `scene`, whose lights without an environment are `lights`, is to be lit by
+    /// [`DEFAULT_SKY`], and why: where neither `--background` nor `--env` was given, for the
+    /// integrators that need light, a scene with no punctual light and no emissive surface,
+    /// or one whose emissive surfaces emit at most radiance 1 (no emissive strength beyond
+    /// glTF's core) and give less than [`FAINT_EMITTERS`] of the sky's power. A punctual
+    /// light, or a surface brighter than 1, is always meant to light.
+    pub fn default_light(&self, scene: &Scene, lights: &LightSet) -> Option<DefaultLight> {
+        if !(self.default_sky && self.integrator.needs_lights() && scene.lights.is_empty()) {
+            return None;
         }
+        if scene.summary.emissive_triangles == 0 {
+            return Some(DefaultLight::NoLight);
+        }
+        // Brighter than a white surface under a unit sky (KHR_materials_emissive_strength):
+        // a light by intent.
+        let brightest = scene.materials.iter().map(|m| m.emissive.max_element());
+        if brightest.fold(0.0, f32::max) > 1.0 {
+            return None;
+        }
+        let (lo, hi) = scene.bounds;
+        let sky = Environment::Constant(Vec3::splat(DEFAULT_SKY)).power(0.5 * (hi - lo).length());
+        let share = lights.emitted_power() / sky;
+        (share < FAINT_EMITTERS).then_some(DefaultLight::FaintEmitters(share))
+    }
+
+    /// Lights the scene with [`DEFAULT_SKY`] ([`Job::default_light`] says when).
+    pub fn use_default_sky(&mut self) {
         self.shading.environment = Environment::Constant(Vec3::splat(DEFAULT_SKY));
-        true
     }
 
     /// Reads the environment map (`--env`), if any, into the shading options.

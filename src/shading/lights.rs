@@ -237,6 +237,9 @@ pub struct LightSet {
     /// True when some emissive triangle may cut holes by alpha
     /// ([`Scene::may_cut_holes`]): light sampling then reads the alpha coverage.
     alpha_tested_emitters: bool,
+    /// The power of the punctual lights and emissive triangles, by luminance (the
+    /// environment's left out).
+    emitted_power: f64,
 }
 
 impl LightSet {
@@ -253,6 +256,7 @@ impl LightSet {
         let (mut emitters, mut weights) = punctual_emitters(scene, radius);
         let (triangle_light, instance_lights, alpha_tested_emitters) =
             triangle_emitters(scene, materials, &mut emitters, &mut weights);
+        let emitted_power = weights.iter().sum();
         let mut environment_light = None;
         if !environment.is_black() {
             environment_light = Some(emitters.len());
@@ -278,7 +282,14 @@ impl LightSet {
             camera_background: None,
             environment_light,
             alpha_tested_emitters,
+            emitted_power,
         }
+    }
+
+    /// The power the scene's punctual lights and emissive triangles emit, by luminance (the
+    /// weights light selection draws them by; the environment's left out).
+    pub fn emitted_power(&self) -> f64 {
+        self.emitted_power
     }
 
     /// True when some emissive triangle may cut holes by alpha: light sampling must then be
