@@ -2,7 +2,7 @@
 //! render, write and report.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -200,26 +200,61 @@ fn merge_files(args: MergeArgs) -> Result<Outcome> {
     Ok(Outcome::Finished)
 }
 
-/// Ctrl-C: the first stops the render after the tiles in flight and saves the image; the
-/// second exits at once, removing the temporary files of a write in progress (`temporaries`)
-/// so nothing half-written is left; a file already in place (a checkpoint) stays.
-fn install_interrupt_handler(temporaries: Vec<PathBuf>) -> Arc<AtomicBool> {
-    let cancel = Arc::new(AtomicBool::new(false));
-    let flag = cancel.clone();
+/// Signals closer together than this are one (`timeout -s INT` and a shell may each deliver
+/// the same interrupt).
+const SIGNAL_ECHO: Duration = Duration::from_millis(500);
+
+/// What interrupts (Ctrl-C, SIGTERM, SIGHUP) have asked for so far.
+struct Interrupts {
+    /// Stop the render after the tiles in flight and save the image.
+    cancel: Arc<AtomicBool>,
+    /// Save at once: no denoising, no preview.
+    hurry: Arc<AtomicBool>,
+}
+
+/// SIGINT (Ctrl-C), SIGTERM (what Slurm and Kubernetes send on pre-emption) and SIGHUP, alike:
+/// the first stops the render after the tiles in flight and saves the image; the second
+/// hurries the save (no denoising, no preview); the third exits at once, removing the
+/// temporary files of a write in progress (`temporaries`) so nothing half-written is left (a
+/// file already in place stays). Signals within [`SIGNAL_ECHO`] of the last counted one
+/// count as that one.
+fn install_interrupt_handler(temporaries: Vec<PathBuf>) -> Interrupts {
+    let interrupts = Interrupts {
+        cancel: Arc::new(AtomicBool::new(false)),
+        hurry: Arc::new(AtomicBool::new(false)),
+    };
+    let (cancel, hurry) = (interrupts.cancel.clone(), interrupts.hurry.clone());
+    let mut last: Option<Instant> = None;
+    let mut count = 0u32;
     let installed = ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            for t in &temporaries {
-                let _ = std::fs::remove_file(t);
-            }
-            eprintln!("\ninterrupted twice: exiting without saving");
-            std::process::exit(130);
+        let now = Instant::now();
+        if last.is_some_and(|t| now.duration_since(t) < SIGNAL_ECHO) {
+            return;
         }
-        eprintln!("\ninterrupted: finishing the tiles in flight and saving the image (Ctrl-C again to quit at once)");
+        last = Some(now);
+        count += 1;
+        match count {
+            1 => {
+                cancel.store(true, Ordering::SeqCst);
+                eprintln!("\ninterrupted: finishing the tiles in flight and saving the image (interrupt again to save without denoising or preview, a third time to quit without saving)");
+            }
+            2 => {
+                hurry.store(true, Ordering::SeqCst);
+                eprintln!("\ninterrupted again: saving the image without denoising or preview (a third time to quit without saving)");
+            }
+            _ => {
+                for t in &temporaries {
+                    let _ = std::fs::remove_file(t);
+                }
+                eprintln!("\ninterrupted three times: exiting without saving");
+                std::process::exit(130);
+            }
+        }
     });
     if let Err(e) = installed {
-        eprintln!("warning: cannot install the Ctrl-C handler ({e}); an interrupted render will not be saved");
+        eprintln!("warning: cannot install the interrupt handler ({e}); an interrupted render will not be saved");
     }
-    cancel
+    interrupts
 }
 
 /// The progress bar on stderr when it is a terminal, counting what the render reports
@@ -246,9 +281,9 @@ fn run(args: Args) -> Result<Outcome> {
     }
     // One job per animation frame asked for (--frames), or the job itself.
     let jobs = job.frame_jobs();
-    let cancel = install_interrupt_handler(jobs.iter().flat_map(|j| j.temporaries()).collect());
+    let interrupts = install_interrupt_handler(jobs.iter().flat_map(|j| j.temporaries()).collect());
     for job in jobs {
-        if let Outcome::Interrupted = run_job(job, &cancel)? {
+        if let Outcome::Interrupted = run_job(job, &interrupts)? {
             return Ok(Outcome::Interrupted);
         }
     }
@@ -256,7 +291,7 @@ fn run(args: Args) -> Result<Outcome> {
 }
 
 /// Loads, builds, renders and writes one job (one frame).
-fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
+fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     // A shard's settings, from the options alone (before the scene changes the job).
     let settings_hash = job.share.map(|_| header::settings_hash(&job));
     let (scene, load_time) = load_scene(&job)?;
@@ -298,37 +333,51 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
             header::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
         );
     }
-    let write_images =
-        |film: &Film, denoised: Option<&[glam::Vec3]>, state: Vec<(String, Attr)>| -> Result<()> {
-            let attrs = [header.clone(), state].concat();
-            let (ids, partial) = (Ids::Scene(&scene), job.share.is_some());
-            output::write_exr(
-                &job.output,
-                film,
-                &job.passes,
-                ids,
-                denoised,
-                &attrs,
-                partial,
-            )?;
-            if let Some(v) = &job.variance {
-                output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
-            }
-            if let Some(p) = &job.spp_image {
-                output::write_rgb_exr(p, film.width, film.height, &film.count_image(), &attrs)?;
-            }
-            Ok(())
-        };
+    // The EXR at `path` (with the variance and samples-per-pixel images when `extras`).
+    let write_images = |path: &Path,
+                        extras: bool,
+                        film: &Film,
+                        denoised: Option<&[glam::Vec3]>,
+                        state: Vec<(String, Attr)>|
+     -> Result<()> {
+        let attrs = [header.clone(), state].concat();
+        let (ids, partial) = (Ids::Scene(&scene), job.share.is_some());
+        output::write_exr(path, film, &job.passes, ids, denoised, &attrs, partial)?;
+        if let Some(v) = job.variance.as_ref().filter(|_| extras) {
+            output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
+        }
+        if let Some(p) = job.spp_image.as_ref().filter(|_| extras) {
+            output::write_rgb_exr(p, film.width, film.height, &film.count_image(), &attrs)?;
+        }
+        Ok(())
+    };
+    // Where an unfinished image (a checkpoint, an interrupted render) goes: the output, unless
+    // that holds a better image; then NAME.incomplete.exr beside it, the EXR alone.
+    let incomplete = output::incomplete_path(&job.output);
+    let unfinished_target = |film: &Film| -> (PathBuf, Option<String>) {
+        let (lo, _) = film.count_range();
+        match output::may_replace(&job.output, lo, film.count_mean()) {
+            Ok(()) => (job.output.clone(), None),
+            Err(why) => (incomplete.clone(), Some(why)),
+        }
+    };
     let mut checkpoints = 0u32;
     let mut checkpoint_seconds = 0.0;
+    let mut kept_said = false;
     let mut save_checkpoint = |film: &Film, stats: &RenderStats| {
         let t = Instant::now();
+        let (path, kept) = unfinished_target(film);
+        if let Some(why) = kept.filter(|_| !kept_said) {
+            kept_said = true;
+            eprintln!(
+                "note: {} is kept ({why}): checkpoints go to {} until they hold more",
+                job.output.display(),
+                path.display()
+            );
+        }
         // Checkpoints are not denoised: they hold the raw beauty.
-        match write_images(
-            film,
-            None,
-            output::film_attributes(film, stats.seconds, false, true),
-        ) {
+        let state = output::film_attributes(film, stats.seconds, false, true);
+        match write_images(&path, path == job.output, film, None, state) {
             Ok(()) => checkpoints += 1,
             Err(e) => eprintln!("warning: checkpoint not written: {e:#}"),
         }
@@ -338,20 +387,56 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
         every: Duration::from_secs_f64(secs),
         save: &mut save_checkpoint,
     });
-    let result =
-        render::render_with_checkpoints(&ctx, &settings, &pool, &progress, cancel, checkpoint);
+    let result = render::render_with_checkpoints(
+        &ctx,
+        &settings,
+        &pool,
+        &progress,
+        &interrupts.cancel,
+        checkpoint,
+    );
     progress.finish_and_clear();
 
-    // Denoise. If the denoiser fails, the raw image is still written before the error.
+    // An interrupted render never replaces a better image, and with no sample at all
+    // saves nothing.
+    let (target, kept) = match result.interrupted {
+        true => unfinished_target(&result.film),
+        false => (job.output.clone(), None),
+    };
+    let sampled = result.film.count_range().1 > 0;
+    if let Some(why) = &kept {
+        match sampled {
+            true => eprintln!(
+                "note: {} is kept ({why}): the image rendered so far goes to {}",
+                job.output.display(),
+                target.display()
+            ),
+            false => eprintln!("note: {} is kept ({why})", job.output.display()),
+        }
+    }
+    let write = !result.interrupted || sampled;
+    let hurry = interrupts.hurry.load(Ordering::SeqCst);
+
+    // Denoise (not when hurried). If the denoiser fails, the raw image is still written
+    // before the error.
     let t_denoise = Instant::now();
     let mut attrs = header::result_attributes(&job, &result);
-    let (denoised, denoise_error, denoise_time) =
-        denoise(&job, &result.film, threads, &mut attrs, t_denoise);
+    let (denoised, denoise_error, denoise_time) = match write && !hurry {
+        true => denoise(&job, &result.film, threads, &mut attrs, t_denoise),
+        false => (None, None, Duration::ZERO),
+    };
 
     // Write.
     let t_write = Instant::now();
-    write_images(&result.film, denoised.as_deref(), attrs)?;
-    if job.png {
+    if write {
+        let extras = kept.is_none();
+        write_images(&target, extras, &result.film, denoised.as_deref(), attrs)?;
+        if kept_said && kept.is_none() {
+            // The checkpoints this render put beside a better image are outdone.
+            let _ = std::fs::remove_file(&incomplete);
+        }
+    }
+    if write && kept.is_none() && !hurry && job.png {
         let display = strata::render::view::Display::new(job.view, job.exposure);
         let pixels = denoised.unwrap_or_else(|| result.film.pixels());
         let (w, h) = (result.film.width, result.film.height);
@@ -389,7 +474,13 @@ fn run_job(mut job: Job, cancel: &Arc<AtomicBool>) -> Result<Outcome> {
     print_report(&run);
     Ok(if result.interrupted {
         let (spp_min, spp_max) = result.film.count_range();
-        eprintln!("saved the image rendered so far ({spp_min}-{spp_max} samples per pixel)");
+        match write {
+            true => eprintln!(
+                "saved the image rendered so far to {} ({spp_min}-{spp_max} samples per pixel)",
+                target.display()
+            ),
+            false => eprintln!("interrupted before any sample: nothing saved"),
+        }
         Outcome::Interrupted
     } else {
         Outcome::Finished

@@ -290,6 +290,7 @@ impl Job {
         let mut temporaries = vec![
             output::temp_path(&self.output),
             output::temp_path(&self.output.with_extension("png")),
+            output::temp_path(&output::incomplete_path(&self.output)),
         ];
         temporaries.extend(self.variance.as_deref().map(output::temp_path));
         temporaries.extend(self.spp_image.as_deref().map(output::temp_path));

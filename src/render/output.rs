@@ -70,6 +70,55 @@ pub(crate) fn write_atomically(
     result.map_err(|m| err(path, m))
 }
 
+/// Where an interrupted render's image goes when the output path holds a better one
+/// ([`may_replace`]): `NAME.incomplete.exr` beside `NAME.exr`.
+pub fn incomplete_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!("{stem}.incomplete.exr"))
+}
+
+/// Whether an unfinished render's image (a checkpoint, or what an interrupt saves), whose
+/// pixels hold at least `spp_min` samples and `spp_mean` on average, may replace what is at
+/// `path`: yes when nothing is there, or an image strata wrote that holds fewer samples per
+/// pixel on average and has no pixel with more samples where this one has a pixel without
+/// any. Otherwise the error says why the file there is kept: this image leaves pixels
+/// without a sample where that one has none, or that one holds as many samples or more, or
+/// strata cannot tell how many it holds (not an EXR strata wrote). A finished render
+/// replaces its output always.
+pub fn may_replace(path: &Path, spp_min: u32, spp_mean: f64) -> Result<(), String> {
+    if !path.exists() {
+        return Ok(());
+    }
+    let held = exr::meta::MetaData::read_from_file(path, false)
+        .ok()
+        .and_then(|meta| {
+            let header = meta.headers.into_iter().next()?;
+            let get = |name: &str| {
+                let key = Text::from(name);
+                (header.own_attributes.other.get(&key))
+                    .or_else(|| header.shared_attributes.other.get(&key))
+                    .cloned()
+            };
+            match (get("strata:spp_min")?, get("strata:spp_mean")?) {
+                (AttributeValue::I32(min), AttributeValue::F32(mean)) => Some((min, mean as f64)),
+                _ => None,
+            }
+        });
+    match held {
+        None => Err("it holds an image whose samples per pixel strata cannot tell".into()),
+        Some((min, _)) if min > 0 && spp_min == 0 => {
+            Err("it holds a whole image, and this one leaves pixels without a sample".into())
+        }
+        Some((_, mean)) if mean >= spp_mean => Err(format!(
+            "it holds as many samples per pixel or more ({mean:.1} on average, this image {spp_mean:.1})"
+        )),
+        Some(_) => Ok(()),
+    }
+}
+
 /// Checks, before rendering, that `path` can be written: an `.exr` name in an existing,
 /// writable directory, and not a directory itself.
 pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
@@ -379,4 +428,35 @@ pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), Output
     .map_err(|e| err(path, format!("cannot read the EXR: {e}")))?;
     let (w, h, px) = image.layer_data.channel_data.pixels;
     Ok((w, h, px))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `may_replace` on a finished image of 4 samples per pixel, a file strata did not write,
+    /// and no file at all.
+    #[test]
+    fn an_unfinished_image_replaces_only_a_worse_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.exr");
+        assert!(may_replace(&path, 0, 0.0).is_ok(), "no file there");
+        let mut film = Film::new(2, 2);
+        for _ in 0..4 {
+            for (x, y) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                film.add_sample(x, y, glam::Vec3::ONE);
+            }
+        }
+        let attrs = film_attributes(&film, 1.0, false, false);
+        write_exr(&path, &film, &[], Ids::Given(&[]), None, &attrs, false).unwrap();
+        assert!(may_replace(&path, 5, 5.0).is_ok(), "more samples everywhere");
+        assert!(may_replace(&path, 2, 8.0).is_ok(), "more on average, some everywhere");
+        let fewer = may_replace(&path, 4, 4.0).unwrap_err();
+        assert!(fewer.contains("as many samples"), "{fewer}");
+        let holes = may_replace(&path, 0, 100.0).unwrap_err();
+        assert!(holes.contains("without a sample"), "{holes}");
+        fs::write(&path, b"not an image").unwrap();
+        let unknown = may_replace(&path, 100, 100.0).unwrap_err();
+        assert!(unknown.contains("cannot tell"), "{unknown}");
+    }
 }
