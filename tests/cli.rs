@@ -1116,3 +1116,36 @@ fn khronos_models_with_emissive_details_are_lit_by_default() {
         assert!(mean > 0.2, "{name}: mean {mean}");
     }
 }
+
+/// The README's first command renders: its `render` arguments (after `cargo run --release
+/// --`), at a small size and one sample per pixel, write the EXR and PNG it promises.
+#[test]
+fn the_readmes_first_command_renders() {
+    let readme = std::fs::read_to_string(repo_path("README.md")).unwrap();
+    let line = readme
+        .lines()
+        .find(|l| l.contains("tools/setup.sh && cargo run --release --"))
+        .expect("the README's first command");
+    let args: Vec<&str> = line
+        .split("cargo run --release --")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .collect();
+    let tmp = tempfile::tempdir().unwrap();
+    let repo = repo_path(".");
+    let mut full: Vec<String> = args
+        .iter()
+        .map(|a| match repo.join(a).exists() {
+            true => repo.join(a).to_string_lossy().into_owned(),
+            false => a.to_string(),
+        })
+        .collect();
+    full.extend(["--spp", "1", "--resolution", "32x24"].map(String::from));
+    let full: Vec<&str> = full.iter().map(String::as_str).collect();
+    let run = render(tmp.path(), &full);
+    run.assert_success();
+    assert!(!run.stderr.contains("warning: --env"), "{}", run.stderr);
+    let exr = args[args.iter().position(|&a| a == "-o").unwrap() + 1];
+    assert_entries(tmp.path(), &[exr, &exr.replace(".exr", ".png")]);
+}

@@ -449,8 +449,14 @@ mod tests {
         }
         let attrs = film_attributes(&film, 1.0, false, false);
         write_exr(&path, &film, &[], Ids::Given(&[]), None, &attrs, false).unwrap();
-        assert!(may_replace(&path, 5, 5.0).is_ok(), "more samples everywhere");
-        assert!(may_replace(&path, 2, 8.0).is_ok(), "more on average, some everywhere");
+        assert!(
+            may_replace(&path, 5, 5.0).is_ok(),
+            "more samples everywhere"
+        );
+        assert!(
+            may_replace(&path, 2, 8.0).is_ok(),
+            "more on average, some everywhere"
+        );
         let fewer = may_replace(&path, 4, 4.0).unwrap_err();
         assert!(fewer.contains("as many samples"), "{fewer}");
         let holes = may_replace(&path, 0, 100.0).unwrap_err();

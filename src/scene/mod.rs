@@ -219,10 +219,13 @@ impl Material {
     pub fn unrendered_inputs(&self) -> Vec<String> {
         let mut dropped = Vec::new();
         if self.occlusion_texture.is_some() {
-            dropped.push("its occlusion texture (light transport computes occlusion)".to_string());
+            dropped.push(
+                "an occlusion texture is not rendered (light transport computes occlusion)"
+                    .to_string(),
+            );
         }
         for ext in &self.ignored_extensions {
-            dropped.push(format!("{ext} (ignored)"));
+            dropped.push(format!("{ext} is ignored"));
         }
         dropped
     }
@@ -450,15 +453,17 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// One line per material that some triangle uses and that asks for something strata does
-    /// not render yet, naming the material, what it drops and what it looks like instead: for
-    /// the integrators that shade materials (AO shades every surface alike).
+    /// One line per kind of input that materials some triangle uses ask for and strata does
+    /// not render yet, saying what it looks like instead and naming the materials (the first
+    /// four, and how many more): for the integrators that shade materials (AO shades every
+    /// surface alike).
     pub fn material_warnings(&self) -> Vec<String> {
         let mut used = vec![false; self.materials.len()];
         for &m in &self.triangle_materials {
             used[m as usize] = true;
         }
-        let mut warnings = Vec::new();
+        // One line per kind of input, naming the materials that ask for it.
+        let mut kinds: Vec<(String, Vec<String>)> = Vec::new();
         for (i, (m, _)) in self
             .materials
             .iter()
@@ -466,19 +471,38 @@ impl Scene {
             .enumerate()
             .filter(|(_, (_, &u))| u)
         {
-            let dropped = m.unrendered_inputs();
-            if dropped.is_empty() {
-                continue;
-            }
             // Index 0 is glTF's default material; the file's material k is index k + 1.
             let name = match (i, &m.name) {
                 (0, _) => "the default material (of primitives that name none)".to_string(),
-                (i, Some(n)) => format!("material {} '{n}'", i - 1),
-                (i, None) => format!("material {}", i - 1),
+                (i, Some(n)) => format!("{} '{n}'", i - 1),
+                (i, None) => format!("{}", i - 1),
             };
-            warnings.push(format!("{name}: {}", dropped.join("; ")));
+            for kind in m.unrendered_inputs() {
+                match kinds.iter_mut().find(|(k, _)| *k == kind) {
+                    Some((_, names)) => names.push(name.clone()),
+                    None => kinds.push((kind, vec![name.clone()])),
+                }
+            }
         }
-        warnings
+        kinds
+            .into_iter()
+            .map(|(kind, names)| {
+                const SHOWN: usize = 4;
+                let mut list = names
+                    .iter()
+                    .take(SHOWN)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                if names.len() > SHOWN {
+                    list += &format!(" and {} more", names.len() - SHOWN);
+                }
+                match names.len() {
+                    1 => format!("{kind}, in material {list}"),
+                    n => format!("{kind}, in {n} materials: {list}"),
+                }
+            })
+            .collect()
     }
 
     /// Every triangle's tangent frames: the file's, with MikkTSpace's for the primitives that
