@@ -180,9 +180,43 @@ pub struct Args {
     #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
     pub resolution: Option<(u32, u32)>,
 
-    /// Which camera of the file, in the order the default scene lists them.
+    /// Which camera of the file, in the order the default scene lists them (--list-cameras
+    /// prints them).
     #[arg(long, value_name = "N")]
     pub camera: Option<usize>,
+
+    /// Print the file's cameras (index, name, projection, position) and exit.
+    #[arg(long)]
+    pub list_cameras: bool,
+
+    /// Place the camera at X,Y,Z (world units, glTF's +Y up), looking at --look-at (default:
+    /// the centre of the scene's bounding box).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub look_from: Option<[f32; 3]>,
+
+    /// Turn the camera to look at X,Y,Z (without --look-from, from where the camera is).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub look_at: Option<[f32; 3]>,
+
+    /// The image's up direction with --look-from or --look-at [default: 0,1,0].
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub up: Option<[f32; 3]>,
+
+    /// Vertical field of view in degrees, for the file's perspective camera or the framing
+    /// of a file without one [default: the camera's; 45 for the framing].
+    #[arg(long, value_name = "DEGREES", value_parser = parse_fov)]
+    pub fov: Option<f32>,
+
+    /// Turn the camera by DEGREES about the vertical axis (+Y) through the centre of the
+    /// scene's bounding box, counter-clockwise seen from above. With --frames A..B, frame F
+    /// turns by DEGREES·(F − A)/(B − A + 1): --orbit 360 makes a turntable that loops.
+    #[arg(
+        long,
+        value_name = "DEGREES",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub orbit: f32,
 
     /// Render frame F of the file's animation (at time F / --fps seconds), writing the EXR
     /// with the frame number in its name: `####` in -o becomes the zero-padded number,
@@ -389,6 +423,29 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
         [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
         [c] if c.is_finite() && c >= 0.0 => Ok([c, c, c]),
         _ => Err(format!("'{s}': expected three non-negative numbers R,G,B")),
+    }
+}
+
+/// A point or direction X,Y,Z of finite numbers.
+fn parse_point(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}': expected X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("'{s}': expected three finite numbers X,Y,Z")),
+    }
+}
+
+/// A vertical field of view in degrees, in (0, 180).
+fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(d) if d > 0.0 && d < 180.0 => Ok(d),
+        _ => Err(format!(
+            "'{s}': expected degrees between 0 and 180, exclusive"
+        )),
     }
 }
 

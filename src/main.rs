@@ -276,6 +276,21 @@ fn progress_bar(job: &Job) -> ProgressBar {
 
 fn run(args: Args) -> Result<Outcome> {
     let job = Job::from_args(&args)?;
+    if args.list_cameras {
+        let scene = scene::load(&job.scene, &job.load_options())?;
+        let cameras = strata::job::camera_list(&scene);
+        if cameras.is_empty() {
+            println!(
+                "{} has no camera: it is framed from +Z ({}° vertical field of view unless --fov)",
+                job.scene.display(),
+                strata::scene::Camera::FRAMING_YFOV_DEGREES
+            );
+        }
+        for line in cameras {
+            println!("{line}");
+        }
+        return Ok(Outcome::Finished);
+    }
     for w in &job.warnings {
         eprintln!("warning: {w}");
     }
@@ -300,8 +315,12 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     let view = job.view(&scene)?;
     if view.framed {
         eprintln!(
-            "note: {} has no camera; framing the scene's bounding box from +Z with a 45° vertical field of view",
-            job.scene.display()
+            "note: {} has no camera; framing the scene's bounding box from +Z with a {:.0}° vertical field of view (--look-from, --look-at, --fov and --orbit move it)",
+            job.scene.display(),
+            match view.camera.projection {
+                strata::scene::Projection::Perspective { yfov } => yfov.to_degrees(),
+                strata::scene::Projection::Orthographic { .. } => 0.0,
+            }
         );
     }
 

@@ -1149,3 +1149,126 @@ fn the_readmes_first_command_renders() {
     let exr = args[args.iter().position(|&a| a == "-o").unwrap() + 1];
     assert_entries(tmp.path(), &[exr, &exr.replace(".exr", ".png")]);
 }
+
+/// The mean of the four pixels at the centre of a square image of even `size`.
+fn centre(pixels: &[[f32; 3]], size: usize) -> f32 {
+    let h = size / 2;
+    let four = [(h - 1, h - 1), (h, h - 1), (h - 1, h), (h, h)];
+    four.iter()
+        .map(|&(x, y)| pixels[y * size + x].iter().sum::<f32>() / 3.0)
+        .sum::<f32>()
+        / 4.0
+}
+
+/// `--look-from`/`--look-at` put the point looked at in the image's centre; `--orbit` turns
+/// the camera about +Y through the scene's centre, as placing it there by hand does;
+/// `--list-cameras` lists and renders nothing; the camera options' errors name the problem.
+#[test]
+fn camera_options_aim_the_camera() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A bright tile (radiance 4, 0.2 wide) 0.5 above the floor's centre, lit by itself alone.
+    let scene = floor_with_emissive_tile(tmp.path(), "tile.gltf", [1.0, 1.0, 1.0], Some(4.0));
+    let aim = |name: &str, extra: &[&str]| {
+        let mut args = vec!["--env", "none"];
+        args.extend_from_slice(extra);
+        render_small(tmp.path(), &scene, name, &args).1
+    };
+    let on = aim(
+        "on.exr",
+        &["--look-from", "1,4,1", "--look-at", "0,0.5,0", "--fov", "5"],
+    );
+    assert!(
+        centre(&on, 24) > 3.0,
+        "the tile at the centre: {}",
+        centre(&on, 24)
+    );
+    let off = aim(
+        "off.exr",
+        &["--look-from", "1,4,1", "--look-at", "1.5,0,0", "--fov", "5"],
+    );
+    assert!(
+        centre(&off, 24) < 1.0,
+        "the floor at the centre: {}",
+        centre(&off, 24)
+    );
+
+    // The scene's centre is (0, 0.25, 0); an eighth of a turn counter-clockwise seen from
+    // above carries (3, 1, 0) to (3/√2, 1, −3/√2), from which the square floor shows a
+    // corner instead of a side.
+    let orbited = aim(
+        "orbit.exr",
+        &[
+            "--look-from",
+            "3,1,0",
+            "--look-at",
+            "0,0.25,0",
+            "--orbit",
+            "45",
+        ],
+    );
+    let placed = aim(
+        "placed.exr",
+        &[
+            "--look-from",
+            "2.1213203,1,-2.1213203",
+            "--look-at",
+            "0,0.25,0",
+        ],
+    );
+    let unturned = aim(
+        "unturned.exr",
+        &["--look-from", "3,1,0", "--look-at", "0,0.25,0"],
+    );
+    let diff = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs() as f64).sum::<f64>())
+            .sum::<f64>()
+            / a.len() as f64
+    };
+    let (turned, control) = (diff(&orbited, &placed), diff(&unturned, &placed));
+    assert!(
+        turned < 0.2 * control,
+        "orbited {turned}, unturned {control}"
+    );
+
+    // --list-cameras prints the file's one camera and writes nothing.
+    let listed = tmp.path().join("listed");
+    std::fs::create_dir(&listed).unwrap();
+    let run = render(&listed, &[s(&scene), "--list-cameras"]);
+    run.assert_success();
+    assert!(
+        run.stdout
+            .starts_with("0: perspective, 45.8° vertical field of view, at (0, 3, 0)"),
+        "{}",
+        run.stdout
+    );
+    assert_entries(&listed, &[]);
+
+    for (args, words) in [
+        (
+            &["--camera", "2"][..],
+            &["no camera 2", "it has 0: perspective"][..],
+        ),
+        (
+            &["--look-from", "1,1,1", "--look-at", "1,1,1"],
+            &["two different points"],
+        ),
+        (
+            &["--look-from", "0,3,0", "--look-at", "0,0,0"],
+            &["up direction"],
+        ),
+        (&["--up", "0,0,1"], &["--up", "--look-from"]),
+        (&["--fov", "200"], &["--fov", "between 0 and 180"]),
+    ] {
+        let mut all = vec![s(&scene), "-o", "x.exr"];
+        all.extend_from_slice(args);
+        let run = render(tmp.path(), &all);
+        assert!(!run.status.success(), "{args:?}");
+        assert!(
+            words.iter().all(|w| run.stderr.contains(w)),
+            "{args:?}: {}",
+            run.stderr
+        );
+    }
+}

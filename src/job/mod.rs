@@ -27,7 +27,7 @@ use crate::render::view::ViewTransform;
 use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
-use crate::scene::{format_bytes, Camera, LoadOptions, Scene};
+use crate::scene::{format_bytes, Camera, LoadOptions, Projection, Scene};
 use crate::shading::{
     DiffuseSampling, EnvMap, Environment, LightSet, MapSampling, MaterialModel, MaterialOptions,
 };
@@ -150,6 +150,8 @@ pub struct Job {
 
     /// The camera's index in the file; `None`: the first camera, or a framing of the scene.
     pub camera: Option<usize>,
+    /// `--look-from`, `--look-at`, `--up`, `--fov` and `--orbit` (radians, this frame's).
+    pub aim: Aim,
     /// The image size; `None`: from the camera's aspect ratio.
     pub resolution: Option<(u32, u32)>,
     /// Render only this pixel.
@@ -174,6 +176,46 @@ pub struct Job {
     pub stats: bool,
     /// What the options let through but the user should hear about, one line each.
     pub warnings: Vec<String>,
+}
+
+/// How the command line moves the camera ([`Job::view`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Aim {
+    pub look_from: Option<Vec3>,
+    pub look_at: Option<Vec3>,
+    pub up: Option<Vec3>,
+    /// Vertical field of view, radians.
+    pub fov: Option<f32>,
+    /// Turn about +Y through the scene's centre, radians.
+    pub orbit: f32,
+}
+
+/// One line per camera of `scene`: index, name, projection and position (`--list-cameras`,
+/// and the error for a camera the file does not have).
+pub fn camera_list(scene: &Scene) -> Vec<String> {
+    scene
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let name = c
+                .name
+                .as_deref()
+                .map(|n| format!(" '{n}'"))
+                .unwrap_or_default();
+            let projection = match c.projection {
+                Projection::Perspective { yfov } => {
+                    format!(
+                        "perspective, {:.1}° vertical field of view",
+                        yfov.to_degrees()
+                    )
+                }
+                Projection::Orthographic { ymag } => format!("orthographic, half-height {ymag}"),
+            };
+            let p = c.position();
+            format!("{i}{name}: {projection}, at ({}, {}, {})", p.x, p.y, p.z)
+        })
+        .collect()
 }
 
 /// What [`Job::view`] makes of the job and the scene: the camera and the image size.
@@ -267,6 +309,13 @@ impl Job {
                 ..Experiments::default()
             },
             camera: args.camera,
+            aim: Aim {
+                look_from: args.look_from.map(Vec3::from_array),
+                look_at: args.look_at.map(Vec3::from_array),
+                up: args.up.map(Vec3::from_array),
+                fov: args.fov.map(f32::to_radians),
+                orbit: args.orbit.to_radians(),
+            },
             resolution: args.resolution,
             pixel: args.pixel,
             spp,
@@ -343,6 +392,12 @@ impl Job {
                 .map(|f| Job {
                     frame: Some(f),
                     frames: None,
+                    // A turntable: the whole orbit over the frames, the last frame one step
+                    // short of the first.
+                    aim: Aim {
+                        orbit: self.aim.orbit * (f - a) as f32 / (b - a + 1) as f32,
+                        ..self.aim
+                    },
                     output: frame_path(&self.output, f),
                     variance: self.variance.as_deref().map(|p| frame_path(p, f)),
                     spp_image: self.spp_image.as_deref().map(|p| frame_path(p, f)),
@@ -357,11 +412,11 @@ impl Job {
     pub fn view(&self, scene: &Scene) -> Result<View, JobError> {
         let chosen = match self.camera {
             Some(i) => Some(scene.cameras.get(i).ok_or_else(|| {
-                JobError(format!(
-                    "{}: --camera {i}, but the file has {} camera(s)",
-                    self.scene.display(),
-                    scene.cameras.len()
-                ))
+                let list = match scene.cameras.is_empty() {
+                    true => "it has none".to_string(),
+                    false => format!("it has {}", camera_list(scene).join("; ")),
+                };
+                JobError(format!("{}: no camera {i}: {list}", self.scene.display()))
             })?),
             None => scene.cameras.first(),
         };
@@ -389,16 +444,42 @@ impl Job {
                 refuse!("--pixel {x},{y} lies outside the {width}x{height} image");
             }
         }
-        let (camera, framed) = match chosen {
+        let aspect = width as f32 / height as f32;
+        let (mut camera, framed) = match chosen {
             Some(c) => (c.clone(), false),
             None => {
-                let aspect = width as f32 / height as f32;
-                (
-                    Camera::framing(scene.bounds.0, scene.bounds.1, aspect),
-                    true,
-                )
+                let yfov = self
+                    .aim
+                    .fov
+                    .unwrap_or(Camera::FRAMING_YFOV_DEGREES.to_radians());
+                let (lo, hi) = scene.bounds;
+                (Camera::framing_with(lo, hi, aspect, yfov), true)
             }
         };
+        if let Some(fov) = self.aim.fov {
+            match &mut camera.projection {
+                Projection::Perspective { yfov } => *yfov = fov,
+                Projection::Orthographic { .. } => {
+                    refuse!("--fov: the camera is orthographic (it has no field of view)")
+                }
+            }
+        }
+        let centre = 0.5 * (scene.bounds.0 + scene.bounds.1);
+        if self.aim.look_from.is_some() || self.aim.look_at.is_some() {
+            let from = self.aim.look_from.unwrap_or(camera.position());
+            let at = self.aim.look_at.unwrap_or(centre);
+            let up = self.aim.up.unwrap_or(Vec3::Y);
+            camera = camera.looking(from, at, up).ok_or_else(|| {
+                JobError(format!(
+                    "--look-from {from} and --look-at {at} with --up {up}: the camera needs two different points and an up direction that is not along the line between them"
+                ))
+            })?;
+        } else if self.aim.up.is_some() {
+            refuse!("--up turns the camera of --look-from or --look-at: give one of them");
+        }
+        if self.aim.orbit != 0.0 {
+            camera = camera.orbited(centre, self.aim.orbit);
+        }
         Ok(View {
             camera,
             width,
@@ -756,6 +837,24 @@ mod tests {
     fn job(extra: &[&str]) -> Result<Job, JobError> {
         let dir = tempfile::tempdir().unwrap();
         Job::from_args(&args(dir.path(), extra))
+    }
+
+    /// `--orbit 360 --frames 10..13`: a turntable of four frames, a quarter turn apart, the
+    /// last one short of a whole turn so that the loop does not repeat a frame.
+    #[test]
+    fn an_orbit_over_frames_is_a_turntable() {
+        let frames = job(&["--orbit", "360", "--frames", "10..13"])
+            .unwrap()
+            .frame_jobs();
+        let turns: Vec<f32> = frames.iter().map(|j| j.aim.orbit.to_degrees()).collect();
+        assert_eq!(turns.len(), 4);
+        for (got, want) in turns.iter().zip([0.0, 90.0, 180.0, 270.0]) {
+            assert!((got - want).abs() < 1e-3, "{turns:?}");
+        }
+        assert_eq!(
+            job(&["--orbit", "-30"]).unwrap().aim.orbit,
+            (-30f32).to_radians()
+        );
     }
 
     #[test]

@@ -27,22 +27,85 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// The vertical field of view of a file without a camera (the framing camera's).
+    pub const FRAMING_YFOV_DEGREES: f32 = 45.0;
+
     /// The camera that frames bounds `(lo, hi)` from +Z with a 45° vertical field of view,
-    /// for files without a camera (DESIGN.md): the bounding sphere fits in the smaller of the
-    /// vertical and horizontal fields of view.
+    /// for files without a camera ([`Camera::framing_with`]).
     pub fn framing(lo: Vec3, hi: Vec3, aspect: f32) -> Camera {
-        let yfov = 45f32.to_radians();
+        Camera::framing_with(lo, hi, aspect, Camera::FRAMING_YFOV_DEGREES.to_radians())
+    }
+
+    /// The camera that looks at bounds `(lo, hi)` from +Z (down −Z, +Y up) with vertical field
+    /// of view `yfov`, as close as it can be with all eight corners of the box inside the
+    /// image of aspect ratio `aspect`, a margin of 5% of the half-width and half-height
+    /// around them. For a corner at (x, y, z) from the box's centre, a camera at distance d
+    /// sees it at depth d − z, inside the image when |x| ≤ tan(h)·(d − z) for the half field
+    /// of view h along x (and likewise y), so d is the largest z + |x|/tan(h) over the corners.
+    pub fn framing_with(lo: Vec3, hi: Vec3, aspect: f32, yfov: f32) -> Camera {
         let center = 0.5 * (lo + hi);
-        let radius = (0.5 * (hi - lo).length()).max(1e-6);
-        let half_vertical = 0.5 * yfov;
-        let half_horizontal = (half_vertical.tan() * aspect).atan();
-        let half = half_vertical.min(half_horizontal);
-        let distance = radius / half.sin();
+        let half = 0.5 * (hi - lo);
+        let fill = 0.95;
+        let tan_y = (0.5 * yfov).tan() * fill;
+        let tan_x = (0.5 * yfov).tan() * aspect * fill;
+        let mut distance = 0f32;
+        for corner in 0..8 {
+            let signs = Vec3::new(
+                if corner & 1 == 0 { -1.0 } else { 1.0 },
+                if corner & 2 == 0 { -1.0 } else { 1.0 },
+                if corner & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            let c = half * signs;
+            distance = distance
+                .max(c.z + c.x.abs() / tan_x)
+                .max(c.z + c.y.abs() / tan_y);
+        }
+        // A flat or empty box still needs room in front of it.
+        let distance = distance.max(half.z + 1e-3 * half.length().max(1e-3));
         Camera {
             name: Some("framing camera".into()),
             projection: Projection::Perspective { yfov },
             to_world: Mat4::from_translation(center + Vec3::new(0.0, 0.0, distance)),
             aspect_ratio: None,
+        }
+    }
+
+    /// The camera's position in world space.
+    pub fn position(&self) -> Vec3 {
+        self.to_world.w_axis.truncate()
+    }
+
+    /// This camera moved to `from` and turned to look at `at` with `up` as the image's up
+    /// (its projection kept); None when `from` is `at` or `up` is along the view direction.
+    pub fn looking(&self, from: Vec3, at: Vec3, up: Vec3) -> Option<Camera> {
+        let forward = (at - from).normalize_or_zero();
+        let side = forward.cross(up).normalize_or_zero();
+        if forward == Vec3::ZERO || side == Vec3::ZERO {
+            return None;
+        }
+        let true_up = side.cross(forward);
+        // Local −Z is the view direction, +Y up, +X to the right.
+        let to_world = Mat4::from_cols(
+            side.extend(0.0),
+            true_up.extend(0.0),
+            (-forward).extend(0.0),
+            from.extend(1.0),
+        );
+        Some(Camera {
+            to_world,
+            ..self.clone()
+        })
+    }
+
+    /// This camera turned by `angle` radians about the vertical (+Y) axis through `pivot`,
+    /// counter-clockwise seen from above.
+    pub fn orbited(&self, pivot: Vec3, angle: f32) -> Camera {
+        let turn = Mat4::from_translation(pivot)
+            * Mat4::from_rotation_y(angle)
+            * Mat4::from_translation(-pivot);
+        Camera {
+            to_world: turn * self.to_world,
+            ..self.clone()
         }
     }
 
