@@ -990,10 +990,12 @@ mod tests {
         assert_eq!((view.width, view.height, view.framed), (40, 30, false));
 
         let e = job(&["--camera", "7"]).unwrap().view(&scene).unwrap_err();
-        assert!(e.to_string().ends_with(&format!(
-            ": --camera 7, but the file has {} camera(s)",
-            scene.cameras.len()
-        )));
+        assert!(
+            e.to_string().ends_with(
+                ": no camera 7: it has 0 'camera': perspective, 28.6° vertical field of view, at (1, 1, 0)"
+            ),
+            "{e}"
+        );
         let e = job(&["--resolution", "10x10", "--pixel", "10,2"]);
         assert_eq!(
             e.unwrap().view(&scene).unwrap_err().to_string(),
