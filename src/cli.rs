@@ -28,7 +28,9 @@ pub struct Args {
     /// The scene: a .gltf (embedded or external buffers) or .glb file.
     pub scene: PathBuf,
 
-    /// Output EXR file [default: the scene's name with .exr, in the current directory].
+    /// Output file [default: the scene's name with .exr, in the current directory]: an .exr
+    /// (linear, with a .png preview beside it), or a .png or .jpg of the image through the view
+    /// transform alone.
     #[arg(short, long, value_name = "FILE.exr")]
     pub output: Option<PathBuf>,
 

@@ -352,7 +352,8 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
             header::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
         );
     }
-    // The EXR at `path` (with the variance and samples-per-pixel images when `extras`).
+    let display = strata::render::view::Display::new(job.view, job.exposure);
+    // The image at `path` (with the variance and samples-per-pixel images when `extras`).
     let write_images = |path: &Path,
                         extras: bool,
                         film: &Film,
@@ -361,7 +362,16 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
      -> Result<()> {
         let attrs = [header.clone(), state].concat();
         let (ids, partial) = (Ids::Scene(&scene), job.share.is_some());
-        output::write_exr(path, film, &job.passes, ids, denoised, &attrs, partial)?;
+        match output::ImageFormat::of(path) {
+            Some(output::ImageFormat::Exr) | None => {
+                output::write_exr(path, film, &job.passes, ids, denoised, &attrs, partial)?
+            }
+            // `-o NAME.png` or `.jpg`: the image through the view transform alone.
+            Some(_) => {
+                let pixels = denoised.map_or_else(|| film.pixels(), <[glam::Vec3]>::to_vec);
+                output::write_png_pixels(path, film.width, film.height, &pixels, &display)?
+            }
+        }
         if let Some(v) = job.variance.as_ref().filter(|_| extras) {
             output::write_rgb_exr(v, film.width, film.height, &film.variances(), &attrs)?;
         }
@@ -373,11 +383,16 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     // Where an unfinished image (a checkpoint, an interrupted render) goes: the output, unless
     // that holds a better image; then NAME.incomplete.exr beside it, the EXR alone.
     let incomplete = output::incomplete_path(&job.output);
+    // Set once a checkpoint of this render is at the output: later images replace it.
+    let wrote_output = std::cell::Cell::new(false);
     let unfinished_target = |film: &Film| -> (PathBuf, Option<String>) {
         let (lo, _) = film.count_range();
-        match output::may_replace(&job.output, lo, film.count_mean()) {
-            Ok(()) => (job.output.clone(), None),
-            Err(why) => (incomplete.clone(), Some(why)),
+        match wrote_output.get() {
+            true => (job.output.clone(), None),
+            false => match output::may_replace(&job.output, lo, film.count_mean()) {
+                Ok(()) => (job.output.clone(), None),
+                Err(why) => (incomplete.clone(), Some(why)),
+            },
         }
     };
     let mut checkpoints = 0u32;
@@ -397,7 +412,10 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
         // Checkpoints are not denoised: they hold the raw beauty.
         let state = output::film_attributes(film, stats.seconds, false, true);
         match write_images(&path, path == job.output, film, None, state) {
-            Ok(()) => checkpoints += 1,
+            Ok(()) => {
+                checkpoints += 1;
+                wrote_output.set(wrote_output.get() || path == job.output);
+            }
             Err(e) => eprintln!("warning: checkpoint not written: {e:#}"),
         }
         checkpoint_seconds += t.elapsed().as_secs_f64();
@@ -456,7 +474,6 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
         }
     }
     if write && kept.is_none() && !hurry && job.png {
-        let display = strata::render::view::Display::new(job.view, job.exposure);
         let pixels = denoised.unwrap_or_else(|| result.film.pixels());
         let (w, h) = (result.film.width, result.film.height);
         output::write_png_pixels(&job.output.with_extension("png"), w, h, &pixels, &display)?;

@@ -131,8 +131,8 @@ const REFUSALS: &[Refusal] = &[
     Refusal {
         name: "error_output_wrong_extension",
         dirs: &[],
-        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.png --resolution 32x32 --spp 4",
-        says: one_error_line(&["{tmp}/out.png", ".exr"]),
+        args: "{repo}/scenes/ao-wall.gltf -o {tmp}/out.tiff --resolution 32x32 --spp 4",
+        says: one_error_line(&["{tmp}/out.tiff", ".exr"]),
     },
     Refusal {
         name: "error_spp_zero",
@@ -1248,7 +1248,7 @@ fn camera_options_aim_the_camera() {
     for (args, words) in [
         (
             &["--camera", "2"][..],
-            &["no camera 2", "it has 0: perspective"][..],
+            &["--camera 2: no such camera", "it has 0: perspective"][..],
         ),
         (
             &["--look-from", "1,1,1", "--look-at", "1,1,1"],
@@ -1271,4 +1271,55 @@ fn camera_options_aim_the_camera() {
             run.stderr
         );
     }
+}
+
+/// `-o` by extension: a `.png` or `.jpg` is the image through the view transform alone (no
+/// EXR beside it), the same pixels as the EXR run's preview; what needs an EXR is refused.
+#[test]
+fn the_output_format_follows_the_extension() {
+    let tmp = tempfile::tempdir().unwrap();
+    let wall = ao_wall();
+    let base = [s(&wall), "--resolution", "24x16", "--spp", "4"];
+    let run_to = |name: &str, extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["-o", name]);
+        args.extend_from_slice(extra);
+        render(tmp.path(), &args)
+    };
+    run_to("a.exr", &[]).assert_success();
+    run_to("b.png", &[]).assert_success();
+    run_to("c.jpg", &[]).assert_success();
+    assert_entries(tmp.path(), &["a.exr", "a.png", "b.png", "c.jpg"]);
+    // The PNG output is the EXR run's preview, byte for byte (same seed, same view).
+    assert_eq!(
+        std::fs::read(tmp.path().join("a.png")).unwrap(),
+        std::fs::read(tmp.path().join("b.png")).unwrap()
+    );
+    let jpeg = std::fs::read(tmp.path().join("c.jpg")).unwrap();
+    assert_eq!(
+        &jpeg[..3],
+        &[0xFF, 0xD8, 0xFF],
+        "a JPEG's start-of-image marker"
+    );
+    let decoded = image::load_from_memory(&jpeg).unwrap();
+    assert_eq!((decoded.width(), decoded.height()), (24, 16));
+
+    for (name, extra, words) in [
+        ("d.tif", &[][..], &["d.tif", ".exr", ".png", ".jpg"][..]),
+        (
+            "e.png",
+            &["--passes", "depth"],
+            &["e.png", "--passes", ".exr"],
+        ),
+        (
+            "f.png",
+            &["--shard", "0/2"],
+            &["f.png", "farm part", ".exr"],
+        ),
+    ] {
+        let run = run_to(name, extra);
+        assert!(!run.status.success(), "{name}");
+        assert_one_error_line(&run.stderr, words);
+    }
+    assert_entries(tmp.path(), &["a.exr", "a.png", "b.png", "c.jpg"]);
 }

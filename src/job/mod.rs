@@ -21,7 +21,7 @@ use crate::integrators::{
 };
 use crate::render::adaptive::ErrorMetric;
 use crate::render::merge::Share;
-use crate::render::output::{self, OutputError};
+use crate::render::output::{self, ImageFormat, OutputError};
 use crate::render::passes::Pass;
 use crate::render::view::ViewTransform;
 use crate::render::{Film, RenderSettings, Stopping};
@@ -88,8 +88,11 @@ macro_rules! refuse {
 pub struct Job {
     /// The scene file.
     pub scene: PathBuf,
-    /// The EXR; the PNG preview goes beside it, with `.png`.
+    /// The EXR (the PNG preview goes beside it, with `.png`), or a `.png` or `.jpg` that is
+    /// the image through the view transform alone.
     pub output: PathBuf,
+    /// What `output` holds, by its extension.
+    pub format: ImageFormat,
     /// Write the PNG preview.
     pub png: bool,
     /// The PNG preview's view transform and exposure (`--view`, `--exposure`).
@@ -233,6 +236,7 @@ impl Job {
     /// option at fault.
     pub fn from_args(args: &Args) -> Result<Job, JobError> {
         let (output, variance, spp_image, share) = outputs(args)?;
+        let format = ImageFormat::of(&output).unwrap_or(ImageFormat::Exr);
         let mut warnings = Vec::new();
         let (spp, min_spp) = samples(args, share, &mut warnings)?;
         if !(args.env_intensity >= 0.0 && args.env_intensity.is_finite()) {
@@ -271,8 +275,9 @@ impl Job {
         Ok(Job {
             scene: args.scene.clone(),
             output,
+            format,
             // A shard's preview would show a fraction of the samples; the merge writes one.
-            png: !args.preview.no_png && share.is_none(),
+            png: !args.preview.no_png && share.is_none() && format == ImageFormat::Exr,
             view: args.preview.view,
             exposure: args.preview.exposure,
             frame: args.frame,
@@ -416,7 +421,10 @@ impl Job {
                     true => "it has none".to_string(),
                     false => format!("it has {}", camera_list(scene).join("; ")),
                 };
-                JobError(format!("{}: no camera {i}: {list}", self.scene.display()))
+                JobError(format!(
+                    "{}: --camera {i}: no such camera; {list}",
+                    self.scene.display()
+                ))
             })?),
             None => scene.cameras.first(),
         };
@@ -582,6 +590,21 @@ fn outputs(
     output::check_output_path(&output)?;
     for extra in [&args.variance, &args.spp_image].into_iter().flatten() {
         output::check_output_path(extra)?;
+        if ImageFormat::of(extra) != Some(ImageFormat::Exr) {
+            refuse!(
+                "{}: --variance and --spp-image write EXRs: name an .exr",
+                extra.display()
+            );
+        }
+    }
+    if ImageFormat::of(&output) != Some(ImageFormat::Exr) {
+        let name = output.display();
+        if args.shard.is_some() || args.samples.is_some() {
+            refuse!("{name}: a farm part holds exact sums only an EXR carries: name an .exr");
+        }
+        if !args.passes.is_empty() {
+            refuse!("{name}: --passes are layers of an EXR: name an .exr");
+        }
     }
     if !(args.fps > 0.0 && args.fps.is_finite()) {
         refuse!("--fps must be a positive number (got {})", args.fps);
@@ -965,9 +988,9 @@ mod tests {
         }
         let dir = tempfile::tempdir().unwrap();
         let mut a = args(dir.path(), &[]);
-        a.output = Some(dir.path().join("out.png"));
+        a.output = Some(dir.path().join("out.tif"));
         let e = Job::from_args(&a).unwrap_err().to_string();
-        assert!(e.contains("out.png") && e.contains(".exr"), "{e}");
+        assert!(e.contains("out.tif") && e.contains(".exr"), "{e}");
     }
 
     #[test]
@@ -992,7 +1015,7 @@ mod tests {
         let e = job(&["--camera", "7"]).unwrap().view(&scene).unwrap_err();
         assert!(
             e.to_string().ends_with(
-                ": no camera 7: it has 0 'camera': perspective, 28.6° vertical field of view, at (1, 1, 0)"
+                ": --camera 7: no such camera; it has 0 'camera': perspective, 28.6° vertical field of view, at (1, 1, 0)"
             ),
             "{e}"
         );

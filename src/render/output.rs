@@ -119,14 +119,38 @@ pub fn may_replace(path: &Path, spp_min: u32, spp_mean: f64) -> Result<(), Strin
     }
 }
 
-/// Checks, before rendering, that `path` can be written: an `.exr` name in an existing,
+/// What an output file holds, by its extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// `.exr`: linear radiance (float32), passes as layers, the header's attributes.
+    Exr,
+    /// `.png`: 8-bit sRGB through the view transform and exposure.
+    Png,
+    /// `.jpg` or `.jpeg`: the same, JPEG at quality 95.
+    Jpeg,
+}
+
+impl ImageFormat {
+    /// The format `path`'s extension names (case-insensitive), if strata writes it.
+    pub fn of(path: &Path) -> Option<ImageFormat> {
+        let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+        match ext.as_str() {
+            "exr" => Some(ImageFormat::Exr),
+            "png" => Some(ImageFormat::Png),
+            "jpg" | "jpeg" => Some(ImageFormat::Jpeg),
+            _ => None,
+        }
+    }
+}
+
+/// Checks, before rendering, that `path` can be written: an `.exr` (or `.png`, `.jpg`) name in an existing,
 /// writable directory, and not a directory itself.
 pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    if ext.as_deref() != Some("exr") {
-        return Err(err(path, "the output must be an .exr file"));
+    if ImageFormat::of(path).is_none() {
+        return Err(err(
+            path,
+            "the output must be an .exr file (or .png or .jpg: the image through the view transform alone)",
+        ));
     }
     if path.is_dir() {
         return Err(err(path, "is a directory"));
@@ -383,7 +407,9 @@ pub fn write_png(path: &Path, film: &Film, display: &Display) -> Result<(), Outp
     write_png_pixels(path, film.width, film.height, &film.pixels(), display)
 }
 
-/// Writes row-major linear `pixels` as the PNG preview ([`write_png`]).
+/// Writes row-major linear `pixels` through `display` as an 8-bit sRGB image: the PNG
+/// preview ([`write_png`]), or the output itself when `-o` names a `.png` or `.jpg` (JPEG at
+/// quality 95 for `.jpg` and `.jpeg`).
 pub fn write_png_pixels(
     path: &Path,
     width: u32,
@@ -396,8 +422,16 @@ pub fn write_png_pixels(
         .flat_map(|&p| display.encode(p).to_array())
         .map(|v| (v * 255.0 + 0.5) as u8)
         .collect();
-    write_atomically(path, |tmp| {
-        image::save_buffer_with_format(
+    write_atomically(path, |tmp| match ImageFormat::of(path) {
+        Some(ImageFormat::Jpeg) => {
+            let file = fs::File::create(tmp).map_err(|e| e.to_string())?;
+            let mut out = io::BufWriter::new(file);
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95)
+                .encode(&data, width, height, image::ExtendedColorType::Rgb8)
+                .map_err(|e| format!("cannot write the JPEG: {e}"))?;
+            io::Write::flush(&mut out).map_err(|e| format!("cannot write the JPEG: {e}"))
+        }
+        _ => image::save_buffer_with_format(
             tmp,
             &data,
             width,
@@ -405,7 +439,7 @@ pub fn write_png_pixels(
             image::ColorType::Rgb8,
             image::ImageFormat::Png,
         )
-        .map_err(|e| format!("cannot write the PNG: {e}"))
+        .map_err(|e| format!("cannot write the PNG: {e}")),
     })
 }
 

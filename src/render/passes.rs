@@ -6,7 +6,7 @@
 //! |----------|-----------------------------------|----------------------------------------------|
 //! | `albedo` | `albedo.R`, `albedo.G`, `albedo.B` | the mean over its samples of the first hit's BSDF reflectance, through perfect mirrors to what they show (a miss adds 0) |
 //! | `normal` | `normal.X`, `normal.Y`, `normal.Z` | the mean of the first hit's world-space shading normal, on the side the camera sees (a miss adds 0; not renormalised) |
-//! | `depth`  | `depth.Z`                          | the mean distance from the camera to the first hit over the samples that hit; `inf` where none did |
+//! | `depth`  | `depth.Z`                          | the mean distance from the camera to the first hit over the samples that hit; [`BACKGROUND_DEPTH`] (10¹⁰) where none did |
 //! | `position` | `position.X`, `position.Y`, `position.Z` | the mean world-space point hit, over the samples that hit; 0 where none did |
 //! | `uv`     | `uv.U`, `uv.V`                      | the mean TEXCOORD_0 at the hit, over the samples that hit; 0 where none did (or the scene has none) |
 //! | `object_id` | `object_id.ID`                   | the glTF node (index into the document's `nodes`) whose mesh sample 0 hit; −1 where it met nothing |
@@ -115,7 +115,7 @@ impl Pass {
                 "first-hit shading normal, world space, facing the camera, mean over the pixel's samples (a miss adds 0)"
             }
             Pass::Depth => {
-                "distance from the camera to the first hit, scene units, mean over the samples that hit; inf where none did"
+                "distance from the camera to the first hit, scene units, mean over the samples that hit; 1e10 where none did"
             }
             Pass::Position => {
                 "world-space point of the first hit, scene units, mean over the samples that hit; 0 where none did"
@@ -136,7 +136,7 @@ impl Pass {
     }
 
     /// The pass's values for a pixel of mean features `f` ([`Film::features`]; None for a
-    /// pixel without samples, or for an ID pass): zeros there (depth `inf`). An ID pass's
+    /// pixel without samples, or for an ID pass): zeros there (depth [`BACKGROUND_DEPTH`]). An ID pass's
     /// is its index in `origin`, the document's indices of the triangle the pixel's sample 0
     /// hit (None where it met nothing), or −1.
     pub fn values(self, f: Option<PixelFeatures>, origin: Option<TriangleOrigin>) -> [f32; 3] {
@@ -148,14 +148,18 @@ impl Pass {
             }
             (Pass::Albedo, Some(f)) => v3(f.albedo),
             (Pass::Normal, Some(f)) => v3(f.normal),
-            (Pass::Depth, Some(f)) => [f.depth, 0.0, 0.0],
+            (Pass::Depth, Some(f)) if f.depth.is_finite() => [f.depth, 0.0, 0.0],
             (Pass::Position, Some(f)) => v3(f.position),
             (Pass::Uv, Some(f)) => [f.uv.x, f.uv.y, 0.0],
-            (Pass::Depth, None) => [f32::INFINITY, 0.0, 0.0],
+            (Pass::Depth, _) => [BACKGROUND_DEPTH, 0.0, 0.0],
             (_, None) => [0.0; 3],
         }
     }
 }
+
+/// The depth of a pixel whose samples all met nothing: far, finite (Cycles writes the same),
+/// so that a compositor normalising the depth pass meets no infinity.
+pub const BACKGROUND_DEPTH: f32 = 1e10;
 
 /// Refuses ID passes whose indices (`largest`: the largest of each a scene's triangles may
 /// name, [`crate::scene::Scene::largest_origin`]) a float32 channel cannot hold exactly (past
