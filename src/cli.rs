@@ -385,6 +385,11 @@ pub struct Args {
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
     pub checkpoint: Option<f64>,
 
+    /// When stderr is not a terminal (a farm's log, a pipe), print a progress line every
+    /// SECONDS instead of the progress bar; 0: none.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds_or_zero)]
+    pub progress_every: f64,
+
     /// Tile edge in pixels.
     #[arg(long, default_value_t = 16, hide = true)]
     pub tile_size: u32,

@@ -261,7 +261,11 @@ fn install_interrupt_handler(temporaries: Vec<PathBuf>) -> Interrupts {
 /// (render::render_with_checkpoints): the time limit, converged pixels, or tile rounds.
 fn progress_bar(job: &Job) -> ProgressBar {
     if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
+        let bar = ProgressBar::hidden();
+        if job.progress_every > 0.0 {
+            progress_lines(job, bar.clone());
+        }
+        return bar;
     }
     let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
     let template = match (job.time_limit, job.target_error) {
@@ -272,6 +276,47 @@ fn progress_bar(job: &Job) -> ProgressBar {
     bar.set_style(ProgressStyle::with_template(template).expect("valid progress template"));
     bar.enable_steady_tick(Duration::from_millis(200));
     bar
+}
+
+/// Where stderr is not a terminal: a line every `--progress-every` seconds of what `bar`
+/// (hidden) counts, until it is finished. A farm's log thus shows how far each task is.
+fn progress_lines(job: &Job, bar: ProgressBar) {
+    let every = Duration::from_secs_f64(job.progress_every);
+    let name = job.output.display().to_string();
+    let unit = match (job.time_limit, job.target_error) {
+        (Some(_), _) => "of the time limit",
+        (None, Some(_)) => "of the pixels converged",
+        (None, None) => "of the samples",
+    };
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        let mut next = every;
+        while !bar.is_finished() {
+            std::thread::sleep(every.min(Duration::from_millis(50)));
+            let elapsed = start.elapsed();
+            if elapsed < next {
+                continue;
+            }
+            next += every;
+            let (done, total) = (bar.position(), bar.length().unwrap_or(0));
+            if total == 0 || bar.is_finished() {
+                continue;
+            }
+            let fraction = done as f64 / total as f64;
+            let seconds = elapsed.as_secs_f64();
+            let eta = match fraction > 0.0 {
+                true => format!(
+                    ", about {:.0} s left",
+                    seconds * (1.0 - fraction) / fraction
+                ),
+                false => String::new(),
+            };
+            eprintln!(
+                "{name}: {:.0}% {unit} after {seconds:.0} s{eta}",
+                100.0 * fraction
+            );
+        }
+    });
 }
 
 fn run(args: Args) -> Result<Outcome> {

@@ -657,3 +657,68 @@ fn write_to_a_full_disk_leaves_no_partial_file() {
     assert_eq!(std::fs::read(&out).unwrap(), OLD, "the older file changed");
     assert_entries(fs.dir.path(), &["out.exr"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Progress where stderr is not a terminal.
+
+/// A farm's log (stderr a pipe) gets a progress line every `--progress-every` seconds, with
+/// the share done rising; `--progress-every 0` prints none.
+#[test]
+fn progress_lines_go_to_a_log() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("long.exr");
+    let wall = ao_wall();
+    let long = |every: &'static str| {
+        Running::start(
+            tmp.path(),
+            &[
+                s(&wall),
+                "-o",
+                s(&out),
+                "--spp",
+                "1000000",
+                "--resolution",
+                "64x64",
+                "--sampler",
+                "random",
+                "--no-png",
+                "--time-limit",
+                "1.6",
+                "--progress-every",
+                every,
+            ],
+        )
+    };
+    let mut run = long("0.25");
+    let status = wait_with_limit(&mut run.child, Duration::from_secs(60), "a timed render");
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(status.success(), "{}", run.stderr_text());
+    let text = run.stderr_text();
+    let percents: Vec<f64> = text
+        .lines()
+        .filter(|l| l.contains("% of the time limit after"))
+        .map(|l| {
+            let p = l
+                .split("long.exr: ")
+                .nth(1)
+                .unwrap()
+                .split('%')
+                .next()
+                .unwrap();
+            p.parse().unwrap()
+        })
+        .collect();
+    assert!(percents.len() >= 3, "{text}");
+    assert!(percents.windows(2).all(|w| w[0] <= w[1]), "{percents:?}");
+    assert!(percents.last().unwrap() > &50.0, "{percents:?}");
+
+    let mut quiet = long("0");
+    let status = wait_with_limit(&mut quiet.child, Duration::from_secs(60), "a quiet render");
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(status.success());
+    assert!(
+        !quiet.stderr_text().contains("% of"),
+        "{}",
+        quiet.stderr_text()
+    );
+}

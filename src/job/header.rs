@@ -150,6 +150,7 @@ pub fn settings_key(job: &Job) -> String {
     j.min_pass_seconds = 0.0;
     j.memory_limit = None;
     j.checkpoint = None;
+    j.progress_every = 0.0;
     j.stats = false;
     j.warnings.clear();
     j.share = None;

@@ -175,6 +175,8 @@ pub struct Job {
     pub memory_limit: Option<u64>,
     /// Write the running image at most every this many seconds.
     pub checkpoint: Option<f64>,
+    /// Seconds between progress lines when stderr is not a terminal (`--progress-every`).
+    pub progress_every: f64,
     /// Print the `--stats` report.
     pub stats: bool,
     /// What the options let through but the user should hear about, one line each.
@@ -334,6 +336,7 @@ impl Job {
             min_pass_seconds: args.min_pass_seconds,
             memory_limit,
             checkpoint: args.checkpoint,
+            progress_every: args.progress_every,
             stats: args.stats,
             warnings,
         })
