@@ -369,6 +369,18 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
         );
     }
 
+    if let Some(a) = view.camera.aspect_ratio {
+        let image = view.width as f32 / view.height as f32;
+        if (image - a).abs() > 0.01 * a {
+            eprintln!(
+                "note: the image's aspect ratio, {}x{} = {image:.3}, is not the camera's {a:.3}: its vertical field of view is kept, so the image shows {} at the sides than the camera's frame",
+                view.width,
+                view.height,
+                if image > a { "more" } else { "less" }
+            );
+        }
+    }
+
     // Acceleration structure.
     let pool = render::thread_pool(job.threads).context("cannot start the worker threads")?;
     let threads = pool.current_num_threads();

@@ -1323,3 +1323,26 @@ fn the_output_format_follows_the_extension() {
     }
     assert_entries(tmp.path(), &["a.exr", "a.png", "b.png", "c.jpg"]);
 }
+
+/// A resolution whose aspect ratio is not the camera's gets a note saying what changes; the
+/// camera's own aspect ratio gets none.
+#[test]
+fn a_resolution_unlike_the_cameras_aspect_is_noted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let run_at = |size: &str| {
+        let out = tmp.path().join(format!("{size}.exr"));
+        let run = render(
+            tmp.path(),
+            &[s(&scene), "-o", s(&out), "--resolution", size, "--spp", "1"],
+        );
+        run.assert_success();
+        run.stderr
+    };
+    let wide = run_at("32x16");
+    assert!(
+        wide.contains("aspect ratio") && wide.contains("shows more at the sides"),
+        "{wide}"
+    );
+    assert!(!run_at("16x16").contains("aspect ratio"));
+}

@@ -148,6 +148,15 @@ fn bad_environment_options_are_refused_naming_the_problem() {
     std::fs::write(&not_a_map, "not an image").unwrap();
     let broken = dir.path().join("broken.exr");
     std::fs::write(&broken, "not an exr").unwrap();
+    // The bundled studio map cut off after its header and a few rows.
+    let truncated = dir.path().join("truncated.hdr");
+    let studio = std::fs::read(common::repo_path(
+        "scenes/env/studio_small_05_1k/studio_small_05_1k.hdr",
+    ))
+    .unwrap();
+    std::fs::write(&truncated, &studio[..30_000]).unwrap();
+    let folder = dir.path().join("maps");
+    std::fs::create_dir(&folder).unwrap();
     let base = [
         common::s(&scene),
         "--integrator",
@@ -165,6 +174,14 @@ fn bad_environment_options_are_refused_naming_the_problem() {
             vec!["map.txt", ".hdr"],
         ),
         (vec!["--env", common::s(&broken)], vec!["broken.exr"]),
+        (
+            vec!["--env", common::s(&truncated)],
+            vec!["truncated.hdr", "truncated?"],
+        ),
+        (
+            vec!["--env", common::s(&folder)],
+            vec!["maps", "a directory"],
+        ),
         (vec!["--env-intensity", "-1"], vec!["--env-intensity"]),
     ] {
         let args: Vec<&str> = base.iter().copied().chain(extra.iter().copied()).collect();

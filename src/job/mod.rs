@@ -258,6 +258,12 @@ impl Job {
         let no_env = args.env.as_deref() == Some(std::path::Path::new("none"));
         let env_file = args.env.as_ref().filter(|_| !no_env);
         if let Some(env) = env_file {
+            if env.is_dir() {
+                refuse!(
+                    "{}: a directory, not an environment map (name the .hdr or .exr inside it)",
+                    env.display()
+                );
+            }
             if !env.is_file() {
                 refuse!("{}: no such environment map", env.display());
             }

@@ -302,7 +302,15 @@ impl EnvMap {
             .unwrap_or_default();
         let (width, height, texels) = match ext.as_str() {
             "hdr" => {
-                let image = image::open(path).map_err(|e| format!("{name}: {e}"))?;
+                let image = image::open(path).map_err(|e| match e {
+                    // A short read: what a file cut off in a copy or a download gives.
+                    image::ImageError::IoError(io)
+                        if io.kind() == std::io::ErrorKind::UnexpectedEof =>
+                    {
+                        format!("{name}: the file ends before its pixels do (truncated?): {io}")
+                    }
+                    e => format!("{name}: {e}"),
+                })?;
                 let rgb = image.to_rgb32f();
                 let (w, h) = rgb.dimensions();
                 let texels = rgb.pixels().map(|p| Vec3::from_array(p.0)).collect();
