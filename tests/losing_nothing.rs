@@ -108,6 +108,32 @@ fn ao_wall() -> std::path::PathBuf {
 // ---------------------------------------------------------------------------------------
 // Ctrl-C.
 
+/// A render of ao-wall far too long to finish (a million random samples per pixel) at
+/// `resolution`, passes not grown to last half a second (`--min-pass-seconds 0`), then
+/// `extra`.
+fn long_args<'a>(
+    wall: &'a Path,
+    out: &'a Path,
+    resolution: &'a str,
+    extra: &[&'a str],
+) -> Vec<&'a str> {
+    let mut args = vec![
+        s(wall),
+        "-o",
+        s(out),
+        "--spp",
+        "1000000",
+        "--resolution",
+        resolution,
+        "--sampler",
+        "random",
+        "--min-pass-seconds",
+        "0",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
 /// A render of ao-wall that cannot finish in the test's time: one thread, one 128 × 128 tile
 /// whose first pass is sized to last 30 s (`--min-pass-seconds`), so that after the first
 /// interrupt the tile in flight keeps rendering for many seconds.
@@ -171,23 +197,7 @@ fn an_echoed_interrupt_counts_once() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("long.exr");
     let wall = ao_wall();
-    let mut run = Running::start(
-        tmp.path(),
-        &[
-            s(&wall),
-            "-o",
-            s(&out),
-            "--spp",
-            "1000000",
-            "--resolution",
-            "32x32",
-            "--sampler",
-            "random",
-            "--no-png",
-            "--min-pass-seconds",
-            "0",
-        ],
-    );
+    let mut run = Running::start(tmp.path(), &long_args(&wall, &out, "32x32", &["--no-png"]));
     std::thread::sleep(Duration::from_millis(1000));
     assert!(run.is_running());
     run.sigint();
@@ -209,22 +219,7 @@ fn sigterm_saves_the_image_like_ctrl_c() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("long.exr");
     let wall = ao_wall();
-    let mut run = Running::start(
-        tmp.path(),
-        &[
-            s(&wall),
-            "-o",
-            s(&out),
-            "--spp",
-            "1000000",
-            "--resolution",
-            "32x32",
-            "--sampler",
-            "random",
-            "--min-pass-seconds",
-            "0",
-        ],
-    );
+    let mut run = Running::start(tmp.path(), &long_args(&wall, &out, "32x32", &[]));
     std::thread::sleep(Duration::from_millis(1000));
     assert!(run.is_running());
     run.signal("TERM");
@@ -297,22 +292,7 @@ fn an_interrupt_never_replaces_a_better_image() {
 
     // Interrupted after passes of 1, 2, 4, … samples everywhere: more than the file's 4.
     std::fs::remove_file(&incomplete).unwrap();
-    let mut run = Running::start(
-        tmp.path(),
-        &[
-            s(&wall),
-            "-o",
-            s(&out),
-            "--spp",
-            "1000000",
-            "--resolution",
-            "128x128",
-            "--sampler",
-            "random",
-            "--min-pass-seconds",
-            "0",
-        ],
-    );
+    let mut run = Running::start(tmp.path(), &long_args(&wall, &out, "128x128", &[]));
     std::thread::sleep(Duration::from_millis(1500));
     assert!(run.is_running());
     run.sigint();
@@ -669,25 +649,8 @@ fn progress_lines_go_to_a_log() {
     let out = tmp.path().join("long.exr");
     let wall = ao_wall();
     let long = |every: &'static str| {
-        Running::start(
-            tmp.path(),
-            &[
-                s(&wall),
-                "-o",
-                s(&out),
-                "--spp",
-                "1000000",
-                "--resolution",
-                "64x64",
-                "--sampler",
-                "random",
-                "--no-png",
-                "--time-limit",
-                "1.6",
-                "--progress-every",
-                every,
-            ],
-        )
+        let extra = ["--no-png", "--time-limit", "1.6", "--progress-every", every];
+        Running::start(tmp.path(), &long_args(&wall, &out, "64x64", &extra))
     };
     let mut run = long("0.25");
     let status = wait_with_limit(&mut run.child, Duration::from_secs(60), "a timed render");
