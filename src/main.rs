@@ -404,6 +404,7 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     let settings = job.render_settings(&view);
     let progress = progress_bar(&job);
     let mut header = header::header_attributes(&job, &accel.describe());
+    header.extend(header::camera_attributes(&view));
     if let (Some(share), Some(hash)) = (job.share, &settings_hash) {
         header.extend(
             header::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,

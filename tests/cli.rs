@@ -1346,3 +1346,58 @@ fn a_resolution_unlike_the_cameras_aspect_is_noted() {
     );
     assert!(!run_at("16x16").contains("aspect ratio"));
 }
+
+/// The EXR header carries OpenEXR's `worldToCamera` (Imath's row-vector convention, p·M) and
+/// the projection: ao-wall's camera stands at (1, 1, 0) looking straight down, so it maps
+/// to the origin and the point one unit below it to (0, 0, −1), one unit ahead.
+#[test]
+fn the_header_records_the_camera() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("wall.exr");
+    let run = render(
+        tmp.path(),
+        &[
+            s(&ao_wall()),
+            "-o",
+            s(&out),
+            "--resolution",
+            "8x8",
+            "--spp",
+            "1",
+        ],
+    );
+    run.assert_success();
+    let meta = exr::meta::MetaData::read_from_file(&out, false).unwrap();
+    let header = &meta.headers[0];
+    let find = |name: &str| {
+        let key = exr::meta::attribute::Text::from(name);
+        (header.own_attributes.other.get(&key))
+            .or_else(|| header.shared_attributes.other.get(&key))
+            .cloned()
+    };
+    let m = header
+        .own_attributes
+        .world_to_camera
+        .expect("worldToCamera in the header");
+    let map = |p: [f32; 3]| -> [f32; 3] {
+        let v = [p[0], p[1], p[2], 1.0];
+        [0, 1, 2].map(|j| (0..4).map(|i| v[i] * m[i * 4 + j]).sum::<f32>())
+    };
+    let near = |a: [f32; 3], b: [f32; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-5);
+    assert!(
+        near(map([1.0, 1.0, 0.0]), [0.0, 0.0, 0.0]),
+        "{:?}",
+        map([1.0, 1.0, 0.0])
+    );
+    assert!(
+        near(map([1.0, 0.0, 0.0]), [0.0, 0.0, -1.0]),
+        "{:?}",
+        map([1.0, 0.0, 0.0])
+    );
+    match find("strata:projection") {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => {
+            assert!(t.to_string().starts_with("perspective"), "{t}")
+        }
+        other => panic!("strata:projection: {other:?}"),
+    }
+}

@@ -13,6 +13,32 @@ use crate::integrators::Integrator;
 use crate::render::merge::{files_hash, hex, Share};
 use crate::render::output::{film_attributes, Attr};
 use crate::render::RenderResult;
+use crate::scene::Projection;
+
+/// The camera of `view` for compositors: OpenEXR's `worldToCamera`
+/// ([`crate::render::output::WORLD_TO_CAMERA`]) and, as text, its projection.
+pub fn camera_attributes(view: &crate::job::View) -> Vec<(String, Attr)> {
+    // Imath's row-vector convention: M_row = M_colᵀ, whose rows are M_col's columns.
+    let world_to_camera = view.camera.to_world.inverse().to_cols_array();
+    let aspect = view.width as f32 / view.height as f32;
+    let projection = match view.camera.projection {
+        Projection::Perspective { yfov } => format!(
+            "perspective, vertical field of view {} rad ({:.4}°), aspect ratio {aspect}",
+            yfov,
+            yfov.to_degrees()
+        ),
+        Projection::Orthographic { ymag } => {
+            format!("orthographic, half-height {ymag}, aspect ratio {aspect}")
+        }
+    };
+    vec![
+        (
+            crate::render::output::WORLD_TO_CAMERA.to_string(),
+            Attr::Matrix(world_to_camera),
+        ),
+        ("strata:projection".into(), Attr::Text(projection)),
+    ]
+}
 
 /// The header attributes that record how an image was rendered: the scene, the integrator
 /// and its settings, the sampler, the samples per pixel, the seed, the backend (`backend`:

@@ -148,6 +148,7 @@ fn attr_of(value: &AttributeValue) -> Option<Attr> {
         AttributeValue::Text(t) => Some(Attr::Text(t.to_string())),
         AttributeValue::I32(i) => Some(Attr::Int(*i)),
         AttributeValue::F32(f) => Some(Attr::Float(*f)),
+        AttributeValue::Matrix4x4(m) => Some(Attr::Matrix(*m)),
         _ => None,
     }
 }
@@ -158,6 +159,10 @@ impl std::fmt::Display for Attr {
             Attr::Text(t) => write!(f, "{t}"),
             Attr::Int(i) => write!(f, "{i}"),
             Attr::Float(v) => write!(f, "{v}"),
+            Attr::Matrix(m) => {
+                let values: Vec<String> = m.iter().map(|v| v.to_string()).collect();
+                write!(f, "[{}]", values.join(", "))
+            }
         }
     }
 }
@@ -182,11 +187,14 @@ impl Part {
             .headers
             .first()
             .ok_or_else(|| fail("has no image in it".into()))?;
-        let attrs: BTreeMap<String, Attr> = (header.own_attributes.other.iter())
+        let mut attrs: BTreeMap<String, Attr> = (header.own_attributes.other.iter())
             .chain(&header.shared_attributes.other)
             .filter(|(name, _)| name.to_string().starts_with("strata:"))
             .filter_map(|(name, value)| Some((name.to_string(), attr_of(value)?)))
             .collect();
+        if let Some(m) = header.own_attributes.world_to_camera {
+            attrs.insert(super::output::WORLD_TO_CAMERA.into(), Attr::Matrix(m));
+        }
         let text = |name: &str| attrs.get(name).map(|a| a.to_string());
         if attrs.get("strata:partial") != Some(&Attr::Int(1)) {
             return Err(fail(

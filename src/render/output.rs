@@ -17,12 +17,19 @@ use super::view::Display;
 use super::{split_first_hit, Film};
 use crate::scene::Scene;
 
+/// OpenEXR's standard attribute for the camera that rendered the image: world to camera
+/// space (the camera looking down −Z, +Y up), as Imath's row-vector `M44f` (a point p maps
+/// to p·M), so the 16 values are the column-vector matrix's columns one after another.
+pub const WORLD_TO_CAMERA: &str = "worldToCamera";
+
 /// A header attribute value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Attr {
     Text(String),
     Int(i32),
     Float(f32),
+    /// A 4×4 matrix (EXR's `m44f`), its 16 values in the file's order.
+    Matrix([f32; 16]),
 }
 
 /// An output error, naming the file.
@@ -366,12 +373,18 @@ fn set_attributes(
     for (name, value) in attrs {
         let key = Text::new_or_none(name)
             .ok_or_else(|| err(path, format!("attribute name {name:?} is not ASCII")))?;
+        if let (WORLD_TO_CAMERA, Attr::Matrix(m)) = (name.as_str(), value) {
+            // A standard attribute the exr crate keeps in its own field.
+            layer.world_to_camera = Some(*m);
+            continue;
+        }
         let value = match value {
             Attr::Text(s) => AttributeValue::Text(
                 Text::new_or_none(s).unwrap_or_else(|| Text::new_or_panic("(non-ASCII)")),
             ),
             Attr::Int(i) => AttributeValue::I32(*i),
             Attr::Float(f) => AttributeValue::F32(*f),
+            Attr::Matrix(m) => AttributeValue::Matrix4x4(*m),
         };
         image.other.insert(key, value);
     }
