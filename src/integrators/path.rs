@@ -156,13 +156,13 @@ fn li_as<B: ShadeAs>(
             // Radiance and weight from one lookup of the environment.
             let (le, w) = match (prev, settings.strategy) {
                 (None, _) => (lights.camera_miss_radiance(ray.dir), 1.0),
-                (Some(_), _) if specular => (lights.environment().radiance(ray.dir), 1.0),
-                (Some(_), Strategy::Bsdf) => (lights.environment().radiance(ray.dir), 1.0),
-                (Some(_), Strategy::Light) => (Vec3::ZERO, 0.0),
-                (Some((pdf_bsdf, _)), Strategy::Mis) => {
+                (Some(_), Strategy::Light) if !specular => (Vec3::ZERO, 0.0),
+                (Some((pdf_bsdf, _)), Strategy::Mis) if !specular => {
                     let (le, pdf_light) = lights.environment_radiance_pdf(ray.dir);
                     (le, power_heuristic(pdf_bsdf, pdf_light))
                 }
+                // After a specular bounce, or under BSDF sampling alone: the whole radiance.
+                (Some(_), _) => (lights.environment().radiance(ray.dir), 1.0),
             };
             if le.max_element() > 0.0 {
                 l += beta * le * w;

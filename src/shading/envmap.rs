@@ -218,18 +218,16 @@ impl EnvMap {
         let luminances: Vec<f32> = texels.par_iter().map(|&t| luminance(t)).collect();
         // ∫ L sin θ du dv over [0, 1]², L sin θ interpolated as the weights are (the mean
         // luminance over the sphere is π/2 times it).
-        let integral = grid_integral(
-            width,
-            height,
-            &vertex_weights(width, height, &luminances, 0.0),
-        );
+        let by_radiance = vertex_weights(width, height, &luminances, 0.0);
+        let integral = grid_integral(width, height, &by_radiance);
         let mean = (integral * std::f64::consts::FRAC_PI_2) as f32;
-        let minus = match sampling {
+        let mut weights = match sampling {
             // Nothing brighter than the mean: a map of one colour, sampled by its radiance.
-            MapSampling::Compensated if luminances.par_iter().any(|&l| l > mean) => mean,
-            _ => 0.0,
+            MapSampling::Compensated if luminances.par_iter().any(|&l| l > mean) => {
+                vertex_weights(width, height, &luminances, mean)
+            }
+            _ => by_radiance,
         };
-        let mut weights = vertex_weights(width, height, &luminances, minus);
         drop(luminances);
         let mut total = grid_integral(width, height, &weights);
         if total <= 0.0 {
