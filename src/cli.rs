@@ -385,6 +385,12 @@ pub struct Args {
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
     pub checkpoint: Option<f64>,
 
+    /// Continue the render saved in FILE (what an interrupted render or a checkpoint wrote) to
+    /// --spp: give the options it was rendered with. Each pixel continues from its samples,
+    /// so the image equals an uninterrupted render's bit for bit. Fixed-spp renders only.
+    #[arg(long, value_name = "FILE.exr")]
+    pub resume: Option<PathBuf>,
+
     /// When stderr is not a terminal (a farm's log, a pipe), print a progress line every
     /// SECONDS instead of the progress bar; 0: none.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds_or_zero)]

@@ -352,8 +352,9 @@ fn run(args: Args) -> Result<Outcome> {
 
 /// Loads, builds, renders and writes one job (one frame).
 fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
-    // A shard's settings, from the options alone (before the scene changes the job).
-    let settings_hash = job.share.map(|_| header::settings_hash(&job));
+    // The settings that a shard's part and an unfinished render's file carry, from the
+    // options alone (before the scene changes the job).
+    let settings_hash = header::settings_hash(&job);
     let (scene, load_time) = load_scene(&job)?;
 
     // Camera and resolution.
@@ -405,24 +406,76 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     let progress = progress_bar(&job);
     let mut header = header::header_attributes(&job, &accel.describe());
     header.extend(header::camera_attributes(&view));
-    if let (Some(share), Some(hash)) = (job.share, &settings_hash) {
+    if let Some(share) = job.share {
         header.extend(
-            header::partial_attributes(&job, share, &scene.files, hash).map_err(|e| anyhow!(e))?,
+            header::partial_attributes(&job, share, &scene.files, &settings_hash)
+                .map_err(|e| anyhow!(e))?,
         );
     }
+    // What an unfinished render's file carries besides its sums, for `--resume`: a shard's
+    // part has it already. The scene's hash reads its files again: once, when first needed.
+    let scene_hash = std::cell::OnceCell::new();
+    let scene_hash = || -> Result<String> {
+        let hash = scene_hash.get_or_init(|| header::scene_hash(&job, &scene.files));
+        hash.clone().map_err(|e| anyhow!(e))
+    };
+    let resume_attributes = || -> Result<Vec<(String, Attr)>> {
+        Ok(match job.share {
+            Some(_) => Vec::new(),
+            None => vec![
+                (
+                    "strata:settings_hash".into(),
+                    Attr::Text(settings_hash.clone()),
+                ),
+                ("strata:scene_hash".into(), Attr::Text(scene_hash()?)),
+            ],
+        })
+    };
+    let resumed = match &job.resume {
+        None => None,
+        Some(path) => {
+            let (a, b) = settings.samples();
+            let expected = render::resume::Expected {
+                width: settings.width,
+                height: settings.height,
+                samples: (a, b),
+                settings_hash: &settings_hash,
+                scene_hash: &scene_hash()?,
+                header: &header,
+                features: ctx.features,
+                first_hits: ctx.ids,
+            };
+            let resumed = render::resume::read(path, &expected).map_err(|e| anyhow!(e))?;
+            let (lo, hi) = resumed.film.count_range();
+            eprintln!(
+                "resuming {}: {lo}-{hi} of {} samples per pixel, {:.1} s rendered",
+                path.display(),
+                b - a,
+                resumed.seconds
+            );
+            Some(resumed)
+        }
+    };
+    let prior_seconds = resumed.as_ref().map_or(0.0, |r| r.seconds);
     let display = strata::render::view::Display::new(job.view, job.exposure);
     // The image at `path` (with the variance and samples-per-pixel images when `extras`).
+    // An `unfinished` image (a checkpoint, an interrupted render) holds the film's exact sums
+    // too, as a shard's part does, so that `--resume` can continue it.
     let write_images = |path: &Path,
                         extras: bool,
                         film: &Film,
                         denoised: Option<&[glam::Vec3]>,
-                        state: Vec<(String, Attr)>|
+                        state: Vec<(String, Attr)>,
+                        unfinished: bool|
      -> Result<()> {
-        let attrs = [header.clone(), state].concat();
-        let (ids, partial) = (Ids::Scene(&scene), job.share.is_some());
+        let mut attrs = [header.clone(), state].concat();
+        if unfinished {
+            attrs.extend(resume_attributes()?);
+        }
+        let (ids, exact) = (Ids::Scene(&scene), job.share.is_some() || unfinished);
         match output::ImageFormat::of(path) {
             Some(output::ImageFormat::Exr) | None => {
-                output::write_exr(path, film, &job.passes, ids, denoised, &attrs, partial)?
+                output::write_exr(path, film, &job.passes, ids, denoised, &attrs, exact)?
             }
             // `-o NAME.png` or `.jpg`: the image through the view transform alone.
             Some(_) => {
@@ -468,8 +521,8 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
             );
         }
         // Checkpoints are not denoised: they hold the raw beauty.
-        let state = output::film_attributes(film, stats.seconds, false, true);
-        match write_images(&path, path == job.output, film, None, state) {
+        let state = output::film_attributes(film, prior_seconds + stats.seconds, false, true);
+        match write_images(&path, path == job.output, film, None, state, true) {
             Ok(()) => {
                 checkpoints += 1;
                 wrote_output.set(wrote_output.get() || path == job.output);
@@ -489,6 +542,7 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
         &progress,
         &interrupts.cancel,
         checkpoint,
+        resumed.map(|r| r.film),
     );
     progress.finish_and_clear();
 
@@ -515,7 +569,7 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     // Denoise (not when hurried). If the denoiser fails, the raw image is still written
     // before the error.
     let t_denoise = Instant::now();
-    let mut attrs = header::result_attributes(&job, &result);
+    let mut attrs = header::result_attributes(&job, &result, prior_seconds);
     let (denoised, denoise_error, denoise_time) = match write && !hurry {
         true => denoise(&job, &result.film, threads, &mut attrs, t_denoise),
         false => (None, None, Duration::ZERO),
@@ -525,9 +579,19 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     let t_write = Instant::now();
     if write {
         let extras = kept.is_none();
-        write_images(&target, extras, &result.film, denoised.as_deref(), attrs)?;
-        if kept_said && kept.is_none() {
-            // The checkpoints this render put beside a better image are outdone.
+        let unfinished = result.interrupted;
+        write_images(
+            &target,
+            extras,
+            &result.film,
+            denoised.as_deref(),
+            attrs,
+            unfinished,
+        )?;
+        let resumed_incomplete = job.resume.as_deref() == Some(incomplete.as_path());
+        if (kept_said || resumed_incomplete) && kept.is_none() && target != incomplete {
+            // The checkpoints this render (or the one it resumed) put beside a better image
+            // are outdone.
             let _ = std::fs::remove_file(&incomplete);
         }
     }

@@ -505,6 +505,208 @@ fn checkpoint_values_are_checked() {
 }
 
 // ---------------------------------------------------------------------------------------
+// --resume.
+
+/// Every float channel of an EXR as bits, by name, and whether it has the exact layer.
+fn float_bits(path: &Path) -> (std::collections::BTreeMap<String, Vec<u32>>, bool) {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let mut floats = std::collections::BTreeMap::new();
+    let mut exact = false;
+    for c in &image.layer_data[0].channel_data.list {
+        match &c.sample_data {
+            FlatSamples::F32(v) => {
+                floats.insert(c.name.to_string(), v.iter().map(|f| f.to_bits()).collect());
+            }
+            _ => exact |= c.name.to_string().starts_with("exact."),
+        }
+    }
+    (floats, exact)
+}
+
+/// The path-traced Cornell box with passes of features and IDs, 512 samples per pixel in
+/// doubling passes, so that a render stopped part way has pixels at several counts.
+fn resumable_args<'a>(scene: &'a Path, out: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        s(scene),
+        "-o",
+        s(out),
+        "--resolution",
+        "24x24",
+        "--spp",
+        "512",
+        "--passes",
+        "albedo,normal,object_id",
+        "--min-pass-seconds",
+        "0",
+        "--no-png",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// A render stopped by SIGTERM part way, and one killed (SIGKILL) after a checkpoint, each
+/// resumed with `--resume`, equal the uninterrupted render in every channel, bit for bit
+/// (beauty, albedo, normal and object IDs), and the finished file holds no sums.
+#[test]
+fn a_resumed_render_equals_the_uninterrupted_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell-box.gltf");
+    let full = tmp.path().join("full.exr");
+    let run = render(tmp.path(), &resumable_args(&scene, &full, &[]));
+    run.assert_success();
+    let (want, exact) = float_bits(&full);
+    assert!(!exact, "a finished render holds no exact sums");
+    assert!(want.contains_key("object_id.ID") && want.contains_key("albedo.R"));
+
+    // SIGTERM after the first progress line; then SIGKILL after the first checkpoint.
+    let stopped = tmp.path().join("stopped.exr");
+    let mut run = Running::start(
+        tmp.path(),
+        &resumable_args(&scene, &stopped, &["--progress-every", "0.05"]),
+    );
+    run.wait_for_stderr("of the samples after", Duration::from_secs(60));
+    run.signal("TERM");
+    let status = wait_with_limit(&mut run.child, Duration::from_secs(60), "after SIGTERM");
+    assert_eq!(status.code(), Some(130), "{}", run.stderr_text());
+    let killed = tmp.path().join("killed.exr");
+    let mut crashed = Running::start(
+        tmp.path(),
+        &resumable_args(&scene, &killed, &["--checkpoint", "0.05"]),
+    );
+    let t0 = Instant::now();
+    while !killed.exists() {
+        assert!(crashed.is_running(), "finished before its first checkpoint");
+        assert!(t0.elapsed() < Duration::from_secs(60), "no checkpoint");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    crashed.signal("KILL");
+    wait_with_limit(&mut crashed.child, Duration::from_secs(10), "after SIGKILL");
+
+    for (path, flag) in [
+        (&stopped, "strata:interrupted"),
+        (&killed, "strata:checkpoint"),
+    ] {
+        let a = int_attrs(path);
+        assert_eq!(attr(&a, flag), 1, "{}", path.display());
+        assert!(
+            attr(&a, "strata:spp_min") < 512,
+            "{}: already finished; nothing left to resume",
+            path.display()
+        );
+        assert!(float_bits(path).1, "{}: no exact sums", path.display());
+        let resume = path.to_str().unwrap();
+        let run = render(
+            tmp.path(),
+            &resumable_args(&scene, path, &["--resume", resume]),
+        );
+        run.assert_success();
+        assert!(run.stderr.contains("resuming"), "{}", run.stderr);
+        let (got, exact) = float_bits(path);
+        assert!(
+            !exact,
+            "{}: the finished file keeps its sums",
+            path.display()
+        );
+        assert_eq!(
+            got.keys().collect::<Vec<_>>(),
+            want.keys().collect::<Vec<_>>()
+        );
+        for (name, values) in &want {
+            let differ = (values.iter().zip(&got[name]))
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(
+                differ,
+                0,
+                "{}: {name} differs in {differ} pixels",
+                path.display()
+            );
+        }
+        let a = int_attrs(path);
+        assert_eq!(
+            (attr(&a, "strata:interrupted"), attr(&a, "strata:spp_min")),
+            (0, 512)
+        );
+    }
+}
+
+/// `--resume` refuses, naming the file and the reason: a finished image (no sums), a render
+/// of other settings (naming the setting), of an edited scene, options whose pixels cannot
+/// be continued, and a file that is not there.
+#[test]
+fn resume_refuses_what_it_cannot_continue() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut doc = ao_wall_json();
+    let scene = tmp.path().join("wall.gltf");
+    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let refused = |args: &[&str], words: &[&str]| {
+        let run = render(tmp.path(), args);
+        assert!(!run.status.success(), "{args:?} accepted:\n{}", run.stderr);
+        assert_no_panic(&run.stderr);
+        for w in words {
+            assert!(
+                run.stderr.contains(w),
+                "{args:?}: no {w:?} in:\n{}",
+                run.stderr
+            );
+        }
+    };
+    // A finished image.
+    let finished = tmp.path().join("finished.exr");
+    let short = [
+        s(&scene),
+        "-o",
+        s(&finished),
+        "--resolution",
+        "16x16",
+        "--spp",
+        "4",
+    ];
+    render(tmp.path(), &short).assert_success();
+    let fin = s(&finished);
+    for (extra, words) in [
+        (
+            &["--resume", fin][..],
+            &["finished.exr", "no sums to resume from"][..],
+        ),
+        (
+            &["--resume", "nothing.exr"],
+            &["nothing.exr", "no such file"],
+        ),
+        (
+            &["--resume", fin, "--target-error", "0.1"],
+            &["--resume", "--target-error"],
+        ),
+        (
+            &["--resume", fin, "--time-limit", "5"],
+            &["--resume", "--time-limit"],
+        ),
+    ] {
+        refused(&[&short[..], extra].concat(), words);
+    }
+    // An unfinished one: a render far too long to finish, interrupted.
+    let part = tmp.path().join("part.exr");
+    let long = long_args(&scene, &part, "16x16", &["--progress-every", "0.05"]);
+    let mut run = Running::start(tmp.path(), &long);
+    run.wait_for_stderr("of the samples after", Duration::from_secs(60));
+    run.sigint();
+    wait_with_limit(&mut run.child, Duration::from_secs(60), "after SIGINT");
+    assert_eq!(attr(&int_attrs(&part), "strata:interrupted"), 1);
+    let resume = [&long[..], &["--resume", s(&part)]].concat();
+    refused(
+        &[&resume[..], &["--seed", "7"]].concat(),
+        &["part.exr", "other settings", "strata:seed"],
+    );
+    // The same settings on an edited scene.
+    doc["materials"] =
+        serde_json::json!([{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}]);
+    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+    refused(&resume, &["part.exr", "other files"]);
+}
+
+// ---------------------------------------------------------------------------------------
 // Failed writes.
 
 /// Render arguments whose EXR (256x256 noisy float RGB, about 90 KB; the PNG 55 KB) cannot

@@ -135,10 +135,14 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
 /// The header attributes of a finished render's image: [`film_attributes`], then whether
 /// the time limit stopped it (with `--time-limit`) and how many pixels did not reach the
 /// target error (with `--target-error`).
-pub fn result_attributes(job: &Job, result: &RenderResult) -> Vec<(String, Attr)> {
+pub fn result_attributes(
+    job: &Job,
+    result: &RenderResult,
+    prior_seconds: f64,
+) -> Vec<(String, Attr)> {
     let mut attrs = film_attributes(
         &result.film,
-        result.stats.seconds,
+        prior_seconds + result.stats.seconds,
         result.interrupted,
         false,
     );
@@ -176,6 +180,7 @@ pub fn settings_key(job: &Job) -> String {
     j.min_pass_seconds = 0.0;
     j.memory_limit = None;
     j.checkpoint = None;
+    j.resume = None;
     j.progress_every = 0.0;
     j.stats = false;
     j.warnings.clear();
@@ -191,6 +196,15 @@ pub fn settings_hash(job: &Job) -> String {
     hex(&Sha256::digest(settings_key(job).as_bytes()))
 }
 
+/// SHA-256 over the scene's `files` and the job's environment map ([`files_hash`]): what a
+/// shard's part and an unfinished render's file carry, so that a merge or a resume refuses
+/// files of an edited scene.
+pub fn scene_hash(job: &Job, files: &[PathBuf]) -> Result<String, String> {
+    let mut all = files.to_vec();
+    all.extend(job.env.as_ref().map(|(p, _, _)| p.clone()));
+    files_hash(&all)
+}
+
 /// The header attributes of a partial file of `share`: the sample range, the shard, and the
 /// hashes of the scene's files (`files`, with the environment map's) and of the settings
 /// (`settings_hash`, taken from the job before the scene changed it).
@@ -200,13 +214,14 @@ pub fn partial_attributes(
     files: &[PathBuf],
     settings_hash: &str,
 ) -> Result<Vec<(String, Attr)>, String> {
-    let mut all = files.to_vec();
-    all.extend(job.env.as_ref().map(|(p, _, _)| p.clone()));
     let (a, b) = share.range(job.spp);
     let mut attrs = vec![
         ("strata:partial".to_string(), Attr::Int(1)),
         ("strata:samples".into(), Attr::Text(format!("{a}..{b}"))),
-        ("strata:scene_hash".into(), Attr::Text(files_hash(&all)?)),
+        (
+            "strata:scene_hash".into(),
+            Attr::Text(scene_hash(job, files)?),
+        ),
         (
             "strata:settings_hash".into(),
             Attr::Text(settings_hash.to_string()),
@@ -264,6 +279,7 @@ mod tests {
                 "--stats",
             ],
             &["--samples", "3..9"],
+            &["--shard", "0/2", "--resume", "out.shard-0-of-2.exr"],
             &[],
         ] {
             assert_eq!(settings_hash(&job(dir.path(), same)), base, "{same:?}");

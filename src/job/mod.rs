@@ -175,6 +175,8 @@ pub struct Job {
     pub memory_limit: Option<u64>,
     /// Write the running image at most every this many seconds.
     pub checkpoint: Option<f64>,
+    /// Continue the unfinished render saved in this file (`--resume`).
+    pub resume: Option<PathBuf>,
     /// Seconds between progress lines when stderr is not a terminal (`--progress-every`).
     pub progress_every: f64,
     /// Print the `--stats` report.
@@ -342,6 +344,7 @@ impl Job {
             min_pass_seconds: args.min_pass_seconds,
             memory_limit,
             checkpoint: args.checkpoint,
+            resume: args.resume.clone(),
             progress_every: args.progress_every,
             stats: args.stats,
             warnings,
@@ -689,6 +692,16 @@ fn samples(
                 refuse!("{option} passes --spp {spp}: the last sample index is {}", spp - 1)
             }
             _ => {}
+        }
+    }
+    if args.resume.is_some() {
+        let refused = [
+            (args.target_error.is_some(), "--target-error: adaptive sampling picks the pixels that sample from the film at the end of each round, which a film saved part way through a round cannot replay"),
+            (args.time_limit.is_some(), "--time-limit: a time limit stops the render by the clock, not at a count a resumed render could continue"),
+            (args.frames.is_some(), "--frames: a resumed file holds one frame; resume each frame's file with --frame N"),
+        ];
+        if let Some((_, why)) = refused.iter().find(|(given, _)| *given) {
+            refuse!("--resume cannot be combined with {why}");
         }
     }
     if args.target_error.is_some() && spp < 2 {
@@ -1066,15 +1079,16 @@ mod tests {
     fn passes_cost_image_memory() {
         let plain = job(&[]).unwrap().image_memory(100, 100);
         let with = |passes: &str| job(&["--passes", passes]).unwrap().image_memory(100, 100);
-        // Feature totals: 13 16-byte integers in the film and as many in a round's tiles.
-        assert_eq!(with("depth") - plain, 100 * 100 * 2 * 13 * 16);
-        assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 2 * 13 * 16);
-        // IDs: one u64 first hit (triangle and instance) in the film and one in a round's
-        // tiles.
-        assert_eq!(with("object_id") - plain, 100 * 100 * 16);
+        // Feature totals: 13 16-byte integers in the film, as many in a round's tiles and
+        // as many in the words of an interrupted render's saved sums.
+        assert_eq!(with("depth") - plain, 100 * 100 * 3 * 13 * 16);
+        assert_eq!(with("albedo,normal,uv") - plain, 100 * 100 * 3 * 13 * 16);
+        // IDs: one u64 first hit (triangle and instance) in the film, one in a round's
+        // tiles, and one in the saved sums.
+        assert_eq!(with("object_id") - plain, 100 * 100 * 24);
         assert_eq!(
             with("depth,mesh_id") - plain,
-            100 * 100 * (2 * 13 * 16 + 16)
+            100 * 100 * (3 * 13 * 16 + 24)
         );
     }
 }

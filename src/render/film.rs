@@ -419,9 +419,11 @@ impl Film {
     /// each) and count (100 bytes), a round's tile results collected before they are merged
     /// ([`RoundTotals`]: three 8-byte sums and squares, the count and a wide entry's index,
     /// 56 bytes; the wide entries of the rare pixels that overflow them are not counted), and
-    /// the float32 RGB image made for output (12 bytes). Adaptive sampling and checkpoints
-    /// need more ([`Film::ADAPTIVE_BYTES_PER_PIXEL`], [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
-    pub const BYTES_PER_PIXEL: u64 = 100 + 56 + 12;
+    /// the float32 RGB image made for output (12 bytes), and the 32-bit words of the exact
+    /// sums an interrupted render saves for `--resume` (100 bytes, [`super::partial`]).
+    /// Adaptive sampling and checkpoints need more ([`Film::ADAPTIVE_BYTES_PER_PIXEL`],
+    /// [`Film::CHECKPOINT_BYTES_PER_PIXEL`]).
+    pub const BYTES_PER_PIXEL: u64 = 100 + 56 + 12 + 100;
 
     /// Adaptive sampling's extra memory per pixel: the active and selected masks (2 bytes),
     /// the judgement's three f64 error images (own, row maximum, neighbourhood maximum)
@@ -433,7 +435,8 @@ impl Film {
     /// ([`Film::keep_halves`]).
     pub const HALVES_BYTES_PER_PIXEL: u64 = 48;
 
-    /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (100 bytes).
+    /// A checkpoint's extra memory per pixel: the snapshot of the film it writes (100 bytes;
+    /// its exact sums' words are counted in [`Film::BYTES_PER_PIXEL`]).
     pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 100;
 
     /// The memory a `width` × `height` render needs for its image ([`Film::BYTES_PER_PIXEL`]
@@ -456,9 +459,10 @@ impl Film {
         }
     }
 
-    /// The memory [`Film::keep_features`] adds, per pixel: the film's feature totals and a
-    /// round's copy of them for its tiles ([`FEATURE_SLOTS`] 16-byte integers each).
-    pub const FEATURES_BYTES_PER_PIXEL: u64 = 2 * 16 * FEATURE_SLOTS as u64;
+    /// The memory [`Film::keep_features`] adds, per pixel: the film's feature totals, a
+    /// round's copy of them for its tiles and their words in an unfinished render's saved
+    /// sums ([`FEATURE_SLOTS`] 16-byte integers each).
+    pub const FEATURES_BYTES_PER_PIXEL: u64 = 3 * 16 * FEATURE_SLOTS as u64;
 
     /// Keeps, from now on, each pixel's first-hit feature totals ([`Film::features`]). Call
     /// on a new film.
@@ -471,9 +475,9 @@ impl Film {
         self.features.is_some()
     }
 
-    /// The memory [`Film::keep_first_hits`] adds, per pixel: the film's triangle and a
-    /// round's copy of it for its tiles.
-    pub const FIRST_HITS_BYTES_PER_PIXEL: u64 = 16;
+    /// The memory [`Film::keep_first_hits`] adds, per pixel: the film's triangle, a round's
+    /// copy of it for its tiles and its words in an unfinished render's saved sums.
+    pub const FIRST_HITS_BYTES_PER_PIXEL: u64 = 24;
 
     /// Keeps, from now on, the triangle each pixel's sample 0 meets ([`Film::first_hit`]), for
     /// ID passes: exact, where an average of IDs over the samples would name no object at

@@ -167,8 +167,32 @@ impl std::fmt::Display for Attr {
     }
 }
 
+/// The `strata:` attributes (and the camera's matrix) of the EXR at `path`, and its width and
+/// height; the error says why it is no EXR (without the path).
+pub(super) fn strata_header(path: &Path) -> Result<(BTreeMap<String, Attr>, usize, usize), String> {
+    if !path.is_file() {
+        return Err("no such file".into());
+    }
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| format!("cannot read it as an EXR: {e}"))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| "has no image in it".to_string())?;
+    let mut attrs: BTreeMap<String, Attr> = (header.own_attributes.other.iter())
+        .chain(&header.shared_attributes.other)
+        .filter(|(name, _)| name.to_string().starts_with("strata:"))
+        .filter_map(|(name, value)| Some((name.to_string(), attr_of(value)?)))
+        .collect();
+    if let Some(m) = header.own_attributes.world_to_camera {
+        attrs.insert(super::output::WORLD_TO_CAMERA.into(), Attr::Matrix(m));
+    }
+    let size = header.layer_size;
+    Ok((attrs, size.width(), size.height()))
+}
+
 /// `I/N` or `A..B` of a header attribute.
-fn two_numbers(text: &str, separator: &str) -> Option<(u32, u32)> {
+pub(super) fn two_numbers(text: &str, separator: &str) -> Option<(u32, u32)> {
     let (a, b) = text.split_once(separator)?;
     Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
 }
@@ -178,23 +202,7 @@ impl Part {
     /// it no part of a merge.
     pub fn read(path: &Path) -> Result<Part, String> {
         let fail = |m: String| format!("{}: {m}", path.display());
-        if !path.is_file() {
-            return Err(fail("no such file".into()));
-        }
-        let meta = exr::meta::MetaData::read_from_file(path, false)
-            .map_err(|e| fail(format!("cannot read it as an EXR: {e}")))?;
-        let header = meta
-            .headers
-            .first()
-            .ok_or_else(|| fail("has no image in it".into()))?;
-        let mut attrs: BTreeMap<String, Attr> = (header.own_attributes.other.iter())
-            .chain(&header.shared_attributes.other)
-            .filter(|(name, _)| name.to_string().starts_with("strata:"))
-            .filter_map(|(name, value)| Some((name.to_string(), attr_of(value)?)))
-            .collect();
-        if let Some(m) = header.own_attributes.world_to_camera {
-            attrs.insert(super::output::WORLD_TO_CAMERA.into(), Attr::Matrix(m));
-        }
+        let (attrs, width, height) = strata_header(path).map_err(fail)?;
         let text = |name: &str| attrs.get(name).map(|a| a.to_string());
         if attrs.get("strata:partial") != Some(&Attr::Int(1)) {
             return Err(fail(
@@ -228,14 +236,14 @@ impl Part {
                 false => "was interrupted",
             };
             return Err(fail(format!(
-                "{how}, so it may not hold all its samples {}..{}: render that part again",
-                range.0, range.1
+                "{how}, so it may not hold all its samples {}..{}: finish it with its render command and --resume {}, or render that part again",
+                range.0, range.1, path.display()
             )));
         }
         Ok(Part {
             path: path.to_path_buf(),
-            width: header.layer_size.width(),
-            height: header.layer_size.height(),
+            width,
+            height,
             shard: text("strata:shard").and_then(|t| two_numbers(&t, "/")),
             attrs,
             range,

@@ -31,6 +31,7 @@ pub mod merge;
 pub mod output;
 pub mod partial;
 pub mod passes;
+pub mod resume;
 pub mod view;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -266,6 +267,9 @@ struct Round<'a> {
     offset: u32,
     /// Indexed like the film; `None`: every pixel of the window.
     selection: Option<&'a [bool]>,
+    /// Every pixel of a tile holds the same count: true but in a resumed render, whose
+    /// film may come from another tiling.
+    uniform: bool,
     next: &'a (dyn Fn(u32) -> u32 + Sync),
 }
 
@@ -284,9 +288,9 @@ impl Round<'_> {
     }
 
     fn tile_has_work(&self, t: &Tile) -> bool {
-        if self.selection.is_none() {
-            // Without a selection every pixel of the window has the same count (a round is
-            // only ever cut short by a stop), so the tile's first pixel speaks for all.
+        if self.selection.is_none() && self.uniform {
+            // Without a selection every pixel of a tile has the same count (a round is only
+            // ever cut short between tiles), so the tile's first pixel speaks for all.
             let (a, b) = self.samples(t.x0, t.y0);
             return b > a;
         }
@@ -757,11 +761,14 @@ pub fn render(
     progress: &ProgressBar,
     cancel: &AtomicBool,
 ) -> RenderResult {
-    render_with_checkpoints(ctx, settings, pool, progress, cancel, None)
+    render_with_checkpoints(ctx, settings, pool, progress, cancel, None, None)
 }
 
-/// [`render`], handing the running film to `checkpoint` (if any) periodically. The image is
-/// the same, bit for bit, with or without checkpoints.
+/// [`render`], handing the running film to `checkpoint` (if any) periodically, and starting
+/// from the film `resume` (if any: an interrupted render's or a checkpoint's, of these
+/// settings, [`resume`]) instead of an empty one. The image is the same, bit for bit, with or
+/// without checkpoints and however often the render was resumed, since each pixel continues
+/// from its count in sample order.
 ///
 /// The render goes in rounds: each takes every pixel that still samples from its count to the
 /// round's end (a pass end of a fixed-spp render, the next count of a progressive one), tile
@@ -774,6 +781,7 @@ pub fn render_with_checkpoints(
     progress: &ProgressBar,
     cancel: &AtomicBool,
     mut checkpoint: Option<Checkpoint>,
+    resume: Option<Film>,
 ) -> RenderResult {
     let mut run = Run::new(ctx, settings, pool, progress, cancel);
     let mut tile_sums = TileSums::new(&run.tiles, ctx.features, ctx.ids);
@@ -782,8 +790,17 @@ pub fn render_with_checkpoints(
     // render by the pixel's count, otherwise the same for all (`done` samples so far).
     let progressive = stopping.is_progressive();
     let next_progressive = |c: u32| progressive_next(c, stopping.min_spp, spp);
-    let mut done = 0u32;
-    let mut film = run.new_film();
+    let resumed = resume.is_some();
+    let mut film = match resume {
+        Some(film) => run.resumed_film(film),
+        None => run.new_film(),
+    };
+    // A resumed fixed-spp render's passes continue from its least count.
+    let mut done = match resumed {
+        true => run.least_count(&film),
+        false => 0,
+    };
+    let base = done;
     // Adaptive sampling: which pixels have not converged (all of the window at first), and
     // which of them sample in the current round.
     let mut active: Option<Vec<bool>> = stopping.target_error.map(|_| run.in_window());
@@ -802,8 +819,11 @@ pub fn render_with_checkpoints(
     let mut last_checkpoint = Instant::now();
     // The probe round (one sample in one tile in PROBE_TILE_STRIDE), and the speed it
     // measured: seconds per sample per pixel of the whole window.
-    let mut probing =
-        !progressive && settings.min_pass_seconds > 0.0 && spp > 1 && run.tiles.len() > 1;
+    let mut probing = !progressive
+        && !resumed
+        && settings.min_pass_seconds > 0.0
+        && spp > 1
+        && run.tiles.len() > 1;
     let mut probed: Option<f64> = None;
 
     'rounds: loop {
@@ -831,14 +851,17 @@ pub fn render_with_checkpoints(
             if let Some(per_sample) = probed.take() {
                 return first_pass_end(spp, per_sample, settings.min_pass_seconds);
             }
+            // Passes of a resumed render grow from the count it resumed at, at the rate of
+            // its own samples.
             let seconds = run.start.elapsed().as_secs_f64();
-            fixed_pass_end(done, spp, seconds, settings.min_pass_seconds)
+            base + fixed_pass_end(done - base, spp - base, seconds, settings.min_pass_seconds)
         });
         let next_fixed = |c: u32| fixed_end.map_or(c, |end| end.max(c));
         let round = Round {
             film: &film,
             offset: run.first_sample,
             selection: selected.as_deref().or(active.as_deref()),
+            uniform: !resumed,
             next: if progressive {
                 &next_progressive
             } else {
@@ -1031,6 +1054,50 @@ impl<'a> Run<'a> {
             film.keep_halves();
         }
         film
+    }
+
+    /// The film a resumed render starts from, checked against the render's settings (the
+    /// caller has checked it against the job: [`resume`]); the progress bar counts its
+    /// samples as done.
+    fn resumed_film(&self, film: Film) -> Film {
+        let settings = self.settings;
+        assert!(
+            !settings.stopping.is_progressive(),
+            "a resumed render has a fixed number of samples"
+        );
+        let fresh = self.new_film();
+        assert_eq!(
+            (
+                film.width,
+                film.height,
+                film.keeps_features(),
+                film.keeps_first_hits()
+            ),
+            (
+                fresh.width,
+                fresh.height,
+                fresh.keeps_features(),
+                fresh.keeps_first_hits()
+            ),
+            "a resumed film is of the render's size and layers"
+        );
+        let (x0, y0, x1, y1) = self.window;
+        let done: u64 = (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| film.count(x, y).min(self.spp) as u64)
+            .sum();
+        self.progress.set_position(done);
+        film
+    }
+
+    /// The least count of the window's pixels.
+    fn least_count(&self, film: &Film) -> u32 {
+        let (x0, y0, x1, y1) = self.window;
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| film.count(x, y))
+            .min()
+            .unwrap_or(0)
     }
 
     /// Indexed like the film: true in the window.

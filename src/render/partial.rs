@@ -8,12 +8,16 @@
 //! | `exact.RR0` … `exact.RR3` (and GG, BB) | the sum of their squares, a `u128` likewise |
 //! | `exact.N` | its number of samples |
 //! | `exact.F00_0` … `exact.F12_3` | its 13 feature sums (where passes asked for features), `i128` each |
+//! | `exact.H0`, `exact.H1` | the triangle its sample 0 met (where ID passes were asked for), a `u64` as two words |
 //!
+//! `render --resume` reads the same layer from an interrupted render or a checkpoint
+//! ([`super::resume`]), so the layer is also written there.
 //! Most high words are 0 or all ones, which the file's ZIP compression packs to little.
 
 use exr::prelude::{AnyChannel, AnyChannels, FlatSamples};
 
 use super::film::{FeatureTotals, Film, PixelTotals, FEATURE_SLOTS};
+use crate::record::{FirstHit, NO_HIT};
 
 /// The layer that holds the exact sums.
 pub const EXACT_LAYER: &str = "exact";
@@ -82,6 +86,18 @@ pub fn exact_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
             wide_channels(&format!("F{slot:02}_"), feature, n)
         }));
     }
+    if film.keeps_first_hits() {
+        for w in 0..2 {
+            let word = |i: usize| {
+                let (x, y) = at(i);
+                (film.first_hit_raw(x, y) >> (32 * w)) as u32
+            };
+            out.push(channel(
+                format!("{EXACT_LAYER}.H{w}"),
+                (0..n).map(word).collect(),
+            ));
+        }
+    }
     out
 }
 
@@ -95,6 +111,8 @@ pub struct ExactLayer<'a> {
     counts: &'a [u32],
     /// The four words of each feature slot, where the part keeps features.
     features: Option<Vec<[&'a [u32]; 4]>>,
+    /// The two words of each pixel's first hit, where the part keeps them.
+    first_hits: Option<[&'a [u32]; 2]>,
 }
 
 impl<'a> ExactLayer<'a> {
@@ -130,17 +148,57 @@ impl<'a> ExactLayer<'a> {
                     .collect::<Result<_, _>>()?,
             ),
         };
+        let first_hits = match find(format!("{EXACT_LAYER}.H0"))? {
+            None => None,
+            Some(low) => Some([low, required(format!("{EXACT_LAYER}.H1"))?]),
+        };
         Ok(ExactLayer {
             sums,
             sq_sums,
             counts,
             features,
+            first_hits,
         })
     }
 
     /// Whether the part keeps feature sums.
     pub fn has_features(&self) -> bool {
         self.features.is_some()
+    }
+
+    /// Whether the part keeps each pixel's first hit.
+    pub fn has_first_hits(&self) -> bool {
+        self.first_hits.is_some()
+    }
+
+    /// Pixel `i`'s first hit ([`NO_HIT`] where it met nothing, or the part keeps none).
+    pub fn first_hit(&self, i: usize) -> FirstHit {
+        self.first_hits
+            .map_or(NO_HIT, |[low, high]| low[i] as u64 | (high[i] as u64) << 32)
+    }
+
+    /// The film of `width` × `height` pixels this layer describes, keeping features and first
+    /// hits as it does: what the render that wrote it had when it wrote it.
+    pub fn to_film(&self, width: u32, height: u32) -> Result<Film, String> {
+        let mut film = Film::new(width, height);
+        if self.has_features() {
+            film.keep_features();
+        }
+        if self.has_first_hits() {
+            film.keep_first_hits();
+        }
+        for i in 0..width as usize * height as usize {
+            let (totals, features) = self.pixel(i);
+            (film.add_pixel_totals(i, totals, features.as_ref())).map_err(|e| e.to_string())?;
+        }
+        if self.has_first_hits() {
+            let mut rows = film.rows_mut(&[(0, height)]);
+            for i in 0..width as usize * height as usize {
+                let (x, y) = ((i % width as usize) as u32, (i / width as usize) as u32);
+                rows[0].set_first_hit(x, y, self.first_hit(i));
+            }
+        }
+        Ok(film)
     }
 
     /// Pixel `i`'s sample count.
@@ -203,6 +261,31 @@ mod tests {
         }
         assert_eq!(back.pixel(0, 0), film.pixel(0, 0));
         assert_eq!(back.feature_totals(2, 1), features);
+        // First hits, where the film keeps them, come back whole (both words).
+        assert!(!layer.has_first_hits());
+        let mut hits = Film::new(3, 2);
+        hits.keep_first_hits();
+        hits.add_sample(1, 0, Vec3::ONE);
+        let far = (7u64 << 32) | 0xdead_beef;
+        hits.rows_mut(&[(0, 1)])[0].set_first_hit(1, 0, far);
+        let hit_channels = AnyChannels::sort(exact_channels(&hits).into());
+        assert_eq!(hit_channels.list.len(), 3 * 8 + 1 + 2);
+        let hit_layer = ExactLayer::find(&hit_channels, 6).unwrap();
+        assert_eq!(
+            (hit_layer.first_hit(1), hit_layer.first_hit(0)),
+            (far, NO_HIT)
+        );
+        let back_hits = hit_layer.to_film(3, 2).unwrap();
+        assert!(back_hits.keeps_first_hits() && !back_hits.keeps_features());
+        assert_eq!(back_hits.first_hit(1, 0), Some(far));
+        assert_eq!(back_hits.first_hit(0, 0), None);
+        assert_eq!(back_hits.totals(1, 0), hits.totals(1, 0));
+        // And a film read back whole equals the one written, features included.
+        let whole = layer.to_film(3, 2).unwrap();
+        for (x, y) in (0..2).flat_map(|y| (0..3).map(move |x| (x, y))) {
+            assert_eq!(whole.totals(x, y), film.totals(x, y));
+            assert_eq!(whole.feature_totals(x, y), film.feature_totals(x, y));
+        }
         // A layer without the count, or of the wrong size, is refused by name.
         let mut short = channels.clone();
         short.list.retain(|c| !c.name.eq("exact.N"));
