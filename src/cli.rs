@@ -85,9 +85,11 @@ pub struct Args {
 
     /// Constant environment radiance, linear RGB [default: black, or a white sky of radiance 1
     /// for a scene that brings no light meant to light it]; with --env, what the camera sees
-    /// behind the scene while the map lights it.
-    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb)]
-    pub background: Option<[f32; 3]>,
+    /// behind the scene while the map lights it. `transparent`: the camera sees nothing
+    /// behind the scene (the lighting is as without --background) and the EXR and PNG get
+    /// an alpha channel, the scene's coverage of each pixel.
+    #[arg(long, value_name = "R,G,B|transparent", value_parser = parse_background)]
+    pub background: Option<Background>,
 
     /// Environment map: an equirectangular (latitude-longitude) Radiance .hdr or OpenEXR .exr
     /// of linear radiance, oriented as Blender orients a world environment texture, and
@@ -408,6 +410,16 @@ pub struct Args {
     pub min_pass_seconds: f64,
 }
 
+impl Args {
+    /// The constant colour `--background` gives (None: none, or transparent).
+    pub fn background_color(&self) -> Option<[f32; 3]> {
+        match self.background {
+            Some(Background::Color(c)) => Some(c),
+            _ => None,
+        }
+    }
+}
+
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -423,6 +435,24 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
         _ => Err(format!(
             "'{s}': width and height must be integers in 1..=65536"
         )),
+    }
+}
+
+/// What `--background` asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Background {
+    /// A constant environment of this radiance (behind an `--env` map: what the camera sees).
+    Color([f32; 3]),
+    /// Nothing behind the scene, and an alpha channel.
+    Transparent,
+}
+
+fn parse_background(s: &str) -> Result<Background, String> {
+    match s.trim() {
+        "transparent" => Ok(Background::Transparent),
+        _ => parse_rgb(s)
+            .map(Background::Color)
+            .map_err(|e| format!("{e}, or transparent")),
     }
 }
 

@@ -182,7 +182,13 @@ fn merge_files(args: MergeArgs) -> Result<Outcome> {
     )?;
     if !args.preview.no_png && !args.partial {
         let display = strata::render::view::Display::new(args.preview.view, args.preview.exposure);
-        output::write_png(&output.with_extension("png"), film, &display)?;
+        // A transparent background's preview carries the alpha the merged EXR holds.
+        let transparent = (merged.attrs.iter())
+            .any(|(k, v)| k == "strata:background" && v.to_string() == "transparent");
+        let alpha = transparent.then(|| output::alpha_of(film));
+        let (w, h) = (film.width, film.height);
+        let png = output.with_extension("png");
+        output::write_png_rgba(&png, w, h, &film.pixels(), alpha.as_deref(), &display)?;
     }
     let (a, b) = merged.range;
     println!(
@@ -480,7 +486,9 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
             // `-o NAME.png` or `.jpg`: the image through the view transform alone.
             Some(_) => {
                 let pixels = denoised.map_or_else(|| film.pixels(), <[glam::Vec3]>::to_vec);
-                output::write_png_pixels(path, film.width, film.height, &pixels, &display)?
+                let alpha = job.transparent.then(|| output::alpha_of(film));
+                let (w, h) = (film.width, film.height);
+                output::write_png_rgba(path, w, h, &pixels, alpha.as_deref(), &display)?
             }
         }
         if let Some(v) = job.variance.as_ref().filter(|_| extras) {
@@ -598,7 +606,9 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     if write && kept.is_none() && !hurry && job.png {
         let pixels = denoised.unwrap_or_else(|| result.film.pixels());
         let (w, h) = (result.film.width, result.film.height);
-        output::write_png_pixels(&job.output.with_extension("png"), w, h, &pixels, &display)?;
+        let alpha = job.transparent.then(|| output::alpha_of(&result.film));
+        let png = job.output.with_extension("png");
+        output::write_png_rgba(&png, w, h, &pixels, alpha.as_deref(), &display)?;
     }
     let write_time = t_write.elapsed();
     if let Some(e) = denoise_error {

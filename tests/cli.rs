@@ -1160,6 +1160,89 @@ fn centre(pixels: &[[f32; 3]], size: usize) -> f32 {
         / 4.0
 }
 
+/// `--background transparent`: the EXR's alpha `A` is 1 where the scene covers a pixel, 0
+/// where only the background is seen and between 0 and 1 on the outline, the beauty there
+/// is 0 (premultiplied) while the default sky still lights the floor, and the PNG preview's
+/// alpha follows. Without it the EXR has no alpha and the PNG none.
+#[test]
+fn a_transparent_background_gives_the_scenes_coverage_as_alpha() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A 4 × 4 floor seen from 10 above with a 40° field of view: the floor covers the middle
+    // 2/3.64 of the frame's width and height, the corners see past it.
+    let scene = floor_with_emissive_tile(tmp.path(), "floor.gltf", [0.01; 3], None);
+    let view = [
+        "--look-from",
+        "0,10,0",
+        "--look-at",
+        "0,0,0",
+        "--up",
+        "0,0,-1",
+        "--fov",
+        "40",
+    ];
+    let out = tmp.path().join("t.exr");
+    let mut args = vec![
+        s(&scene),
+        "-o",
+        s(&out),
+        "--resolution",
+        "24x24",
+        "--spp",
+        "64",
+    ];
+    args.extend(view);
+    let mut transparent = args.clone();
+    transparent.extend(["--background", "transparent"]);
+    render(tmp.path(), &transparent).assert_success();
+    let (channels, texts) = read_channels(&out);
+    assert_eq!(texts["strata:background"], "transparent");
+    let (a, r) = (&channels["A"], &channels["R"]);
+    let at = |x: usize, y: usize| y * 24 + x;
+    for (x, y) in [(9, 14), (8, 8), (15, 15)] {
+        assert_eq!(a[at(x, y)], 1.0, "({x}, {y}) is on the floor");
+        assert!(
+            r[at(x, y)] > 0.3,
+            "the sky lights the floor: {}",
+            r[at(x, y)]
+        );
+    }
+    for (x, y) in [(0, 0), (23, 0), (0, 23), (23, 23), (1, 12)] {
+        assert_eq!(a[at(x, y)], 0.0, "({x}, {y}) sees past the floor");
+        assert_eq!(r[at(x, y)], 0.0, "({x}, {y}): nothing behind the scene");
+    }
+    // The floor's edge, 2/3.64 of the way from the centre to the frame's edge: pixel 5.4
+    // from the left, so pixel 5 is partly covered.
+    assert!(
+        a[at(5, 12)] > 0.0 && a[at(5, 12)] < 1.0,
+        "edge: {}",
+        a[at(5, 12)]
+    );
+    let png = image::open(out.with_extension("png")).unwrap();
+    assert!(png.color().has_alpha(), "{:?}", png.color());
+    let png = png.to_rgba8();
+    assert_eq!((png.get_pixel(12, 12)[3], png.get_pixel(0, 0)[3]), (255, 0));
+    // `-o NAME.png` alone carries the same alpha.
+    let alone = tmp.path().join("alone.png");
+    let mut png_args = transparent.clone();
+    png_args[2] = s(&alone);
+    render(tmp.path(), &png_args).assert_success();
+    assert_eq!(image::open(&alone).unwrap().to_rgba8(), png);
+
+    // Without it: the sky behind the floor, no alpha anywhere.
+    render(tmp.path(), &args).assert_success();
+    let (channels, texts) = read_channels(&out);
+    assert!(!channels.contains_key("A"));
+    assert_ne!(texts["strata:background"], "transparent");
+    assert!(
+        channels["R"][at(0, 0)] > 0.5,
+        "the sky is seen past the floor"
+    );
+    assert!(!image::open(out.with_extension("png"))
+        .unwrap()
+        .color()
+        .has_alpha());
+}
+
 /// `--look-from`/`--look-at` put the point looked at in the image's centre; `--orbit` turns
 /// the camera about +Y through the scene's centre, as placing it there by hand does;
 /// `--list-cameras` lists and renders nothing; the camera options' errors name the problem.

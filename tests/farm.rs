@@ -205,6 +205,8 @@ fn shards_with_every_pass_merge_to_the_one_machine_image() {
         "5",
         "--passes",
         "albedo,normal,depth,position,uv,object_id,mesh_id,material_id",
+        "--background",
+        "transparent",
     ];
     shards_merge_to_the_whole(dir.path(), "passes", &args, &[1, 2, 3, 7]);
 }

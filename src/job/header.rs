@@ -117,10 +117,11 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
             let b = (job.shading.camera_background)
                 .or(job.shading.environment.constant())
                 .unwrap_or_default();
-            attrs.push((
-                "strata:background".into(),
-                Attr::Text(format!("{},{},{}", b.x, b.y, b.z)),
-            ));
+            let background = match job.transparent {
+                true => "transparent".to_string(),
+                false => format!("{},{},{}", b.x, b.y, b.z),
+            };
+            attrs.push(("strata:background".into(), Attr::Text(background)));
             if let Some((path, degrees, scale)) = &job.env {
                 let text = format!("{}", path.display());
                 attrs.push(("strata:environment".into(), Attr::Text(text)));

@@ -14,7 +14,7 @@ use std::time::Duration;
 use glam::Vec3;
 
 use crate::accel::{AccelOptions, Backend, BuildQuality};
-use crate::cli::{Args, MemoryLimit};
+use crate::cli::{Args, Background, MemoryLimit};
 use crate::experiments::Experiments;
 use crate::integrators::{
     AoSettings, Hemisphere, Integrator, IntegratorKind, PathSettings, ShadingOptions, Strategy,
@@ -141,6 +141,9 @@ pub struct Job {
     /// Neither `--background` nor `--env` was given: a scene that brings no light of its own
     /// is lit by [`DEFAULT_SKY`] ([`Job::default_light`]).
     pub default_sky: bool,
+    /// `--background transparent`: camera rays that miss see nothing, and the outputs carry
+    /// the scene's coverage as alpha.
+    pub transparent: bool,
     /// The environment map to load (`--env`), its rotation about +Y in degrees and its scale;
     /// [`Job::load_environment`] puts it into `shading`.
     pub env: Option<(PathBuf, f32, f32)>,
@@ -309,7 +312,8 @@ impl Job {
             integrator,
             shading: shading_options(args, env_file.is_some()),
             hemisphere: args.hemisphere,
-            default_sky: args.env.is_none() && args.background.is_none(),
+            default_sky: args.env.is_none() && args.background_color().is_none(),
+            transparent: args.background == Some(Background::Transparent),
             env: env_file
                 .cloned()
                 .map(|p| (p, args.env_rotate, args.env_intensity)),
@@ -724,6 +728,10 @@ fn denoise_and_passes(
     // The denoiser reads the albedo and normal passes; they are written too, so that
     // `render denoise` can denoise the raw image again.
     let mut passes = args.passes.clone();
+    // A transparent background's coverage is the alpha pass.
+    if args.background == Some(Background::Transparent) {
+        passes.push(Pass::Alpha);
+    }
     let denoise = match args.denoise {
         false => None,
         true if !crate::denoise::available() => {
@@ -786,7 +794,9 @@ fn integrator(args: &Args) -> Result<Integrator, JobError> {
 /// of which `--background` is what the camera sees.
 fn shading_options(args: &Args, env_map: bool) -> ShadingOptions {
     ShadingOptions {
-        environment: Environment::Constant(Vec3::from_array(args.background.unwrap_or([0.0; 3]))),
+        environment: Environment::Constant(Vec3::from_array(
+            args.background_color().unwrap_or([0.0; 3]),
+        )),
         materials: MaterialOptions {
             model: args.materials,
             energy_compensation: args.energy_compensation.is_on(),
@@ -796,10 +806,12 @@ fn shading_options(args: &Args, env_map: bool) -> ShadingOptions {
             },
         },
         triangle_sampling: args.triangle_sampling,
-        // With a map, --background is what the camera sees behind the scene.
-        camera_background: match env_map {
-            true => args.background.map(Vec3::from_array),
-            false => None,
+        // With a map, --background is what the camera sees behind the scene; a transparent
+        // one is nothing, in front of any light.
+        camera_background: match (args.background, env_map) {
+            (Some(Background::Transparent), _) => Some(Vec3::ZERO),
+            (Some(Background::Color(c)), true) => Some(Vec3::from_array(c)),
+            _ => None,
         },
     }
 }

@@ -520,7 +520,7 @@ pub fn merge(coverage: &Coverage, partial: bool) -> Result<Merged, String> {
         // without sample 0, every part's are −1 alike.
         if std::ptr::eq(part, first) {
             for &pass in passes.iter().filter(|p| p.is_id()) {
-                let name = format!("{}.ID", pass.layer());
+                let name = pass.channel_name("ID");
                 let values = match layer.channel_data.list.iter().find(|c| c.name.eq(&name)) {
                     Some(c) => match &c.sample_data {
                         FlatSamples::F32(v) if v.len() == n => v.clone(),

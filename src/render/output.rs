@@ -275,7 +275,7 @@ pub fn write_exr(
                     .map(|(&f, &o)| pass.values(f, o)[i])
                     .collect(),
             };
-            let name = format!("{}.{c}", pass.layer());
+            let name = pass.channel_name(c);
             channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
         }
         attrs.push((
@@ -420,6 +420,15 @@ pub fn write_png(path: &Path, film: &Film, display: &Display) -> Result<(), Outp
     write_png_pixels(path, film.width, film.height, &film.pixels(), display)
 }
 
+/// Each pixel's alpha, the fraction of its samples that met the scene ([`Pass::Alpha`]; 0
+/// where the film keeps no features or the pixel has no samples), row-major from the top.
+pub fn alpha_of(film: &Film) -> Vec<f32> {
+    (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .map(|(x, y)| Pass::Alpha.values(film.features(x, y), None)[0])
+        .collect()
+}
+
 /// Writes row-major linear `pixels` through `display` as an 8-bit sRGB image: the PNG
 /// preview ([`write_png`]), or the output itself when `-o` names a `.png` or `.jpg` (JPEG at
 /// quality 95 for `.jpg` and `.jpeg`).
@@ -430,11 +439,43 @@ pub fn write_png_pixels(
     pixels: &[glam::Vec3],
     display: &Display,
 ) -> Result<(), OutputError> {
-    let data: Vec<u8> = pixels
-        .iter()
-        .flat_map(|&p| display.encode(p).to_array())
-        .map(|v| (v * 255.0 + 0.5) as u8)
-        .collect();
+    write_png_rgba(path, width, height, pixels, None, display)
+}
+
+/// [`write_png_pixels`], with an alpha channel where `alpha` is given (a transparent
+/// background's coverage, one value per pixel) and the format is PNG. The pixels are
+/// premultiplied, as the EXR holds them; PNG's alpha is not, so each is divided by its alpha
+/// before the view transform. A JPEG, which has no alpha, gets the premultiplied image: the
+/// scene over black.
+pub fn write_png_rgba(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[glam::Vec3],
+    alpha: Option<&[f32]>,
+    display: &Display,
+) -> Result<(), OutputError> {
+    let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let png = ImageFormat::of(path) != Some(ImageFormat::Jpeg);
+    let (data, color) = match alpha.filter(|_| png) {
+        None => (
+            (pixels.iter())
+                .flat_map(|&p| display.encode(p).to_array())
+                .map(byte)
+                .collect::<Vec<u8>>(),
+            image::ColorType::Rgb8,
+        ),
+        Some(alpha) => (
+            (pixels.iter().zip(alpha))
+                .flat_map(|(&p, &a)| {
+                    let straight = if a > 0.0 { p / a } else { glam::Vec3::ZERO };
+                    let [r, g, b] = display.encode(straight).to_array();
+                    [r, g, b, a].map(byte)
+                })
+                .collect(),
+            image::ColorType::Rgba8,
+        ),
+    };
     write_atomically(path, |tmp| match ImageFormat::of(path) {
         Some(ImageFormat::Jpeg) => {
             let file = fs::File::create(tmp).map_err(|e| e.to_string())?;
@@ -449,7 +490,7 @@ pub fn write_png_pixels(
             &data,
             width,
             height,
-            image::ColorType::Rgb8,
+            color,
             image::ImageFormat::Png,
         )
         .map_err(|e| format!("cannot write the PNG: {e}")),

@@ -12,6 +12,7 @@
 //! | `object_id` | `object_id.ID`                   | the glTF node (index into the document's `nodes`) whose mesh sample 0 hit; −1 where it met nothing |
 //! | `mesh_id` | `mesh_id.ID`                       | the glTF mesh (index into `meshes`) sample 0 hit; −1 where it met nothing |
 //! | `material_id` | `material_id.ID`               | the glTF material (index into `materials`) of the triangle sample 0 hit; −1 where it met nothing or its primitive names none |
+//! | `alpha`  | `A`                                | the fraction of its samples whose camera ray met the scene (its coverage), OpenEXR's alpha beside `R`, `G`, `B`; `--background transparent` adds it |
 //!
 //! The feature passes are averaged over the pixel's samples like the beauty, so a pixel on an
 //! object's outline holds a blend of both sides (what a denoiser expects of its auxiliary
@@ -58,6 +59,8 @@ pub enum Pass {
     /// The glTF material of the triangle sample 0 hit.
     #[value(name = "material_id")]
     MaterialId,
+    /// The fraction of the samples whose camera ray met the scene.
+    Alpha,
 }
 
 crate::display_as_value_name!(Pass);
@@ -74,6 +77,16 @@ impl Pass {
             Pass::ObjectId => "object_id",
             Pass::MeshId => "mesh_id",
             Pass::MaterialId => "material_id",
+            Pass::Alpha => "alpha",
+        }
+    }
+
+    /// The EXR's name of the layer's channel `c` (one of [`Pass::channels`]): `layer.c`, but
+    /// the alpha pass is OpenEXR's own `A`, the beauty's alpha.
+    pub fn channel_name(self, c: &str) -> String {
+        match self {
+            Pass::Alpha => c.to_string(),
+            _ => format!("{}.{c}", self.layer()),
         }
     }
 
@@ -102,6 +115,7 @@ impl Pass {
             Pass::Position => &["X", "Y", "Z"],
             Pass::Uv => &["U", "V"],
             Pass::ObjectId | Pass::MeshId | Pass::MaterialId => &["ID"],
+            Pass::Alpha => &["A"],
         }
     }
 
@@ -129,6 +143,9 @@ impl Pass {
             Pass::MeshId => {
                 "index into the glTF document's meshes of the mesh the pixel's sample 0 (its first) hit, exact (not averaged); -1 where it met nothing"
             }
+            Pass::Alpha => {
+                "fraction of the pixel's samples whose camera ray met the scene (its coverage); the beauty is premultiplied by it where the background is transparent"
+            }
             Pass::MaterialId => {
                 "index into the glTF document's materials of the material of the triangle the pixel's sample 0 (its first) hit, exact (not averaged); -1 where it met nothing or its primitive names no material"
             }
@@ -151,6 +168,7 @@ impl Pass {
             (Pass::Depth, Some(f)) if f.depth.is_finite() => [f.depth, 0.0, 0.0],
             (Pass::Position, Some(f)) => v3(f.position),
             (Pass::Uv, Some(f)) => [f.uv.x, f.uv.y, 0.0],
+            (Pass::Alpha, Some(f)) => [f.coverage, 0.0, 0.0],
             (Pass::Depth, _) => [BACKGROUND_DEPTH, 0.0, 0.0],
             (_, None) => [0.0; 3],
         }
