@@ -211,6 +211,23 @@ pub struct Args {
     #[arg(long, value_name = "DEGREES", value_parser = parse_fov)]
     pub fov: Option<f32>,
 
+    /// Depth of field: a thin lens of this aperture diameter, in scene units (glTF's metres),
+    /// focused at --focus-distance. Perspective cameras only.
+    #[arg(long, value_name = "DIAMETER", value_parser = parse_length, conflicts_with = "f_stop")]
+    pub aperture: Option<f32>,
+
+    /// Depth of field: a thin lens of this f-number, its focal length that of the field of
+    /// view on a 36 mm sensor across the image's larger side (Blender's default camera), in
+    /// a scene of metres; e.g. 2.8. Perspective cameras only.
+    #[arg(long, value_name = "N", value_parser = parse_length)]
+    pub f_stop: Option<f32>,
+
+    /// The distance in focus, in scene units, with --aperture or --f-stop [default: the
+    /// distance from the camera to --look-at, or to the centre of the scene's bounding box
+    /// along the view].
+    #[arg(long, value_name = "DISTANCE", value_parser = parse_length)]
+    pub focus_distance: Option<f32>,
+
     /// Turn the camera by DEGREES about the vertical axis (+Y) through the centre of the
     /// scene's bounding box, counter-clockwise seen from above. With --frames A..B, frame F
     /// turns by DEGREES·(F − A)/(B − A + 1): --orbit 360 makes a turntable that loops.
@@ -483,6 +500,14 @@ fn parse_point(s: &str) -> Result<[f32; 3], String> {
 }
 
 /// A vertical field of view in degrees, in (0, 180).
+/// A positive, finite length (or f-number).
+fn parse_length(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}': expected a positive number")),
+    }
+}
+
 fn parse_fov(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(d) if d > 0.0 && d < 180.0 => Ok(d),

@@ -644,7 +644,8 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
         let (spp_min, spp_max) = result.film.count_range();
         match write {
             true => eprintln!(
-                "saved the image rendered so far to {} ({spp_min}-{spp_max} samples per pixel)",
+                "saved the image rendered so far to {} ({spp_min}-{spp_max} samples per pixel); the same command with --resume {} continues it",
+                target.display(),
                 target.display()
             ),
             false => eprintln!("interrupted before any sample: nothing saved"),

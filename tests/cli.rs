@@ -1243,6 +1243,107 @@ fn a_transparent_background_gives_the_scenes_coverage_as_alpha() {
         .has_alpha());
 }
 
+/// Depth of field: a bright tile (radiance 4, 0.2 wide) seen from 3.5 above with a 20° field
+/// of view covers the middle 3.9 of 24 pixels. A lens 0.5 across focused on it (the default
+/// focus, the --look-at distance) leaves it as sharp as the pinhole shows it. Focused at 2
+/// instead, each of its points spreads over a disk of radius R·|z − f|/z = 0.25 · 1.5 / 3.5
+/// on the plane of focus, 3.65 pixels there (a pixel spans 2 · 2 tan 10° / 24): the tile's
+/// centre falls to about 4 · 3.9² / (π · 3.65²) = 1.45 above the floor, and light reaches
+/// pixels 4.5 from the centre, outside its sharp image. `--f-stop` and the refusals.
+#[test]
+fn a_thin_lens_blurs_what_is_out_of_focus_and_not_what_is_in_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = floor_with_emissive_tile(tmp.path(), "tile.gltf", [1.0, 1.0, 1.0], Some(4.0));
+    let view = [
+        "--env",
+        "none",
+        "--look-from",
+        "0,4,0",
+        "--look-at",
+        "0,0.5,0",
+        "--up",
+        "0,0,-1",
+        "--fov",
+        "20",
+        "--spp",
+        "256",
+        "--sampler",
+        "sobol",
+        "--resolution",
+        "24x24",
+        "--no-png",
+    ];
+    let shoot = |name: &str, extra: &[&str]| {
+        let out = tmp.path().join(name);
+        let mut args = vec![s(&scene), "-o", s(&out)];
+        args.extend_from_slice(&view);
+        args.extend_from_slice(extra);
+        render(tmp.path(), &args).assert_success();
+        read_exr_rgb(&out).unwrap().2
+    };
+    let at = |px: &[[f32; 3]], x: usize, y: usize| px[y * 24 + x][1];
+    let pinhole = shoot("pinhole.exr", &[]);
+    let sharp = shoot("sharp.exr", &["--aperture", "0.5"]);
+    let blurred = shoot(
+        "blurred.exr",
+        &["--aperture", "0.5", "--focus-distance", "2"],
+    );
+    for (x, y) in [(11, 11), (12, 12)] {
+        let (p, s) = (at(&pinhole, x, y), at(&sharp, x, y));
+        assert!((p - 4.0).abs() < 0.1, "the tile's centre: {p}");
+        assert!(
+            (s - p).abs() < 0.05,
+            "in focus, ({x}, {y}): {s} against {p}"
+        );
+    }
+    let (p, b) = (at(&pinhole, 12, 12), at(&blurred, 12, 12));
+    assert!(
+        b > 1.1 && b < 2.2,
+        "out of focus, the centre: {b} (pinhole {p})"
+    );
+    let (p, b) = (at(&pinhole, 16, 11), at(&blurred, 16, 11));
+    assert!(p < 0.3, "the floor beside the sharp tile: {p}");
+    assert!(
+        b > p + 0.1,
+        "the blurred tile reaches 4.5 pixels out: {b} against {p}"
+    );
+    // At 20° on a 36 mm sensor the focal length is 18 mm / tan 10° = 102.1 mm: f/0.2 is a
+    // lens 510 mm across, which blurs as --aperture 0.51 does (and unlike 0.5's half).
+    let stopped = shoot("f.exr", &["--f-stop", "0.2", "--focus-distance", "2"]);
+    let same = shoot("same.exr", &["--aperture", "0.51", "--focus-distance", "2"]);
+    let half = shoot("half.exr", &["--aperture", "0.25", "--focus-distance", "2"]);
+    let (f, w, h) = (at(&stopped, 12, 12), at(&same, 12, 12), at(&half, 12, 12));
+    assert!((f - w).abs() < 0.05, "f/0.2 {f}, 510 mm {w}");
+    assert!(
+        h > f + 0.5,
+        "a lens half as wide blurs less: {h} against {f}"
+    );
+    // Refusals.
+    let refused = |extra: &[&str], words: &[&str]| {
+        let mut args = vec![s(&scene), "-o", "x.exr", "--resolution", "8x8"];
+        args.extend_from_slice(extra);
+        let run = render(tmp.path(), &args);
+        assert!(!run.status.success(), "{extra:?} accepted");
+        assert_no_panic(&run.stderr);
+        for w in words {
+            assert!(
+                run.stderr.contains(w),
+                "{extra:?}: no {w:?} in {}",
+                run.stderr
+            );
+        }
+    };
+    refused(
+        &["--focus-distance", "2"],
+        &["--focus-distance", "--aperture"],
+    );
+    refused(&["--aperture", "0"], &["--aperture", "positive"]);
+    refused(
+        &["--aperture", "1", "--f-stop", "2"],
+        &["--aperture", "--f-stop"],
+    );
+}
+
 /// `--look-from`/`--look-at` put the point looked at in the image's centre; `--orbit` turns
 /// the camera about +Y through the scene's centre, as placing it there by hand does;
 /// `--list-cameras` lists and renders nothing; the camera options' errors name the problem.

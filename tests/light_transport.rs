@@ -481,6 +481,7 @@ fn textures_are_upright_and_srgb_decoded() {
                 projection: Projection::Orthographic { ymag: 1.0 },
                 to_world,
                 aspect_ratio: None,
+                lens: None,
             };
             // Under a constant environment L = 1, an unoccluded Lambertian plane shows ρ·L.
             let integrator = direct();

@@ -285,6 +285,7 @@ proptest! {
                     Vec3::ZERO,
                 ),
             aspect_ratio: None,
+            lens: None,
         };
         prop_assume!(camera.to_world.is_finite());
         let gen = camera.ray_generator(image.0, image.1);
@@ -353,6 +354,7 @@ fn the_film_rectangle_is_the_box_s_image_and_a_pixel() {
             projection,
             to_world: Mat4::from_translation(Vec3::new(0.3, -0.2, 10.0)),
             aspect_ratio: None,
+            lens: None,
         };
         let [x0, y0, x1, y1] = camera
             .ray_generator(image.0, image.1)
@@ -400,6 +402,7 @@ fn no_rectangle_for_a_box_around_the_camera() {
         projection: Projection::Perspective { yfov: 0.8 },
         to_world,
         aspect_ratio: None,
+        lens: None,
     };
     for to_world in [
         Mat4::IDENTITY,
@@ -492,6 +495,7 @@ fn culling_by_cluster_boxes_leaves_the_image_unchanged() {
             projection,
             to_world: looking_at(eye, target),
             aspect_ratio: None,
+            lens: None,
         };
         let [on, off] = [true, false].map(|cull_blocks| {
             let ctx = strata::integrators::Context {

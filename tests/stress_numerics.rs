@@ -161,6 +161,7 @@ fn camera(eye: Vec3, dir: DVec3, yfov: f32) -> Camera {
             eye.extend(1.0),
         ),
         aspect_ratio: None,
+        lens: None,
     }
 }
 

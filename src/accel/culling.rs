@@ -105,6 +105,7 @@ mod tests {
             projection: Projection::Perspective { yfov: 0.9 },
             to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, 12.0)),
             aspect_ratio: None,
+            lens: None,
         };
         let (width, height) = (61u32, 37u32);
         let g = camera.ray_generator(width, height);
@@ -161,6 +162,7 @@ mod tests {
             projection: Projection::Perspective { yfov: 0.9 },
             to_world: Mat4::IDENTITY,
             aspect_ratio: None,
+            lens: None,
         };
         let g = camera.ray_generator(32, 32);
         let far = (Vec3::new(-1.0, -1.0, -9.0), Vec3::new(1.0, 1.0, -8.0));

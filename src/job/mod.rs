@@ -27,7 +27,7 @@ use crate::render::view::ViewTransform;
 use crate::render::{Film, RenderSettings, Stopping};
 use crate::sampling::sampler::SOBOL_MAX_SPP;
 use crate::sampling::SamplerKind;
-use crate::scene::{format_bytes, Camera, LoadOptions, Projection, Scene};
+use crate::scene::{format_bytes, Camera, Lens, LoadOptions, Projection, Scene};
 use crate::shading::{
     DiffuseSampling, EnvMap, Environment, LightSet, MapSampling, MaterialModel, MaterialOptions,
 };
@@ -198,6 +198,16 @@ pub struct Aim {
     pub fov: Option<f32>,
     /// Turn about +Y through the scene's centre, radians.
     pub orbit: f32,
+    /// Depth of field (`--aperture`, `--f-stop`), and the distance in focus.
+    pub aperture: Option<Aperture>,
+    pub focus_distance: Option<f32>,
+}
+
+/// A thin lens's size: its diameter in scene units, or an f-number.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Aperture {
+    Diameter(f32),
+    FStop(f32),
 }
 
 /// One line per camera of `scene`: index, name, projection and position (`--list-cameras`,
@@ -334,6 +344,12 @@ impl Job {
                 up: args.up.map(Vec3::from_array),
                 fov: args.fov.map(f32::to_radians),
                 orbit: args.orbit.to_radians(),
+                aperture: match (args.aperture, args.f_stop) {
+                    (Some(d), _) => Some(Aperture::Diameter(d)),
+                    (None, Some(n)) => Some(Aperture::FStop(n)),
+                    (None, None) => None,
+                },
+                focus_distance: args.focus_distance,
             },
             resolution: args.resolution,
             pixel: args.pixel,
@@ -503,6 +519,35 @@ impl Job {
         }
         if self.aim.orbit != 0.0 {
             camera = camera.orbited(centre, self.aim.orbit);
+        }
+        if let Some(aperture) = self.aim.aperture {
+            let Projection::Perspective { yfov } = camera.projection else {
+                refuse!("--aperture and --f-stop: the camera is orthographic (it has no lens)")
+            };
+            // In focus by default: what the camera looks at, or the scene's centre along its
+            // view (the camera looks down its local −Z).
+            let view = camera.to_world.transform_vector3(Vec3::NEG_Z).normalize();
+            let focus_distance = match (self.aim.focus_distance, self.aim.look_at) {
+                (Some(d), _) => d,
+                (None, Some(at)) => (at - camera.position()).length(),
+                (None, None) => (centre - camera.position()).dot(view),
+            };
+            if !(focus_distance > 0.0 && focus_distance.is_finite()) {
+                refuse!(
+                    "--aperture and --f-stop: the scene's centre is not ahead of the camera, so there is no distance to focus at by default: give --focus-distance"
+                );
+            }
+            camera.lens = Some(match aperture {
+                Aperture::Diameter(d) => Lens {
+                    radius: 0.5 * d,
+                    focus_distance,
+                },
+                Aperture::FStop(n) => Lens::from_f_stop(n, yfov, aspect, focus_distance),
+            });
+        } else if self.aim.focus_distance.is_some() {
+            refuse!(
+                "--focus-distance focuses the lens of --aperture or --f-stop: give one of them"
+            );
         }
         Ok(View {
             camera,

@@ -46,7 +46,7 @@ use crate::accel::{SceneBox, PACKET};
 use crate::integrators::emitters::EmitterView;
 use crate::integrators::{Context, Integrator, RayCounts, SampleRecord};
 pub use crate::record::{first_hit, split_first_hit, FirstHit, NO_HIT};
-use crate::sampling::{PixelSampler, SamplerKind};
+use crate::sampling::{warps, PixelSampler, SamplerKind};
 use crate::scene::{Camera, RayGenerator};
 use film::add_features;
 pub use film::{
@@ -613,7 +613,16 @@ fn camera_samples(
         let (x, y, _, _) = lanes[which[k]];
         (fx[k], fy[k]) = (x as f32 + film_uv[k].x, y as f32 + film_uv[k].y);
     }
-    let rays = camera.rays(&fx, &fy);
+    // A thin lens takes the sample's next slot for its point on the lens (a pinhole takes
+    // none, so its images do not change).
+    let rays = match camera.has_lens() {
+        false => camera.rays(&fx, &fy),
+        true => {
+            let mut lens = [Vec2::ZERO; PACKET];
+            PixelSampler::next_2d_lanes(samplers, which, &mut lens[..n]);
+            camera.rays_through_lens(&fx, &fy, &lens.map(warps::square_to_concentric_disk))
+        }
+    };
     let mut hits = [None; PACKET];
     if !packet {
         hits[0] = ctx.accel.intersect(&rays[0]);

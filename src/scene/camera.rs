@@ -24,6 +24,36 @@ pub struct Camera {
     pub to_world: Mat4,
     /// glTF `aspectRatio`, if the file gives one (used for the default resolution).
     pub aspect_ratio: Option<f32>,
+    /// A thin lens (depth of field); None: a pinhole, everything in focus.
+    pub lens: Option<Lens>,
+}
+
+/// A thin lens: rays leave a disk of radius `radius` about the camera's position, square to
+/// its view, and meet where the pinhole's ray through the same film position meets the plane
+/// of focus, `focus_distance` ahead along the view (pbrt-v4 §5.2.3). Scene units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub radius: f32,
+    pub focus_distance: f32,
+}
+
+impl Lens {
+    /// The sensor's width across the image's larger side for `--f-stop`: 36 mm, a full-frame
+    /// 35 mm camera's, as Blender's default sensor (fit "auto").
+    pub const SENSOR_MM: f32 = 36.0;
+
+    /// The lens whose aperture is f-number `f_stop` for a perspective camera of vertical field
+    /// of view `yfov` on an image of aspect ratio `aspect`, in a scene of metres (glTF's
+    /// unit): focal length f = (36 mm / 2) / tan(half the larger side's field of view), and
+    /// the aperture's diameter f / N.
+    pub fn from_f_stop(f_stop: f32, yfov: f32, aspect: f32, focus_distance: f32) -> Lens {
+        let tan_larger = (0.5 * yfov).tan() * aspect.max(1.0);
+        let focal_mm = 0.5 * Lens::SENSOR_MM / tan_larger;
+        Lens {
+            radius: 0.5 * focal_mm / f_stop / 1000.0,
+            focus_distance,
+        }
+    }
 }
 
 impl Camera {
@@ -67,6 +97,7 @@ impl Camera {
             projection: Projection::Perspective { yfov },
             to_world: Mat4::from_translation(center + Vec3::new(0.0, 0.0, distance)),
             aspect_ratio: None,
+            lens: None,
         }
     }
 
@@ -135,14 +166,30 @@ impl Camera {
         let corner = Vec3::new(-sx, sy, z);
         let du = m.transform_vector3(Vec3::new(2.0 * sx / w, 0.0, 0.0));
         let dv = m.transform_vector3(Vec3::new(0.0, -2.0 * sy / h, 0.0));
-        match self.projection {
-            Projection::Perspective { .. } => RayGenerator::Perspective {
+        match (self.projection, self.lens) {
+            (Projection::Perspective { .. }, Some(lens)) if lens.radius > 0.0 => {
+                // The film's directions have unit depth (z = −1 in camera space), so the
+                // pinhole ray through a film position meets the plane of focus at
+                // org + focus_distance · d.
+                // A scaled camera's film directions have depth s (the scale), not 1.
+                let depth = m.transform_vector3(Vec3::NEG_Z).length();
+                RayGenerator::ThinLens {
+                    org: m.transform_point3(Vec3::ZERO),
+                    corner: m.transform_vector3(corner),
+                    du,
+                    dv,
+                    right: m.transform_vector3(Vec3::X).normalize() * lens.radius,
+                    up: m.transform_vector3(Vec3::Y).normalize() * lens.radius,
+                    focus: lens.focus_distance / depth,
+                }
+            }
+            (Projection::Perspective { .. }, _) => RayGenerator::Perspective {
                 org: m.transform_point3(Vec3::ZERO),
                 corner: m.transform_vector3(corner),
                 du,
                 dv,
             },
-            Projection::Orthographic { .. } => RayGenerator::Orthographic {
+            (Projection::Orthographic { .. }, _) => RayGenerator::Orthographic {
                 corner: m.transform_point3(corner),
                 du,
                 dv,
@@ -170,6 +217,18 @@ pub enum RayGenerator {
         dv: Vec3,
         dir: Vec3,
     },
+    /// A thin lens ([`Lens`]): rays from `org + lx·right + ly·up` for a point (lx, ly) of the
+    /// unit disk, toward `org + focus · (corner + fx·du + fy·dv)`, the pinhole ray's point on
+    /// the plane of focus.
+    ThinLens {
+        org: Vec3,
+        corner: Vec3,
+        du: Vec3,
+        dv: Vec3,
+        right: Vec3,
+        up: Vec3,
+        focus: f32,
+    },
 }
 
 impl RayGenerator {
@@ -189,7 +248,48 @@ impl RayGenerator {
                 dv,
                 dir,
             } => Ray::new(corner + fx * du + fy * dv, dir),
+            // The ray through the lens's centre: the pinhole's.
+            RayGenerator::ThinLens {
+                org,
+                corner,
+                du,
+                dv,
+                ..
+            } => Ray::new(org, (corner + fx * du + fy * dv).normalize()),
         }
+    }
+
+    /// Whether rays depend on a point of the lens ([`RayGenerator::rays_through_lens`]).
+    pub fn has_lens(&self) -> bool {
+        matches!(self, RayGenerator::ThinLens { .. })
+    }
+
+    /// The rays through film positions `(fx[i], fy[i])` and points `lens[i]` of the unit disk
+    /// (the lens, scaled to its radius here); without a lens, [`RayGenerator::rays`].
+    #[inline]
+    pub fn rays_through_lens<const N: usize>(
+        &self,
+        fx: &[f32; N],
+        fy: &[f32; N],
+        lens: &[glam::Vec2; N],
+    ) -> [Ray; N] {
+        let RayGenerator::ThinLens {
+            org,
+            corner,
+            du,
+            dv,
+            right,
+            up,
+            focus,
+        } = *self
+        else {
+            return self.rays(fx, fy);
+        };
+        std::array::from_fn(|i| {
+            let on_focus = org + focus * (corner + fx[i] * du + fy[i] * dv);
+            let from = org + lens[i].x * right + lens[i].y * up;
+            Ray::new(from, (on_focus - from).normalize())
+        })
     }
 
     /// The rays through film positions `(fx[i], fy[i])`, each bit-identical to
@@ -249,6 +349,8 @@ impl RayGenerator {
         // Solve q − base = m · (a, b, c) for each corner q; the film position is (b/a, c/a)
         // (perspective) or (a, b) (orthographic, c the distance along the ray).
         let (base, m, perspective, largest, reach) = match *self {
+            // Rays from all over the lens: no film rectangle bounds them simply.
+            RayGenerator::ThinLens { .. } => return None,
             RayGenerator::Perspective {
                 org,
                 corner,
@@ -278,7 +380,8 @@ impl RayGenerator {
         };
         let step = match *self {
             RayGenerator::Perspective { du, dv, .. }
-            | RayGenerator::Orthographic { du, dv, .. } => du.length().min(dv.length()) as f64,
+            | RayGenerator::Orthographic { du, dv, .. }
+            | RayGenerator::ThinLens { du, dv, .. } => du.length().min(dv.length()) as f64,
         };
         let inv = m.inverse();
         if !(inv.is_finite() && step > 0.0 && lo.is_finite() && hi.is_finite()) {
@@ -384,12 +487,74 @@ pub(super) fn from_gltf(camera: &gltf::Camera, world: &DMat4) -> Result<Camera, 
         projection,
         to_world,
         aspect_ratio,
+        lens: None,
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lens_rays_leave_the_lens_and_meet_the_pinhole_ray_on_the_plane_of_focus() {
+        // A camera at (1, 2, 3) turned to look along −X, a lens 0.4 across focused at 5.
+        let pinhole = Camera::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 1.5)
+            .looking(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-4.0, 2.0, 3.0), Vec3::Y)
+            .unwrap();
+        let lensed = Camera {
+            lens: Some(Lens {
+                radius: 0.2,
+                focus_distance: 5.0,
+            }),
+            ..pinhole.clone()
+        };
+        let (g, p) = (lensed.ray_generator(60, 40), pinhole.ray_generator(60, 40));
+        assert!(g.has_lens() && !p.has_lens());
+        let disk = [
+            glam::Vec2::new(1.0, 0.0),
+            glam::Vec2::new(-0.6, 0.8),
+            glam::Vec2::new(0.1, -0.3),
+            glam::Vec2::ZERO,
+        ];
+        let (fx, fy) = ([0.5, 30.0, 59.5, 12.25], [0.5, 20.0, 39.5, 33.0]);
+        let rays = g.rays_through_lens(&fx, &fy, &disk);
+        let through = p.rays(&fx, &fy);
+        let org = Vec3::new(1.0, 2.0, 3.0);
+        for i in 0..4 {
+            let (r, q) = (rays[i], through[i]);
+            // From the lens: in the plane x = 1 (square to the view), within its radius, at
+            // the disk point's place (right is −Z looking along −X, up +Y).
+            let off = r.org - org;
+            assert!(off.x.abs() < 1e-6, "{off}");
+            let want = 0.2 * Vec3::new(0.0, disk[i].y, -disk[i].x);
+            assert!((off - want).length() < 1e-5, "{off} against {want}");
+            // Both reach the plane of focus, x = 1 − 5, at one point.
+            let at = |o: Vec3, d: Vec3| o + d * ((-4.0 - o.x) / d.x);
+            let (a, b) = (at(r.org, r.dir), at(q.org, q.dir));
+            assert!((a - b).length() < 1e-4, "ray {i}: {a} against {b}");
+            assert!((r.dir.length() - 1.0).abs() < 1e-6);
+        }
+        // The lens's centre gives the pinhole's ray.
+        assert!((rays[3].dir - through[3].dir).length() < 1e-6);
+        assert!(g.film_bounds(Vec3::ZERO, Vec3::ONE, 60, 40).is_none());
+    }
+
+    #[test]
+    fn an_f_number_is_the_focal_length_over_the_aperture() {
+        // 50 mm on a 36 mm sensor across a 3:2 image's width: tan(h/2) = 18/50 along x, so
+        // tan(v/2) = 0.24 along y; f/2 is 25 mm across, a radius of 0.0125 m.
+        let yfov = 2.0 * 0.24f32.atan();
+        let lens = Lens::from_f_stop(2.0, yfov, 1.5, 3.0);
+        assert!((lens.radius - 0.0125).abs() < 1e-6, "{}", lens.radius);
+        assert_eq!(lens.focus_distance, 3.0);
+        // A portrait image's larger side is its height: tan(v/2) = 18/50 there.
+        let portrait = Lens::from_f_stop(4.0, 2.0 * 0.36f32.atan(), 0.5, 1.0);
+        assert!(
+            (portrait.radius - 0.00625).abs() < 1e-6,
+            "{}",
+            portrait.radius
+        );
+    }
 
     #[test]
     fn generated_rays_follow_the_gltf_camera_convention() {
@@ -402,6 +567,7 @@ mod tests {
             },
             to_world: Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)),
             aspect_ratio: None,
+            lens: None,
         };
         let centre = cam.generate_ray(100.0, 50.0, 200, 100);
         assert_eq!(centre.org, Vec3::new(1.0, 2.0, 3.0));
@@ -439,6 +605,7 @@ mod tests {
                 Vec3::new(1e4, -3.3, 0.25),
             ),
             aspect_ratio: None,
+            lens: None,
         };
         let orthographic = Camera {
             projection: Projection::Orthographic { ymag: 1.3 },

@@ -22,7 +22,7 @@ mod origins;
 mod tangents;
 
 pub use animation::PoseTime;
-pub use camera::{Camera, Projection, RayGenerator};
+pub use camera::{Camera, Lens, Projection, RayGenerator};
 pub use extensions::transmission::Transmission;
 pub use extensions::{
     AnisotropyLayer, ClearcoatLayer, IridescenceLayer, Layers, SheenLayer, SpecularLayer, Volume,

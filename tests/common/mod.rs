@@ -336,6 +336,7 @@ pub fn camera_looking(
             eye.extend(1.0),
         ),
         aspect_ratio: None,
+        lens: None,
     }
 }
 
