@@ -380,6 +380,12 @@ pub struct Args {
     #[arg(long, value_name = "BYTES", value_parser = parse_memory)]
     pub max_memory: Option<MemoryLimit>,
 
+    /// Refuse a scene with a texture image that is missing or does not decode, naming it and
+    /// the problem, instead of warning and rendering those textures as absent (their
+    /// factors alone).
+    #[arg(long)]
+    pub strict: bool,
+
     /// Write the running image (and the variance image) to the output path(s) at most every
     /// SECONDS during the render, atomically, so a crash or kill loses at most that much.
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]

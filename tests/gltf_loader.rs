@@ -273,7 +273,8 @@ fn external_buffers_are_found_beside_the_file() {
 fn lights_materials_and_cameras_reach_the_scene() {
     let (mut doc, bin) = hierarchy_parts();
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("tex.png"), b"not decoded at load").unwrap();
+    // A real PNG: the loader reads its header (for the memory estimate), not its pixels.
+    std::fs::write(dir.path().join("tex.png"), png(1, 1)).unwrap();
     doc["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
     doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
         {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 4.0, "range": 10.0},
@@ -915,4 +916,18 @@ fn transmission_and_volume_are_read() {
         err.contains("'tinted'") && err.contains("transmissionFactor 1.5"),
         "{err}"
     );
+}
+
+/// A grey RGB PNG of `width × height` pixels.
+fn png(width: u32, height: u32) -> Vec<u8> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &vec![200; (width * height * 3) as usize],
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
+    png
 }

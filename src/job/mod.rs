@@ -128,6 +128,9 @@ pub struct Job {
     pub quads: bool,
     /// Alpha coverage of MASK and BLEND materials (`--no-alpha` turns it off).
     pub alpha: bool,
+    /// Refuse a scene whose texture images cannot all be had (`--strict`), rather than
+    /// render those textures as absent with a warning.
+    pub strict: bool,
     /// Every placement of a mesh stored as its own copy (`--flatten-instances`), not
     /// instanced.
     pub flatten_instances: bool,
@@ -303,6 +306,7 @@ impl Job {
             robust: !args.no_robust,
             quads: !args.no_quads,
             alpha: !args.no_alpha,
+            strict: args.strict,
             flatten_instances: args.flatten_instances,
             integrator,
             shading: shading_options(args, env_file.is_some()),

@@ -11,8 +11,10 @@
 //! range-checked against their buffers before they are read, so a malformed file is an
 //! error, not a panic.
 //!
-//! Images are not decoded here: the scene keeps where their bytes are, and integrators that
-//! read textures decode them.
+//! Images are not decoded here: the scene keeps where their bytes are (the loader reads only
+//! their headers), and integrators that read textures decode them.
+//! An image that cannot be read is kept as [`ImageSource::Unreadable`], with why: its
+//! textures render as absent, with a warning, or `--strict` refuses the scene.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -148,8 +150,21 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
             .materials
             .push(m.index().map(|i| i as u32));
     }
+    // Each image's source, its header read: an image that cannot be read (a missing file, a
+    // header no decoder knows) is kept as unreadable, and its textures render as if absent,
+    // with a warning, when a render binds them (or `--strict` refuses the scene).
     for img in gltf.document.images() {
-        let source = loader.image(&gltf.document, img.index(), &base_dir)?;
+        let source = loader
+            .image(&gltf.document, img.index(), &base_dir)
+            .unwrap_or_else(ImageSource::Unreadable);
+        let source = match crate::texture::dimensions(&source) {
+            Ok(_) => source,
+            Err(why) => ImageSource::Unreadable(why),
+        };
+        loader
+            .scene
+            .image_labels
+            .push(image_label(&gltf.document, &img));
         loader.scene.images.push(source);
     }
 
@@ -162,7 +177,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     scene.memory_estimate = estimate;
     files.extend(scene.images.iter().filter_map(|image| match image {
         ImageSource::File(file) => Some(file.clone()),
-        ImageSource::Bytes { .. } => None,
+        ImageSource::Bytes { .. } | ImageSource::Unreadable(_) => None,
     }));
     scene.files = files;
     Ok(scene)
@@ -242,6 +257,21 @@ fn parse_document(bytes: &[u8]) -> Result<(gltf::Gltf, Vec<String>)> {
         }
     }
     Ok((gltf, extension_warnings))
+}
+
+/// What messages call an image: its index, and its name and URI where it has them.
+fn image_label(doc: &gltf::Document, img: &gltf::Image) -> String {
+    let json = &doc.as_json().images[img.index()];
+    let uri = json.uri.as_deref().filter(|u| !u.starts_with("data:"));
+    let mut label = format!("image {}", img.index());
+    if let Some(name) = img.name() {
+        label += &format!(" '{name}'");
+    }
+    match uri {
+        Some(uri) => label += &format!(" ({uri})"),
+        None => label += " (embedded)",
+    }
+    label
 }
 
 /// An error where the scene's memory `estimate`, with the image's, exceeds the limit.
@@ -567,7 +597,8 @@ impl Loader<'_> {
         Ok(material)
     }
 
-    /// Where image `i`'s bytes are. Read from the JSON rather than through
+    /// Where image `i`'s bytes are, or why they cannot be had (an error that does not name
+    /// the image: the caller's label does). Read from the JSON rather than through
     /// `gltf::Image::source`, which panics on an image with neither `uri` nor `bufferView`, or
     /// with a `bufferView` but no `mimeType` (found by fuzzing). A missing `mimeType` is
     /// tolerated: the decoder recognises PNG and JPEG by their bytes.
@@ -578,35 +609,29 @@ impl Loader<'_> {
             let view = doc
                 .views()
                 .nth(v.value())
-                .ok_or_else(|| format!("image {i}: bufferView {} does not exist", v.value()))?;
-            let bytes = view_bytes(self.buffers, &view).map_err(|e| format!("image {i}: {e}"))?;
+                .ok_or_else(|| format!("its bufferView {} does not exist", v.value()))?;
+            let bytes = view_bytes(self.buffers, &view)?;
             return Ok(ImageSource::Bytes {
                 data: Arc::from(bytes),
                 mime,
             });
         }
         let Some(uri) = json.uri.as_deref() else {
-            return Err(format!("image {i} has neither a uri nor a bufferView"));
+            return Err("it has neither a uri nor a bufferView".into());
         };
         if uri.starts_with("data:") {
-            let data = read_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+            let data = read_uri(uri, base_dir)?;
             return Ok(ImageSource::Bytes {
                 data: Arc::from(data),
                 mime,
             });
         }
-        let file = resolve_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+        let file = resolve_uri(uri, base_dir)?;
         if !file.exists() {
-            return Err(format!(
-                "image {i}: file '{}' does not exist",
-                file.display()
-            ));
+            return Err(format!("the file '{}' does not exist", file.display()));
         }
         if !file.is_file() {
-            return Err(format!(
-                "image {i}: '{}' is not a regular file",
-                file.display()
-            ));
+            return Err(format!("'{}' is not a regular file", file.display()));
         }
         Ok(ImageSource::File(file))
     }
