@@ -351,6 +351,25 @@ fn refusals() -> Vec<Refusal> {
         .with(&["--max-memory", "64K"])
         .line_has(&["8 vertices, 4 triangles"]),
     );
+    // The file, geometry and image fit in 512 KiB; with the 256x256 texture decoded (1 MiB
+    // of RGBA in f32) they do not: refused once the image's header gives its size.
+    let mut doc = ao_wall_json();
+    doc["images"] = json!([{"uri": "big.png"}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    cases.push(Refusal {
+        files: vec![("scene.gltf", json_bytes(&doc)), ("big.png", png(256, 256))],
+        ..Refusal::at(
+            "textured_scene_under_a_limit_its_texture_passes_is_refused",
+            "{tmp}/scene.gltf",
+            &[
+                "needs an estimated",
+                "1.0 MiB for 1 decoded texture",
+                "--max-memory",
+            ],
+        )
+        .with(&["--max-memory", "512K"])
+    });
     // Without --resolution the image size comes from the file's camera (640 wide): the
     // check runs after loading, before the BVH and the film are allocated.
     cases.push(

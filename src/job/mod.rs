@@ -393,6 +393,7 @@ impl Job {
         LoadOptions {
             memory_limit: self.memory_limit,
             other_memory: self.resolution.map_or(0, |(w, h)| self.image_memory(w, h)),
+            environment_memory: self.environment_memory(),
             pose: self.frame.map(|f| crate::scene::PoseTime {
                 animation: self.animation,
                 seconds: f as f64 / self.fps,
@@ -449,13 +450,20 @@ impl Job {
                 });
         let scene_memory = scene.memory_estimate.bytes();
         let image_memory = self.image_memory(width, height);
-        let needed = scene_memory.saturating_add(image_memory);
+        let environment_memory = self.environment_memory();
+        let needed = (scene_memory)
+            .saturating_add(image_memory)
+            .saturating_add(environment_memory);
         if let Some(limit) = self.memory_limit.filter(|&l| needed > l) {
             refuse!(
-                "{}: rendering needs an estimated {} of memory (scene and BVH {}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
+                "{}: rendering needs an estimated {} of memory (scene and BVH {}{}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
                 self.scene.display(),
                 format_bytes(needed),
                 format_bytes(scene_memory),
+                match environment_memory {
+                    0 => String::new(),
+                    n => format!(", environment map {}", format_bytes(n)),
+                },
                 format_bytes(image_memory),
                 format_bytes(limit)
             );
@@ -541,6 +549,15 @@ impl Job {
     }
 
     /// Reads the environment map (`--env`), if any, into the shading options.
+    /// What the `--env` map will take in memory ([`EnvMap::memory_estimate`], from its
+    /// header); 0 without one, or where its header does not read (loading it says why).
+    pub fn environment_memory(&self) -> u64 {
+        match &self.env {
+            Some((path, _, _)) => EnvMap::memory_estimate(path).unwrap_or(0),
+            None => 0,
+        }
+    }
+
     pub fn load_environment(&mut self) -> Result<(), JobError> {
         if let Some((path, degrees, scale)) = &self.env {
             let map = EnvMap::load(path, degrees.to_radians(), *scale, self.env_sampling)

@@ -214,6 +214,32 @@ impl Material {
         self.normal_texture.is_some() || self.layers.needs_tangents()
     }
 
+    /// Every texture the material binds, as (its image, how the image's colours are
+    /// encoded): the core material's (the occlusion texture's too, though it is not
+    /// rendered), the transmission's and each layer's.
+    pub fn texture_images(&self) -> Vec<(usize, Encoding)> {
+        let core = [
+            (&self.base_color_texture, Encoding::Srgb),
+            (&self.emissive_texture, Encoding::Srgb),
+            (&self.metallic_roughness_texture, Encoding::Linear),
+            (&self.normal_texture, Encoding::Linear),
+            (&self.occlusion_texture, Encoding::Linear),
+        ];
+        let mut out: Vec<(usize, Encoding)> = (core.iter())
+            .filter_map(|(t, e)| t.as_ref().map(|t| (t.image, *e)))
+            .collect();
+        // The extensions' textures, through the binding every renderer's texture goes
+        // through, so that none is left out.
+        let mut note =
+            |t: &TextureRef, e: Encoding| -> Result<Option<()>, std::convert::Infallible> {
+                out.push((t.image, e));
+                Ok(Some(()))
+            };
+        let Ok(_) = self.transmission.bind(&mut note);
+        let Ok(_) = self.layers.bind(&mut note);
+        out
+    }
+
     /// True when alpha may leave holes in the surface (glTF 2.0, "Alpha Coverage"): a MASK
     /// or BLEND material with a base colour texture (whose alpha is only known once decoded,
     /// see `accel::AlphaCoverage`), or whose factor's alpha alone is below what covers

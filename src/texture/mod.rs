@@ -65,8 +65,12 @@ fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
     image::open(path).map_err(|e| describe(&e))
 }
 
-/// The width and height of the image at `source`, read from its header without decoding it
-/// (the loader's check that an image can be read):
+/// The bytes each texel of a decoded texture takes: strata keeps textures as linear RGBA in
+/// f32 ([`Image`] of `Vec4`), one level (no mip maps), decoded once per colour encoding the
+/// image is bound with.
+pub const BYTES_PER_TEXEL: u64 = 16;
+
+/// The width and height of the image at `source`, read from its header without decoding it:
 /// a KTX2 file's own header, the others' as the `image` crate reads them. An error says why
 /// the image cannot be had (it does not name the image).
 pub fn dimensions(source: &ImageSource) -> Result<(u32, u32), String> {
