@@ -392,12 +392,18 @@ pub struct Args {
     #[arg(long)]
     pub stats: bool,
 
-    /// Refuse a scene whose estimated memory (geometry, BVH and image, from the file's
-    /// declared counts, before loading) exceeds this: bytes, or with a suffix K, M, G, T
-    /// (powers of 1024), e.g. 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical
-    /// memory].
+    /// Refuse a scene whose estimated memory (geometry, BVH, decoded textures, environment
+    /// map and image, from the file's declared counts and the images' headers, before
+    /// loading) exceeds this: bytes, or with a suffix K, M, G, T (powers of 1024), e.g.
+    /// 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical memory].
     #[arg(long, value_name = "BYTES", value_parser = parse_memory)]
     pub max_memory: Option<MemoryLimit>,
+
+    /// Refuse a scene with a texture image that is missing or does not decode, naming it and
+    /// the problem, instead of warning and rendering those textures as absent (their
+    /// factors alone).
+    #[arg(long)]
+    pub strict: bool,
 
     /// Write the running image (and the variance image) to the output path(s) at most every
     /// SECONDS during the render, atomically, so a crash or kill loses at most that much.

@@ -398,6 +398,19 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
 
     // Materials and lights: only what the integrator reads.
     let (prepared, prepare_time) = prepare(&mut job, &scene)?;
+    // The textures whose images did not decode, read as absent by alpha coverage and by
+    // shading: one warning per image, or under --strict the refusal, before anything is
+    // rendered or written.
+    let missing: Vec<_> = (accel.missing_textures().iter())
+        .chain(prepared.materials.missing_textures())
+        .cloned()
+        .collect();
+    if let (true, Some(m)) = (job.strict, missing.first()) {
+        return Err(strict_refusal(&job, &scene, m.image, &m.problem));
+    }
+    for w in scene.missing_texture_warnings(&missing) {
+        eprintln!("warning: {}: {w}", job.scene.display());
+    }
 
     // Render, writing checkpoints on the way when asked to.
     let ctx = strata::integrators::Context {
@@ -656,6 +669,15 @@ fn run_job(mut job: Job, interrupts: &Interrupts) -> Result<Outcome> {
     })
 }
 
+/// The error `--strict` gives for a scene whose image `image` cannot be had, for `problem`.
+fn strict_refusal(job: &Job, scene: &scene::Scene, image: usize, problem: &str) -> anyhow::Error {
+    anyhow!(
+        "{}: {}: {problem} (--strict refuses a scene with a texture image that is missing or does not decode; without it, the textures that use the image render as absent, with a warning)",
+        job.scene.display(),
+        scene.image_label(image)
+    )
+}
+
 /// Loads the job's scene and prints its warnings; the time it took.
 fn load_scene(job: &Job) -> Result<(scene::Scene, Duration)> {
     let t_load = Instant::now();
@@ -665,6 +687,12 @@ fn load_scene(job: &Job) -> Result<(scene::Scene, Duration)> {
         .map_err(|e| anyhow!("{}: {e}", job.scene.display()))?;
     for w in &scene.load_warnings {
         eprintln!("warning: {}: {w}", job.scene.display());
+    }
+    if job.strict {
+        // Before anything is built: an image the loader could not read at all.
+        if let Some((i, problem)) = scene.unreadable_images().next() {
+            return Err(strict_refusal(job, &scene, i, problem));
+        }
     }
     if job.integrator.material_need() == Need::Shading {
         for w in scene.material_warnings() {

@@ -201,13 +201,30 @@ pub fn stats(run: &Run) -> String {
         },
         run.phases.write.as_secs_f64()
     );
-    let scene_memory = scene.memory_estimate.bytes();
+    let estimate = &scene.memory_estimate;
+    let scene_memory = estimate.bytes();
     let image_memory = job.image_memory(run.view.width, run.view.height);
+    let environment_memory = job.environment_memory();
     let _ = writeln!(
         s,
-        "memory estimate: {} (scene and BVH {}, image {}), limit {}",
-        format_bytes(scene_memory.saturating_add(image_memory)),
+        "memory estimate: {} (scene and BVH {}{}{}, image {}), limit {}",
+        format_bytes(
+            (scene_memory)
+                .saturating_add(image_memory)
+                .saturating_add(environment_memory)
+        ),
         format_bytes(scene_memory),
+        match estimate.textures {
+            0 => String::new(),
+            n => format!(
+                " with {n} decoded texture(s) {}",
+                format_bytes(estimate.texture_bytes)
+            ),
+        },
+        match environment_memory {
+            0 => String::new(),
+            n => format!(", environment map {}", format_bytes(n)),
+        },
         format_bytes(image_memory),
         job.memory_limit.map_or("none".to_string(), format_bytes)
     );

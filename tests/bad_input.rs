@@ -243,15 +243,15 @@ fn refusals() -> Vec<Refusal> {
         |d| d["buffers"][0]["uri"] = json!("data:application/octet-stream,hello"),
         &["buffer 0", "not base64-encoded"],
     ));
-    cases.push(Refusal::json(
-        "missing_external_image",
-        |d| {
-            d["images"] = json!([{"uri": "nothere.png"}]);
-            d["textures"] = json!([{"source": 0}]);
-            d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
-        },
-        &["image 0", "nothere.png", "does not exist"],
-    ));
+    // Under --strict (without it they warn and render: textures_that_cannot_be_had_*).
+    cases.push(
+        Refusal::json(
+            "missing_external_image",
+            with_missing_texture,
+            &["image 0", "nothere.png", "does not exist", "--strict"],
+        )
+        .with(&["--strict"]),
+    );
     // /dev/zero never ends: reading it whole would exhaust memory.
     cases.push(Refusal::json(
         "buffer_that_is_not_a_regular_file",
@@ -351,6 +351,25 @@ fn refusals() -> Vec<Refusal> {
         .with(&["--max-memory", "64K"])
         .line_has(&["8 vertices, 4 triangles"]),
     );
+    // The file, geometry and image fit in 512 KiB; with the 256x256 texture decoded (1 MiB
+    // of RGBA in f32) they do not: refused once the image's header gives its size.
+    let mut doc = ao_wall_json();
+    doc["images"] = json!([{"uri": "big.png"}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    cases.push(Refusal {
+        files: vec![("scene.gltf", json_bytes(&doc)), ("big.png", png(256, 256))],
+        ..Refusal::at(
+            "textured_scene_under_a_limit_its_texture_passes_is_refused",
+            "{tmp}/scene.gltf",
+            &[
+                "needs an estimated",
+                "1.0 MiB for 1 decoded texture",
+                "--max-memory",
+            ],
+        )
+        .with(&["--max-memory", "512K"])
+    });
     // Without --resolution the image size comes from the file's camera (640 wide): the
     // check runs after loading, before the BVH and the film are allocated.
     cases.push(
@@ -378,14 +397,15 @@ fn refusals() -> Vec<Refusal> {
             "not support",
         ],
     ));
-    // `direct` reads base colour textures, so it decodes them (before rendering).
+    // `direct` reads base colour textures, so it decodes them (before rendering); the
+    // header passes, the data does not.
     cases.push(
         Refusal::json(
             "texture_that_does_not_decode",
             with_broken_texture,
-            &["cannot decode embedded image 0"],
+            &["image 0 (embedded)", "--strict"],
         )
-        .with(&["--integrator", "direct", "--background", "1"]),
+        .with(&["--integrator", "direct", "--background", "1", "--strict"]),
     );
     cases.push(Refusal::json(
         "camera_with_zero_yfov",
@@ -617,6 +637,297 @@ fn max_memory_values_are_checked() {
         let run = render(tmp.path(), &args);
         assert!(run.status.success(), "--max-memory {good}: {}", run.stderr);
     }
+}
+
+/// A grey PNG of `width × height` pixels.
+fn png(width: u32, height: u32) -> Vec<u8> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &vec![128; (width * height * 4) as usize],
+        width,
+        height,
+        image::ExtendedColorType::Rgba8,
+    )
+    .unwrap();
+    png
+}
+
+/// ao-wall with a base colour texture whose image file does not exist.
+fn with_missing_texture(d: &mut Value) {
+    d["images"] = json!([{"uri": "nothere.png"}]);
+    d["textures"] = json!([{"source": 0}]);
+    d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+}
+
+/// Without `--strict`, a texture whose image is missing or does not decode (a file that is
+/// not there, a PNG cut after its signature, a file in no format strata reads, an embedded
+/// image cut short) renders without it, and one warning line names the scene, the image and
+/// the problem: the image is the one without the texture, pixel for pixel.
+#[test]
+fn textures_that_cannot_be_had_warn_and_render_with_their_factors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let render_one = |name: &str, doc: &Value| {
+        let scene = tmp.path().join(format!("{name}.gltf"));
+        std::fs::write(&scene, json_bytes(doc)).unwrap();
+        let out = tmp.path().join(format!("{name}.exr"));
+        let mut args = vec![s(&scene), "-o", s(&out), "--no-png", "--integrator", "path"];
+        args.extend_from_slice(&SMALL);
+        let run = render(tmp.path(), &args);
+        run.assert_success();
+        let pixels = strata::render::output::read_exr_rgb(&out).unwrap().2;
+        (run.stderr, pixels)
+    };
+    let (_, plain) = render_one("plain", &ao_wall_json());
+    let good = png(4, 4);
+    std::fs::write(tmp.path().join("cut.png"), &good[..good.len() - 20]).unwrap();
+    std::fs::write(tmp.path().join("notes.png"), b"plain text, not an image").unwrap();
+    let cases: [(&str, Value, &[&str]); 4] = [
+        (
+            "missing",
+            json!({"uri": "nothere.png", "name": "albedo"}),
+            &["image 0 'albedo' (nothere.png)", "does not exist"],
+        ),
+        ("cut", json!({"uri": "cut.png"}), &["image 0 (cut.png)"]),
+        (
+            "not_an_image",
+            json!({"uri": "notes.png"}),
+            &["image 0 (notes.png)", "format", "PNG, JPEG"],
+        ),
+        (
+            "embedded_cut",
+            json!({"uri": data_uri(&good[..30]).replace("application/octet-stream", "image/png")}),
+            &["image 0 (embedded)"],
+        ),
+    ];
+    for (name, image, words) in cases {
+        let mut doc = ao_wall_json();
+        with_missing_texture(&mut doc);
+        doc["images"] = json!([image]);
+        let (stderr, pixels) = render_one(name, &doc);
+        let lines: Vec<&str> = (stderr.lines())
+            .filter(|l| l.contains("as if absent"))
+            .collect();
+        assert_eq!(lines.len(), 1, "{name}: {stderr}");
+        let line = lines[0];
+        assert!(
+            line.starts_with("warning: ") && line.contains(&format!("{name}.gltf")),
+            "{line}"
+        );
+        for word in words.iter().chain(&["factors alone", "in material 0"]) {
+            assert!(line.contains(word), "{name}: '{word}' not in {line}");
+        }
+        assert!(
+            pixels == plain,
+            "{name}: the image differs from the untextured one"
+        );
+    }
+}
+
+/// Every texture slot strata renders, core and extension (`KHR_materials_*`), each bound to
+/// an image that does not exist, renders as the same material without that texture, pixel
+/// for pixel, with the warning for that image; so do the slots strata does not read
+/// (occlusion, the volume's thickness), without it. A slot that kept its texture with no
+/// image, or filled it with anything, would fail the comparison or the render.
+#[test]
+fn every_texture_slot_with_a_missing_image_renders_as_without_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let tex = json!({"index": 0});
+    // (name, the material with the texture at `slot`, a JSON pointer; whether strata reads it)
+    let base = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.5, 0.3, 1.0],
+        "metallicFactor": 0.3, "roughnessFactor": 0.5}});
+    let with_ext = |ext: &str, body: Value| {
+        let mut m = base.clone();
+        m["extensions"] = json!({ ext: body });
+        m
+    };
+    let mut emissive = base.clone();
+    emissive["emissiveFactor"] = json!([0.5, 0.2, 0.1]);
+    let slots: Vec<(&str, Value, &str, bool)> = vec![
+        (
+            "base colour",
+            base.clone(),
+            "/pbrMetallicRoughness/baseColorTexture",
+            true,
+        ),
+        (
+            "metallic-roughness",
+            base.clone(),
+            "/pbrMetallicRoughness/metallicRoughnessTexture",
+            true,
+        ),
+        ("normal", base.clone(), "/normalTexture", true),
+        ("occlusion", base.clone(), "/occlusionTexture", false),
+        ("emissive", emissive, "/emissiveTexture", true),
+        (
+            "transmission",
+            with_ext(
+                "KHR_materials_transmission",
+                json!({"transmissionFactor": 0.5}),
+            ),
+            "/extensions/KHR_materials_transmission/transmissionTexture",
+            true,
+        ),
+        (
+            "volume thickness",
+            {
+                let mut m = with_ext(
+                    "KHR_materials_transmission",
+                    json!({"transmissionFactor": 0.5}),
+                );
+                m["extensions"]["KHR_materials_volume"] = json!({"thicknessFactor": 0.2});
+                m
+            },
+            "/extensions/KHR_materials_volume/thicknessTexture",
+            false,
+        ),
+        (
+            "specular",
+            with_ext("KHR_materials_specular", json!({"specularFactor": 0.7})),
+            "/extensions/KHR_materials_specular/specularTexture",
+            true,
+        ),
+        (
+            "specular colour",
+            with_ext(
+                "KHR_materials_specular",
+                json!({"specularColorFactor": [0.9, 0.8, 0.7]}),
+            ),
+            "/extensions/KHR_materials_specular/specularColorTexture",
+            true,
+        ),
+        (
+            "clearcoat",
+            with_ext("KHR_materials_clearcoat", json!({"clearcoatFactor": 0.8})),
+            "/extensions/KHR_materials_clearcoat/clearcoatTexture",
+            true,
+        ),
+        (
+            "clearcoat roughness",
+            with_ext(
+                "KHR_materials_clearcoat",
+                json!({"clearcoatFactor": 0.8, "clearcoatRoughnessFactor": 0.4}),
+            ),
+            "/extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture",
+            true,
+        ),
+        (
+            "clearcoat normal",
+            with_ext("KHR_materials_clearcoat", json!({"clearcoatFactor": 0.8})),
+            "/extensions/KHR_materials_clearcoat/clearcoatNormalTexture",
+            true,
+        ),
+        (
+            "sheen colour",
+            with_ext(
+                "KHR_materials_sheen",
+                json!({"sheenColorFactor": [0.6, 0.6, 0.6], "sheenRoughnessFactor": 0.5}),
+            ),
+            "/extensions/KHR_materials_sheen/sheenColorTexture",
+            true,
+        ),
+        (
+            "sheen roughness",
+            with_ext(
+                "KHR_materials_sheen",
+                json!({"sheenColorFactor": [0.6, 0.6, 0.6], "sheenRoughnessFactor": 0.5}),
+            ),
+            "/extensions/KHR_materials_sheen/sheenRoughnessTexture",
+            true,
+        ),
+        (
+            "anisotropy",
+            with_ext(
+                "KHR_materials_anisotropy",
+                json!({"anisotropyStrength": 0.6}),
+            ),
+            "/extensions/KHR_materials_anisotropy/anisotropyTexture",
+            true,
+        ),
+        (
+            "iridescence",
+            with_ext(
+                "KHR_materials_iridescence",
+                json!({"iridescenceFactor": 1.0}),
+            ),
+            "/extensions/KHR_materials_iridescence/iridescenceTexture",
+            true,
+        ),
+        (
+            "iridescence thickness",
+            with_ext(
+                "KHR_materials_iridescence",
+                json!({"iridescenceFactor": 1.0}),
+            ),
+            "/extensions/KHR_materials_iridescence/iridescenceThicknessTexture",
+            true,
+        ),
+    ];
+    // ao-wall with texture coordinates (the quads' corners at the unit square's), so that
+    // normal maps and anisotropy have tangent frames and every texture could show.
+    let mut wall = ao_wall_json();
+    let mut bin = ao_wall_buffer();
+    let uv_offset = bin.len();
+    for v in [0f32, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    wall["buffers"][0] = json!({"uri": data_uri(&bin), "byteLength": bin.len()});
+    let views = wall["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": uv_offset, "byteLength": 32}));
+    let view = views.len() - 1;
+    let accessors = wall["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"bufferView": view, "componentType": 5126, "count": 4, "type": "VEC2"}));
+    let uv = accessors.len() - 1;
+    for mesh in wall["meshes"].as_array_mut().unwrap() {
+        mesh["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    }
+    let render_one = |name: String, material: &Value, textured: bool| {
+        let mut doc = wall.clone();
+        for m in doc["materials"].as_array_mut().unwrap() {
+            *m = material.clone();
+        }
+        if let Some(e) = material.get("extensions").and_then(Value::as_object) {
+            doc["extensionsUsed"] = e.keys().cloned().collect();
+        }
+        if textured {
+            doc["images"] = json!([{"uri": "lost.png", "name": "lost"}]);
+            doc["textures"] = json!([{"source": 0}]);
+        }
+        let scene = tmp.path().join(format!("{name}.gltf"));
+        std::fs::write(&scene, json_bytes(&doc)).unwrap();
+        let out = tmp.path().join(format!("{name}.exr"));
+        let mut args = vec![s(&scene), "-o", s(&out), "--no-png", "--integrator", "path"];
+        args.extend_from_slice(&["--resolution", "12x12", "--spp", "2"]);
+        let run = render(tmp.path(), &args);
+        run.assert_success();
+        let pixels = strata::render::output::read_exr_rgb(&out).unwrap().2;
+        (run.stderr, pixels)
+    };
+    let mut failures = Vec::new();
+    for (i, (name, material, slot, read)) in slots.iter().enumerate() {
+        let mut textured = material.clone();
+        let (parent, key) = slot.rsplit_once('/').unwrap();
+        textured
+            .pointer_mut(parent)
+            .unwrap_or_else(|| panic!("{name}: {parent}"))[key] = tex.clone();
+        let (stderr, with) = render_one(format!("{i}-with"), &textured, true);
+        let (_, without) = render_one(format!("{i}-without"), material, false);
+        let warned = (stderr.lines())
+            .filter(|l| l.contains("image 0 'lost' (lost.png)") && l.contains("as if absent"))
+            .count();
+        if warned != usize::from(*read) {
+            failures.push(format!(
+                "{name}: {warned} warning(s) for the missing image:
+{stderr}"
+            ));
+        }
+        if with != without {
+            failures.push(format!(
+                "{name}: the image differs from the material's without the texture"
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// ao-wall with a base colour texture whose PNG is broken.

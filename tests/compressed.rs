@@ -951,7 +951,8 @@ fn corrupt_ktx2_and_webp_images_are_errors_naming_the_scene_and_the_image() {
     );
 }
 
-/// The command line: a scene whose KTX2 texture is cut short renders nothing and says, in
+/// The command line: a scene whose KTX2 texture is cut short renders without it, with a
+/// warning naming the scene and the image; under `--strict` it renders nothing and says, in
 /// one line, which scene and which image.
 #[test]
 fn the_renderer_names_a_corrupt_ktx2_texture_in_one_line() {
@@ -975,18 +976,27 @@ fn the_renderer_names_a_corrupt_ktx2_texture_in_one_line() {
         serde_json::to_vec(&doc).unwrap(),
     )
     .unwrap();
-    let run = common::render(
-        dir.path(),
-        &[
-            "scene.gltf",
-            "--spp",
-            "1",
-            "--resolution",
-            "8x6",
-            "--no-png",
-        ],
-    );
+    let args = [
+        "scene.gltf",
+        "--spp",
+        "1",
+        "--resolution",
+        "8x6",
+        "--no-png",
+    ];
+    let run = common::render(dir.path(), &args);
+    run.assert_success();
+    let warned = (run.stderr.lines()).any(|l| {
+        ["warning: scene.gltf", "cut.ktx2", "KTX2", "as if absent"]
+            .iter()
+            .all(|w| l.contains(w))
+    });
+    assert!(warned, "{}", run.stderr);
+    std::fs::remove_file(dir.path().join("scene.exr")).unwrap();
+
+    let run = common::render(dir.path(), &[&args[..], &["--strict"]].concat());
     assert!(!run.status.success());
+    assert!(!dir.path().join("scene.exr").exists());
     // A note on the lighting may come first; the error is one line.
     let stderr: String = (run.stderr.lines())
         .filter(|l| !l.starts_with("note:"))

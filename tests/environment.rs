@@ -100,6 +100,33 @@ fn a_map_of_one_colour_lights_as_the_constant_background_does() {
     );
 }
 
+/// The memory a map will take, from its file's header alone, .hdr and .exr alike: a 40 × 20
+/// map keeps 41 texels a row (the first repeated at the end) of 16 bytes (RGB radiance and
+/// the sampling density, f32 each), 41 × 20 × 16 = 13 120 bytes, and 8 bytes (a cdf value
+/// and a guide index) for each of its 41 × 21 cells and the 22 entries of the marginal over
+/// the cell rows, (861 + 22) × 8 = 7 064: 20 184 in all.
+#[test]
+fn an_environment_maps_memory_is_estimated_from_its_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (40usize, 20usize);
+    let hdr = dir.path().join("map.hdr");
+    image::DynamicImage::ImageRgb32F(image::Rgb32FImage::new(w as u32, h as u32))
+        .save(&hdr)
+        .unwrap();
+    let exr_path = dir.path().join("map.exr");
+    exr::prelude::write_rgb_file(&exr_path, w, h, |_, _| (0.5f32, 0.5f32, 0.5f32)).unwrap();
+    for path in [&hdr, &exr_path] {
+        assert_eq!(
+            EnvMap::memory_estimate(path),
+            Ok(20_184),
+            "{}",
+            path.display()
+        );
+    }
+    let e = EnvMap::memory_estimate(&dir.path().join("absent.hdr")).unwrap_err();
+    assert!(e.contains("absent.hdr"), "{e}");
+}
+
 /// A 4 × 2 map with a distinct colour per texel, written as .hdr and as .exr: both load
 /// with row 0 at the top (up) and the image's centre toward +X.
 #[test]

@@ -62,6 +62,7 @@ fn load_bounded(path: &Path) -> Result<Result<Scene, String>, String> {
         let options = LoadOptions {
             memory_limit: Some(256 << 20),
             other_memory: 0,
+            environment_memory: 0,
             pose: None,
             flatten_instances: false,
         };

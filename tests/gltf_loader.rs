@@ -273,7 +273,8 @@ fn external_buffers_are_found_beside_the_file() {
 fn lights_materials_and_cameras_reach_the_scene() {
     let (mut doc, bin) = hierarchy_parts();
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("tex.png"), b"not decoded at load").unwrap();
+    // A real PNG: the loader reads its header (for the memory estimate), not its pixels.
+    std::fs::write(dir.path().join("tex.png"), png(1, 1)).unwrap();
     doc["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
     doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
         {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 4.0, "range": 10.0},
@@ -915,4 +916,108 @@ fn transmission_and_volume_are_read() {
         err.contains("'tinted'") && err.contains("transmissionFactor 1.5"),
         "{err}"
     );
+}
+
+/// The memory estimate counts each decoded texture as strata keeps it: RGBA in f32, 16 bytes
+/// a texel, once for each colour encoding its textures read it with (sRGB for base colour,
+/// emission, sheen and specular colour; linear for the others), and the base colour of a
+/// MASK or BLEND material once more as its alpha channel (f32, 4 bytes a texel). An image
+/// that cannot be read counts nothing.
+#[test]
+fn the_memory_estimate_counts_decoded_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tex.png"), png(37, 23)).unwrap();
+    let wall: Value = serde_json::from_slice(
+        &std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ao-wall.gltf")).unwrap(),
+    )
+    .unwrap();
+    let estimate = |name: &str, edit: &dyn Fn(&mut Value)| {
+        let mut doc = wall.clone();
+        doc["images"] = json!([{"uri": "tex.png"}, {"uri": "absent.png"}]);
+        doc["textures"] = json!([{"source": 0}, {"source": 1}]);
+        edit(&mut doc);
+        let path = dir.path().join(format!("{name}.gltf"));
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        load(&path).memory_estimate
+    };
+    let plain = estimate("plain", &|_| {});
+    assert_eq!((plain.textures, plain.texture_bytes), (0, 0));
+    let texels: u64 = 37 * 23;
+    let pbr = "/materials/0/pbrMetallicRoughness";
+    type Edit = Box<dyn Fn(&mut Value)>;
+    let cases: Vec<(&str, Edit, u64, u64)> = vec![
+        (
+            "base_colour",
+            Box::new(move |d| {
+                d.pointer_mut(pbr).unwrap()["baseColorTexture"] = json!({"index": 0})
+            }),
+            1,
+            texels * 16,
+        ),
+        (
+            "base_colour_and_emission_one_srgb_decode",
+            Box::new(move |d| {
+                d.pointer_mut(pbr).unwrap()["baseColorTexture"] = json!({"index": 0});
+                d["materials"][0]["emissiveTexture"] = json!({"index": 0});
+            }),
+            1,
+            texels * 16,
+        ),
+        (
+            "base_colour_and_metallic_roughness_srgb_and_linear",
+            Box::new(move |d| {
+                d.pointer_mut(pbr).unwrap()["baseColorTexture"] = json!({"index": 0});
+                d.pointer_mut(pbr).unwrap()["metallicRoughnessTexture"] = json!({"index": 0});
+            }),
+            2,
+            texels * 32,
+        ),
+        (
+            "mask_base_colour_and_its_alpha",
+            Box::new(move |d| {
+                d.pointer_mut(pbr).unwrap()["baseColorTexture"] = json!({"index": 0});
+                d["materials"][0]["alphaMode"] = json!("MASK");
+            }),
+            1,
+            texels * 16 + texels * 4,
+        ),
+        (
+            "clearcoat_extension",
+            Box::new(|d| {
+                d["materials"][0]["extensions"] = json!({"KHR_materials_clearcoat":
+                    {"clearcoatFactor": 1.0, "clearcoatTexture": {"index": 0}}});
+            }),
+            1,
+            texels * 16,
+        ),
+        (
+            "missing_image",
+            Box::new(move |d| {
+                d.pointer_mut(pbr).unwrap()["baseColorTexture"] = json!({"index": 1})
+            }),
+            0,
+            0,
+        ),
+    ];
+    let without_input = |e: &scene::MemoryEstimate| e.bytes() - e.input_bytes;
+    for (name, edit, textures, bytes) in cases {
+        let e = estimate(name, &*edit);
+        assert_eq!((e.textures, e.texture_bytes), (textures, bytes), "{name}");
+        // The file's own size changes with the edit; the rest grows by the textures alone.
+        assert_eq!(without_input(&e), without_input(&plain) + bytes, "{name}");
+    }
+}
+
+/// A grey RGB PNG of `width × height` pixels.
+fn png(width: u32, height: u32) -> Vec<u8> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &vec![200; (width * height * 3) as usize],
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
+    png
 }

@@ -57,8 +57,7 @@ fuzz_target!(|data: &[u8]| {
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scene.gltf"));
     let options = LoadOptions {
         memory_limit: Some(256 << 20),
-        other_memory: 0,
-        pose: None,
+        ..Default::default()
     };
     let Ok(s) = scene::load_from_bytes(path, &file, &options) else {
         return;

@@ -40,7 +40,7 @@ use glam::Vec2;
 
 use super::Ray;
 use crate::sampling::hash::{hash_words, unit_f32};
-use crate::scene::{AlphaMode, Scene, TextureRef};
+use crate::scene::{AlphaMode, Encoding, MissingTexture, Scene, TextureRef};
 use crate::texture::{transform_uv, Image};
 
 /// `slot` of a triangle that is not alpha-tested.
@@ -157,8 +157,14 @@ impl AlphaCoverage {
     /// scene's summary counts no [`crate::scene::Material::may_cut_holes`] triangle, or every
     /// texture of such a material turns out to have alpha 1 everywhere and its factor
     /// covers). Decodes the base colour images of the MASK and BLEND materials that
-    /// triangles use; `scene_path` names the scene in decoding errors.
-    pub fn build(scene: &Scene, scene_path: &Path) -> Result<Option<AlphaCoverage>, String> {
+    /// triangles use; `scene_path` names the scene in errors. A base colour image that
+    /// cannot be read or decoded counts as no texture (the factor's alpha alone) and is added
+    /// to `missing`, as shading binds it ([`crate::shading::Materials::missing_textures`]).
+    pub fn build(
+        scene: &Scene,
+        scene_path: &Path,
+        missing: &mut Vec<MissingTexture>,
+    ) -> Result<Option<AlphaCoverage>, String> {
         if scene.summary.alpha_tested_triangles == 0 {
             return Ok(None);
         }
@@ -167,7 +173,9 @@ impl AlphaCoverage {
             used[m as usize] = true;
         }
         let mut images: Vec<Image<f32>> = Vec::new();
-        let mut image_slot: Vec<Option<usize>> = vec![None; scene.images.len()];
+        // Each image's alpha channel in `images`: None where not decoded yet, Some(None)
+        // where it cannot be.
+        let mut image_slot: Vec<Option<Option<usize>>> = vec![None; scene.images.len()];
         // Each material's index into `rules`, or NOT_TESTED.
         let mut material_rule = vec![NOT_TESTED; scene.materials.len()];
         let mut rules = Vec::new();
@@ -187,27 +195,54 @@ impl AlphaCoverage {
                 AlphaMode::Mask(cutoff) => Cut::Mask(cutoff),
                 AlphaMode::Blend => Cut::Blend,
             };
-            let (texture, alpha_is_one) = match &m.base_color_texture {
-                None => (None, true),
+            let slot = match &m.base_color_texture {
+                None => None,
                 Some(t) => {
                     let src = scene.image_source(t.image, scene_path)?;
                     let slot = match image_slot[t.image] {
-                        Some(s) => s,
+                        Some(slot) => slot,
                         None => {
-                            images.push(Image::decode(src, t.image, scene_path)?.alpha());
-                            image_slot[t.image] = Some(images.len() - 1);
-                            images.len() - 1
+                            let slot = match Image::decode_source(src, Encoding::Srgb) {
+                                Ok(image) => {
+                                    images.push(image.alpha());
+                                    Some(images.len() - 1)
+                                }
+                                Err(problem) => {
+                                    missing.push(MissingTexture {
+                                        image: t.image,
+                                        material: i,
+                                        problem,
+                                    });
+                                    None
+                                }
+                            };
+                            image_slot[t.image] = Some(slot);
+                            slot
                         }
                     };
-                    let alpha_is_one = images[slot].texels.iter().all(|&a| a == 1.0);
-                    (
-                        Some(TextureRef {
-                            image: slot,
-                            ..t.clone()
-                        }),
-                        alpha_is_one,
-                    )
+                    if slot.is_none() {
+                        if let Some(first) = missing.iter().find(|x| x.image == t.image) {
+                            let also = MissingTexture {
+                                material: i,
+                                ..first.clone()
+                            };
+                            if !missing.contains(&also) {
+                                missing.push(also);
+                            }
+                        }
+                    }
+                    slot.map(|slot| (t, slot))
                 }
+            };
+            let (texture, alpha_is_one) = match slot {
+                None => (None, true),
+                Some((t, slot)) => (
+                    Some(TextureRef {
+                        image: slot,
+                        ..t.clone()
+                    }),
+                    images[slot].texels.iter().all(|&a| a == 1.0),
+                ),
             };
             let rule = Rule {
                 cut,
@@ -406,7 +441,10 @@ mod tests {
     }
 
     fn build(s: &Scene) -> Option<AlphaCoverage> {
-        AlphaCoverage::build(s, Path::new("test.gltf")).unwrap()
+        let mut missing = Vec::new();
+        let c = AlphaCoverage::build(s, Path::new("test.gltf"), &mut missing).unwrap();
+        assert_eq!(missing, []);
+        c
     }
 
     /// Alpha is the factor times the texture's alpha, read bilinearly at the point's UV: the
@@ -525,21 +563,39 @@ mod tests {
         assert!(!build(&s).unwrap().covers(0, NO_INSTANCE, 0.1, 0.1, key));
     }
 
-    /// An undecodable base colour image of an alpha-tested material is an error naming the
-    /// scene and the image; the same image on an OPAQUE material is never decoded.
+    /// An undecodable base colour image of an alpha-tested material counts as no texture:
+    /// the factor's alpha alone (1 here: nothing tested), and the image is listed as missing
+    /// for that material with why; the same image on an OPAQUE material is never decoded.
     #[test]
-    fn an_undecodable_alpha_texture_is_an_error() {
+    fn an_undecodable_alpha_texture_counts_as_absent() {
         let mut s = scene(vec![textured(AlphaMode::Mask(0.5), 1.0)], 0);
         s.images = vec![ImageSource::Bytes {
             data: b"not a png".to_vec().into(),
             mime: None,
         }];
-        let e = AlphaCoverage::build(&s, Path::new("test.gltf")).unwrap_err();
-        assert!(e.contains("test.gltf") && e.contains("image 0"), "{e}");
+        let mut missing = Vec::new();
+        let c = AlphaCoverage::build(&s, Path::new("test.gltf"), &mut missing).unwrap();
+        assert!(c.is_none());
+        assert_eq!(missing.len(), 1, "{missing:?}");
+        assert_eq!((missing[0].image, missing[0].material), (0, 0));
+        assert!(missing[0].problem.contains("format"), "{missing:?}");
+        // Under a factor that cuts, the triangle is tested by the factor alone.
+        s.materials[0].base_color.w = 0.25;
+        s.update_summary();
+        let mut missing = Vec::new();
+        let c = AlphaCoverage::build(&s, Path::new("test.gltf"), &mut missing).unwrap();
+        assert_eq!(
+            c.expect("a cutting factor is tested").alpha(0, 0.3, 0.3),
+            Some(0.25)
+        );
         s.materials[0].alpha_mode = AlphaMode::Opaque;
         s.update_summary();
-        assert!(AlphaCoverage::build(&s, Path::new("test.gltf"))
-            .unwrap()
-            .is_none());
+        let mut missing = Vec::new();
+        assert!(
+            AlphaCoverage::build(&s, Path::new("test.gltf"), &mut missing)
+                .unwrap()
+                .is_none()
+        );
+        assert_eq!(missing, []);
     }
 }

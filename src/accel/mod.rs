@@ -28,7 +28,7 @@ use std::sync::Arc;
 
 use glam::{Vec3, Vec3A};
 
-use crate::scene::Scene;
+use crate::scene::{MissingTexture, Scene};
 
 pub use crate::embree::{enable_ftz_daz, ftz_daz_enabled};
 pub use crate::ray::{Hit, Ray, OCCLUSION_PACKET, PACKET};
@@ -190,6 +190,8 @@ pub struct Accel {
     clusters: Vec<(Vec3, Vec3)>,
     /// The alpha coverage the backend tests hits against, if any triangle is alpha-tested.
     coverage: Option<Arc<AlphaCoverage>>,
+    /// The base colour textures alpha coverage read as absent (their images cannot be had).
+    missing_textures: Vec<MissingTexture>,
 }
 
 enum Bvh {
@@ -200,13 +202,13 @@ enum Bvh {
 impl Accel {
     /// Builds the acceleration structure over every triangle of `scene`, with the alpha
     /// coverage of its MASK and BLEND materials unless `options.alpha` is off
-    /// ([`AlphaCoverage::build`]: their base colour textures are decoded here; a texture that
-    /// cannot be is an error).
+    /// ([`AlphaCoverage::build`]: their base colour textures are decoded here; one whose
+    /// image cannot be had counts as absent, listed in [`Accel::missing_textures`]).
     pub fn build(scene: &Scene, options: &AccelOptions) -> Result<Accel, AccelError> {
-        // The caller names the scene in its errors (main adds the path); an image that cannot
-        // be decoded is named by its own path or index.
+        // The caller names the scene in its errors (main adds the path).
+        let mut missing_textures = Vec::new();
         let coverage = match options.alpha {
-            true => AlphaCoverage::build(scene, Path::new("alpha coverage"))
+            true => AlphaCoverage::build(scene, Path::new("alpha coverage"), &mut missing_textures)
                 .map_err(AccelError::Coverage)?
                 .map(Arc::new),
             false => None,
@@ -219,7 +221,14 @@ impl Accel {
             bvh,
             clusters: scene_cluster_boxes(scene),
             coverage,
+            missing_textures,
         })
+    }
+
+    /// The base colour textures alpha coverage read as absent, because their images cannot
+    /// be read or decoded ([`Scene::missing_texture_warnings`] words them).
+    pub fn missing_textures(&self) -> &[MissingTexture] {
+        &self.missing_textures
     }
 
     /// The alpha coverage hits are tested against; `None` when no triangle is alpha-tested.

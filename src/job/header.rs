@@ -164,7 +164,7 @@ pub fn result_attributes(
 
 /// The settings of `job` that can change its image, as text ([`settings_hash`]): the job's
 /// own description, less the options that cannot (where files go, the threads, the memory
-/// limit, the preview, the pass timing, the report) and less the paths of the scene and the
+/// limit, `--strict`, the preview, the pass timing, the report) and less the paths of the scene and the
 /// environment map (whose contents [`files_hash`] covers), with strata's version. Call it on
 /// the job as the options made it, before the scene lights it.
 pub fn settings_key(job: &Job) -> String {
@@ -180,6 +180,7 @@ pub fn settings_key(job: &Job) -> String {
     j.threads = 0;
     j.min_pass_seconds = 0.0;
     j.memory_limit = None;
+    j.strict = false;
     j.checkpoint = None;
     j.resume = None;
     j.progress_every = 0.0;
@@ -269,6 +270,7 @@ mod tests {
                 "1G",
                 "--min-pass-seconds",
                 "0",
+                "--strict",
             ],
             &[
                 "--shard",

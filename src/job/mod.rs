@@ -128,6 +128,9 @@ pub struct Job {
     pub quads: bool,
     /// Alpha coverage of MASK and BLEND materials (`--no-alpha` turns it off).
     pub alpha: bool,
+    /// Refuse a scene whose texture images cannot all be had (`--strict`), rather than
+    /// render those textures as absent with a warning.
+    pub strict: bool,
     /// Every placement of a mesh stored as its own copy (`--flatten-instances`), not
     /// instanced.
     pub flatten_instances: bool,
@@ -318,6 +321,7 @@ impl Job {
             robust: !args.no_robust,
             quads: !args.no_quads,
             alpha: !args.no_alpha,
+            strict: args.strict,
             flatten_instances: args.flatten_instances,
             integrator,
             shading: shading_options(args, env_file.is_some()),
@@ -412,6 +416,7 @@ impl Job {
         LoadOptions {
             memory_limit: self.memory_limit,
             other_memory: self.resolution.map_or(0, |(w, h)| self.image_memory(w, h)),
+            environment_memory: self.environment_memory(),
             pose: self.frame.map(|f| crate::scene::PoseTime {
                 animation: self.animation,
                 seconds: f as f64 / self.fps,
@@ -468,13 +473,20 @@ impl Job {
                 });
         let scene_memory = scene.memory_estimate.bytes();
         let image_memory = self.image_memory(width, height);
-        let needed = scene_memory.saturating_add(image_memory);
+        let environment_memory = self.environment_memory();
+        let needed = (scene_memory)
+            .saturating_add(image_memory)
+            .saturating_add(environment_memory);
         if let Some(limit) = self.memory_limit.filter(|&l| needed > l) {
             refuse!(
-                "{}: rendering needs an estimated {} of memory (scene and BVH {}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
+                "{}: rendering needs an estimated {} of memory (scene and BVH {}{}, {width}x{height} image {}), more than the limit of {} (--max-memory)",
                 self.scene.display(),
                 format_bytes(needed),
                 format_bytes(scene_memory),
+                match environment_memory {
+                    0 => String::new(),
+                    n => format!(", environment map {}", format_bytes(n)),
+                },
                 format_bytes(image_memory),
                 format_bytes(limit)
             );
@@ -589,6 +601,15 @@ impl Job {
     }
 
     /// Reads the environment map (`--env`), if any, into the shading options.
+    /// What the `--env` map will take in memory ([`EnvMap::memory_estimate`], from its
+    /// header); 0 without one, or where its header does not read (loading it says why).
+    pub fn environment_memory(&self) -> u64 {
+        match &self.env {
+            Some((path, _, _)) => EnvMap::memory_estimate(path).unwrap_or(0),
+            None => 0,
+        }
+    }
+
     pub fn load_environment(&mut self) -> Result<(), JobError> {
         if let Some((path, degrees, scale)) = &self.env {
             let map = EnvMap::load(path, degrees.to_radians(), *scale, self.env_sampling)

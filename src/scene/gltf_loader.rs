@@ -11,8 +11,10 @@
 //! range-checked against their buffers before they are read, so a malformed file is an
 //! error, not a panic.
 //!
-//! Images are not decoded here: the scene keeps where their bytes are, and integrators that
-//! read textures decode them.
+//! Images are not decoded here: the scene keeps where their bytes are (and the loader reads
+//! their headers, for the memory estimate), and integrators that read textures decode them.
+//! An image that cannot be read is kept as [`ImageSource::Unreadable`], with why: its
+//! textures render as absent, with a warning, or `--strict` refuses the scene.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -28,7 +30,7 @@ use super::accessors::{
 use super::extensions::{self, Layers};
 use super::files::{check_glb_header, load_buffers, read_scene_file, read_uri, resolve_uri};
 use super::instancing::{instance_transforms, instanced_mesh};
-use super::memory::{estimate_memory, MemoryEstimate};
+use super::memory::{estimate_memory, texture_memory, MemoryEstimate};
 use super::MAX_NODE_DEPTH;
 use super::{
     format_bytes, AlphaMode, ImageSource, Instance, Material, Prototype, Scene, TextureRef, Wrap,
@@ -37,13 +39,17 @@ use super::{
 /// Options for [`load`].
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
-    /// Refuse a scene whose estimated memory ([`MemoryEstimate::bytes`] plus `other_memory`)
-    /// exceeds this many bytes. Checked after the JSON is parsed and before any buffer is
-    /// read or any geometry is allocated. `None`: no limit.
+    /// Refuse a scene whose estimated memory ([`MemoryEstimate::bytes`] plus `other_memory`
+    /// and `environment_memory`) exceeds this many bytes. Checked after the JSON is parsed
+    /// and before any buffer is read, and again with the decoded textures once the images'
+    /// headers give their sizes, before any geometry is allocated. `None`: no limit.
     pub memory_limit: Option<u64>,
     /// Memory the caller will need besides the scene (e.g. the film), counted against
     /// `memory_limit`.
     pub other_memory: u64,
+    /// Memory the environment map will take (`--env`), counted against `memory_limit` and
+    /// named in its message.
+    pub environment_memory: u64,
     /// Flatten the nodes in this animation's pose at this time; None: their rest pose
     /// (their own transforms).
     pub pose: Option<super::PoseTime>,
@@ -148,10 +154,33 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
             .materials
             .push(m.index().map(|i| i as u32));
     }
+    // Each image's source and size, from its header: an image that cannot be read (a missing
+    // file, a header no decoder knows) is kept as unreadable, and its textures render as if
+    // absent, with a warning, when a render binds them (or `--strict` refuses the scene).
+    let mut sizes = Vec::with_capacity(gltf.document.images().len());
     for img in gltf.document.images() {
-        let source = loader.image(&gltf.document, img.index(), &base_dir)?;
+        let source = loader
+            .image(&gltf.document, img.index(), &base_dir)
+            .unwrap_or_else(ImageSource::Unreadable);
+        let source = match crate::texture::dimensions(&source) {
+            Ok(size) => {
+                sizes.push(Some(size));
+                source
+            }
+            Err(why) => {
+                sizes.push(None);
+                ImageSource::Unreadable(why)
+            }
+        };
+        loader
+            .scene
+            .image_labels
+            .push(image_label(&gltf.document, &img));
         loader.scene.images.push(source);
     }
+    // The decoded textures, now that their sizes are known, before any geometry is read.
+    (estimate.textures, estimate.texture_bytes) = texture_memory(&loader.scene.materials, &sizes);
+    check_memory(&estimate, options)?;
 
     for node in root_scene.nodes() {
         loader.visit(&node, DMat4::IDENTITY, &mut Vec::new())?;
@@ -162,7 +191,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
     scene.memory_estimate = estimate;
     files.extend(scene.images.iter().filter_map(|image| match image {
         ImageSource::File(file) => Some(file.clone()),
-        ImageSource::Bytes { .. } => None,
+        ImageSource::Bytes { .. } | ImageSource::Unreadable(_) => None,
     }));
     scene.files = files;
     Ok(scene)
@@ -244,22 +273,54 @@ fn parse_document(bytes: &[u8]) -> Result<(gltf::Gltf, Vec<String>)> {
     Ok((gltf, extension_warnings))
 }
 
-/// An error where the scene's memory `estimate`, with the image's, exceeds the limit.
+/// What messages call an image: its index, and its name and URI where it has them.
+fn image_label(doc: &gltf::Document, img: &gltf::Image) -> String {
+    let json = &doc.as_json().images[img.index()];
+    let uri = json.uri.as_deref().filter(|u| !u.starts_with("data:"));
+    let mut label = format!("image {}", img.index());
+    if let Some(name) = img.name() {
+        label += &format!(" '{name}'");
+    }
+    match uri {
+        Some(uri) => label += &format!(" ({uri})"),
+        None => label += " (embedded)",
+    }
+    label
+}
+
+/// An error where the scene's memory `estimate`, with the image's and the environment map's,
+/// exceeds the limit.
 fn check_memory(estimate: &MemoryEstimate, options: &LoadOptions) -> Result<()> {
     if let Some(limit) = options.memory_limit {
-        let need = estimate.bytes().saturating_add(options.other_memory);
+        let need = (estimate.bytes())
+            .saturating_add(options.other_memory)
+            .saturating_add(options.environment_memory);
         if need > limit {
-            return Err(format!(
-                "the scene needs an estimated {} of memory ({} vertices, {} triangles, {} of file and buffers{}), more than the limit of {} (--max-memory)",
-                format_bytes(need),
+            let mut parts = format!(
+                "{} vertices, {} triangles, {} of file and buffers",
                 estimate.vertices,
                 estimate.triangles,
                 format_bytes(estimate.input_bytes),
-                if options.other_memory > 0 {
-                    format!(", {} for the image", format_bytes(options.other_memory))
-                } else {
-                    String::new()
-                },
+            );
+            if estimate.textures > 0 {
+                parts += &format!(
+                    ", {} for {} decoded texture(s)",
+                    format_bytes(estimate.texture_bytes),
+                    estimate.textures
+                );
+            }
+            if options.environment_memory > 0 {
+                parts += &format!(
+                    ", {} for the environment map",
+                    format_bytes(options.environment_memory)
+                );
+            }
+            if options.other_memory > 0 {
+                parts += &format!(", {} for the image", format_bytes(options.other_memory));
+            }
+            return Err(format!(
+                "the scene needs an estimated {} of memory ({parts}), more than the limit of {} (--max-memory)",
+                format_bytes(need),
                 format_bytes(limit)
             ));
         }
@@ -567,7 +628,8 @@ impl Loader<'_> {
         Ok(material)
     }
 
-    /// Where image `i`'s bytes are. Read from the JSON rather than through
+    /// Where image `i`'s bytes are, or why they cannot be had (an error that does not name
+    /// the image: the caller's label does). Read from the JSON rather than through
     /// `gltf::Image::source`, which panics on an image with neither `uri` nor `bufferView`, or
     /// with a `bufferView` but no `mimeType` (found by fuzzing). A missing `mimeType` is
     /// tolerated: the decoder recognises PNG and JPEG by their bytes.
@@ -578,35 +640,29 @@ impl Loader<'_> {
             let view = doc
                 .views()
                 .nth(v.value())
-                .ok_or_else(|| format!("image {i}: bufferView {} does not exist", v.value()))?;
-            let bytes = view_bytes(self.buffers, &view).map_err(|e| format!("image {i}: {e}"))?;
+                .ok_or_else(|| format!("its bufferView {} does not exist", v.value()))?;
+            let bytes = view_bytes(self.buffers, &view)?;
             return Ok(ImageSource::Bytes {
                 data: Arc::from(bytes),
                 mime,
             });
         }
         let Some(uri) = json.uri.as_deref() else {
-            return Err(format!("image {i} has neither a uri nor a bufferView"));
+            return Err("it has neither a uri nor a bufferView".into());
         };
         if uri.starts_with("data:") {
-            let data = read_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+            let data = read_uri(uri, base_dir)?;
             return Ok(ImageSource::Bytes {
                 data: Arc::from(data),
                 mime,
             });
         }
-        let file = resolve_uri(uri, base_dir).map_err(|e| format!("image {i}: {e}"))?;
+        let file = resolve_uri(uri, base_dir)?;
         if !file.exists() {
-            return Err(format!(
-                "image {i}: file '{}' does not exist",
-                file.display()
-            ));
+            return Err(format!("the file '{}' does not exist", file.display()));
         }
         if !file.is_file() {
-            return Err(format!(
-                "image {i}: '{}' is not a regular file",
-                file.display()
-            ));
+            return Err(format!("'{}' is not a regular file", file.display()));
         }
         Ok(ImageSource::File(file))
     }

@@ -1,5 +1,6 @@
-//! What a scene will take in memory, estimated from the file before its meshes are read, so
-//! that a file too large for `--max-memory` is refused before it is loaded.
+//! What a scene will take in memory, estimated from the file before its meshes are read (and
+//! its textures from their images' headers before they are decoded), so that a file too large
+//! for `--max-memory` is refused before it is loaded.
 
 use gltf::mesh::Mode;
 
@@ -10,8 +11,9 @@ use super::MAX_NODE_DEPTH;
 type Result<T> = std::result::Result<T, String>;
 
 /// What loading a scene will allocate, estimated from the file's accessor counts and buffer
-/// lengths before anything is read. A mesh placed once, or flattened, counts once per
-/// placement; an instanced one once, and each of its instances [`Self::BYTES_PER_INSTANCE`].
+/// lengths before anything is read, and the decoded textures from their images' headers
+/// ([`texture_memory`]). A mesh placed once, or flattened, counts once per placement; an
+/// instanced one once, and each of its instances [`Self::BYTES_PER_INSTANCE`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemoryEstimate {
     /// Vertices stored (POSITION counts of triangle primitives).
@@ -22,6 +24,9 @@ pub struct MemoryEstimate {
     pub instances: u64,
     /// The file itself and the buffers it declares, held while loading.
     pub input_bytes: u64,
+    /// Decoded textures: how many, and their bytes ([`texture_memory`]).
+    pub textures: u64,
+    pub texture_bytes: u64,
 }
 
 impl MemoryEstimate {
@@ -45,7 +50,51 @@ impl MemoryEstimate {
             .saturating_add(self.triangles.saturating_mul(Self::BYTES_PER_TRIANGLE))
             .saturating_add(self.instances.saturating_mul(Self::BYTES_PER_INSTANCE))
             .saturating_add(self.input_bytes)
+            .saturating_add(self.texture_bytes)
     }
+}
+
+/// The decoded textures of `materials` (the scene's), whose images are `sizes` in pixels
+/// (None for an image that cannot be read, which is never decoded): how many images are
+/// decoded, and their bytes. An image is decoded once per colour encoding its textures read
+/// it with, at [`crate::texture::BYTES_PER_TEXEL`]; the base colour image of a MASK or BLEND
+/// material also once more as the alpha channel alpha coverage tests (4 bytes per texel).
+/// Every material counts, used or not, and every texture, whether the integrator reads it
+/// or not: an estimate from above.
+pub(super) fn texture_memory(
+    materials: &[super::Material],
+    sizes: &[Option<(u32, u32)>],
+) -> (u64, u64) {
+    use std::collections::HashSet;
+    let texels = |image: usize| match sizes.get(image) {
+        Some(Some((w, h))) => Some(*w as u64 * *h as u64),
+        _ => None,
+    };
+    let mut decoded = HashSet::new();
+    let mut alpha = HashSet::new();
+    for m in materials {
+        decoded.extend(m.texture_images());
+        if let (Some(t), true) = (
+            &m.base_color_texture,
+            m.alpha_mode != super::AlphaMode::Opaque,
+        ) {
+            alpha.insert(t.image);
+        }
+    }
+    let mut count = 0u64;
+    let mut bytes = 0u64;
+    for &(image, _) in &decoded {
+        if let Some(n) = texels(image) {
+            count += 1;
+            bytes = bytes.saturating_add(n.saturating_mul(crate::texture::BYTES_PER_TEXEL));
+        }
+    }
+    for &image in &alpha {
+        if let Some(n) = texels(image) {
+            bytes = bytes.saturating_add(n.saturating_mul(4));
+        }
+    }
+    (count, bytes)
 }
 
 /// Walks the node graph of `scene` once: refuses cycles, nodes with more than one parent (glTF
@@ -142,6 +191,8 @@ mod tests {
             triangles: u64::MAX / 2,
             instances: u64::MAX,
             input_bytes: u64::MAX,
+            textures: 1,
+            texture_bytes: u64::MAX,
         };
         assert_eq!(huge.bytes(), u64::MAX);
         let small = MemoryEstimate {
@@ -149,8 +200,10 @@ mod tests {
             triangles: 4,
             instances: 3,
             input_bytes: 1000,
+            textures: 2,
+            texture_bytes: 5000,
         };
-        assert_eq!(small.bytes(), 8 * 64 + 4 * 122 + 3 * 640 + 1000);
+        assert_eq!(small.bytes(), 8 * 64 + 4 * 122 + 3 * 640 + 1000 + 5000);
         assert_eq!(format_bytes(100), "100 bytes");
         assert_eq!(format_bytes(64 << 10), "64.0 KiB");
         assert_eq!(format_bytes(3 << 29), "1.5 GiB");

@@ -72,6 +72,23 @@ pub enum ImageSource {
         data: std::sync::Arc<[u8]>,
         mime: Option<String>,
     },
+    /// An image the loader could not read (a missing file, a URI it cannot follow, a header
+    /// no decoder recognises), and why: its textures render as if the material had none
+    /// (the factors alone), with a warning, or `--strict` refuses the scene.
+    Unreadable(String),
+}
+
+/// A texture that renders as absent, because its image could not be read or decoded: where
+/// it was bound, and why. The textures that use it render as if the material had none (the
+/// factors alone); [`Scene::missing_texture_warnings`] says so, one line per image.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MissingTexture {
+    /// Index into [`Scene::images`].
+    pub image: usize,
+    /// Index into [`Scene::materials`] of the material that binds it.
+    pub material: usize,
+    /// Why the image cannot be had.
+    pub problem: String,
 }
 
 /// How an image's colour channels are encoded: glTF's colour textures (base colour,
@@ -197,6 +214,32 @@ impl Material {
         self.normal_texture.is_some() || self.layers.needs_tangents()
     }
 
+    /// Every texture the material binds, as (its image, how the image's colours are
+    /// encoded): the core material's (the occlusion texture's too, though it is not
+    /// rendered), the transmission's and each layer's.
+    pub fn texture_images(&self) -> Vec<(usize, Encoding)> {
+        let core = [
+            (&self.base_color_texture, Encoding::Srgb),
+            (&self.emissive_texture, Encoding::Srgb),
+            (&self.metallic_roughness_texture, Encoding::Linear),
+            (&self.normal_texture, Encoding::Linear),
+            (&self.occlusion_texture, Encoding::Linear),
+        ];
+        let mut out: Vec<(usize, Encoding)> = (core.iter())
+            .filter_map(|(t, e)| t.as_ref().map(|t| (t.image, *e)))
+            .collect();
+        // The extensions' textures, through the binding every renderer's texture goes
+        // through, so that none is left out.
+        let mut note =
+            |t: &TextureRef, e: Encoding| -> Result<Option<()>, std::convert::Infallible> {
+                out.push((t.image, e));
+                Ok(Some(()))
+            };
+        let Ok(_) = self.transmission.bind(&mut note);
+        let Ok(_) = self.layers.bind(&mut note);
+        out
+    }
+
     /// True when alpha may leave holes in the surface (glTF 2.0, "Alpha Coverage"): a MASK
     /// or BLEND material with a base colour texture (whose alpha is only known once decoded,
     /// see `accel::AlphaCoverage`), or whose factor's alpha alone is below what covers
@@ -229,6 +272,37 @@ impl Material {
         }
         dropped
     }
+}
+
+/// One line per kind of (kind, material name) pair, in the order the kinds first come,
+/// naming its materials (the first four, and how many more).
+fn group_by_kind(pairs: impl IntoIterator<Item = (String, String)>) -> Vec<String> {
+    let mut kinds: Vec<(String, Vec<String>)> = Vec::new();
+    for (kind, name) in pairs {
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, names)) => names.push(name),
+            None => kinds.push((kind, vec![name])),
+        }
+    }
+    kinds
+        .into_iter()
+        .map(|(kind, names)| {
+            const SHOWN: usize = 4;
+            let mut list = names
+                .iter()
+                .take(SHOWN)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ");
+            if names.len() > SHOWN {
+                list += &format!(" and {} more", names.len() - SHOWN);
+            }
+            match names.len() {
+                1 => format!("{kind}, in material {list}"),
+                n => format!("{kind}, in {n} materials: {list}"),
+            }
+        })
+        .collect()
 }
 
 /// A `KHR_lights_punctual` light in world space. `intensity` is `color × intensity`:
@@ -432,6 +506,9 @@ pub struct Scene {
     /// passes ([`Scene::origin`]); empty for a scene built in code.
     pub origins: Origins,
     pub images: Vec<ImageSource>,
+    /// What messages call each image ([`Scene::image_label`]); empty for a scene built in
+    /// code.
+    pub image_labels: Vec<String>,
     pub lights: Vec<Light>,
     pub cameras: Vec<Camera>,
     /// Meshes drawn in several places, their triangles in their own space.
@@ -463,46 +540,13 @@ impl Scene {
             used[m as usize] = true;
         }
         // One line per kind of input, naming the materials that ask for it.
-        let mut kinds: Vec<(String, Vec<String>)> = Vec::new();
-        for (i, (m, _)) in self
-            .materials
-            .iter()
-            .zip(&used)
-            .enumerate()
-            .filter(|(_, (_, &u))| u)
-        {
-            // Index 0 is glTF's default material; the file's material k is index k + 1.
-            let name = match (i, &m.name) {
-                (0, _) => "the default material (of primitives that name none)".to_string(),
-                (i, Some(n)) => format!("{} '{n}'", i - 1),
-                (i, None) => format!("{}", i - 1),
-            };
+        let mut kinds = Vec::new();
+        for (i, (m, _)) in (self.materials.iter().zip(&used).enumerate()).filter(|(_, (_, &u))| u) {
             for kind in m.unrendered_inputs() {
-                match kinds.iter_mut().find(|(k, _)| *k == kind) {
-                    Some((_, names)) => names.push(name.clone()),
-                    None => kinds.push((kind, vec![name.clone()])),
-                }
+                kinds.push((kind, self.material_name(i)));
             }
         }
-        kinds
-            .into_iter()
-            .map(|(kind, names)| {
-                const SHOWN: usize = 4;
-                let mut list = names
-                    .iter()
-                    .take(SHOWN)
-                    .cloned()
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                if names.len() > SHOWN {
-                    list += &format!(" and {} more", names.len() - SHOWN);
-                }
-                match names.len() {
-                    1 => format!("{kind}, in material {list}"),
-                    n => format!("{kind}, in {n} materials: {list}"),
-                }
-            })
-            .collect()
+        group_by_kind(kinds)
     }
 
     /// Every triangle's tangent frames: the file's, with MikkTSpace's for the primitives that
@@ -515,6 +559,57 @@ impl Scene {
             frames[p.first_triangle..p.first_triangle + made.len()].copy_from_slice(&made);
         }
         frames
+    }
+
+    /// What messages call image `index`: its index in the glTF file, its name and its URI
+    /// where it has them ("image 2 'wood' (textures/wood.png)").
+    pub fn image_label(&self, index: usize) -> String {
+        match self.image_labels.get(index) {
+            Some(label) => label.clone(),
+            None => format!("image {index}"),
+        }
+    }
+
+    /// Every image the loader could not read, with why ([`ImageSource::Unreadable`]), in
+    /// the file's order.
+    pub fn unreadable_images(&self) -> impl Iterator<Item = (usize, &str)> {
+        self.images.iter().enumerate().filter_map(|(i, s)| match s {
+            ImageSource::Unreadable(why) => Some((i, why.as_str())),
+            _ => None,
+        })
+    }
+
+    /// The warnings for `missing` textures, grouped as [`Scene::material_warnings`] groups
+    /// its kinds: one line per image that cannot be had, saying why and naming the
+    /// materials whose textures render without it (each once, however many of their
+    /// textures use it).
+    pub fn missing_texture_warnings(&self, missing: &[MissingTexture]) -> Vec<String> {
+        let mut missing = missing.to_vec();
+        missing.sort_by_key(|t| (t.image, t.material));
+        let mut seen = std::collections::HashSet::new();
+        let kinds = missing
+            .iter()
+            .filter(|t| seen.insert((t.image, t.material)))
+            .map(|t| {
+                let kind = format!(
+                    "{}: {}; the textures that use it render as if absent (their factors alone)",
+                    self.image_label(t.image),
+                    t.problem
+                );
+                (kind, self.material_name(t.material))
+            });
+        group_by_kind(kinds)
+    }
+
+    /// What messages call the scene's material `i`: the file's index (the scene's less one)
+    /// and its name.
+    fn material_name(&self, i: usize) -> String {
+        // Index 0 is glTF's default material; the file's material k is index k + 1.
+        match (i, self.materials.get(i).and_then(|m| m.name.as_ref())) {
+            (0, _) => "the default material (of primitives that name none)".to_string(),
+            (i, Some(n)) => format!("{} '{n}'", i - 1),
+            (i, None) => format!("{}", i - 1),
+        }
     }
 
     /// Image `index`'s source, or an error naming the scene file (loaded from `scene_path`)

@@ -285,6 +285,52 @@ impl EnvMap {
         }
     }
 
+    /// What the map of a `width × height` image takes in memory once made: its texels (a
+    /// radiance and a density, 16 bytes, one extra column) and its sampling tables (8 bytes
+    /// a cell, (width + 1) × (height + 1) cells and the height + 2 of the marginal).
+    pub fn bytes_for(width: u64, height: u64) -> u64 {
+        let texels = (width + 1)
+            .saturating_mul(height)
+            .saturating_mul(std::mem::size_of::<Texel>() as u64);
+        let cells = (width + 1)
+            .saturating_mul(height + 1)
+            .saturating_add(height + 2)
+            .saturating_mul(std::mem::size_of::<Cell>() as u64);
+        texels.saturating_add(cells)
+    }
+
+    /// What the map in the `.hdr` or `.exr` file at `path` will take in memory
+    /// ([`EnvMap::bytes_for`]), from the file's header alone; an error where the header
+    /// does not read.
+    pub fn memory_estimate(path: &Path) -> Result<u64, String> {
+        let name = path.display();
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let (width, height) = match ext.as_str() {
+            "hdr" => {
+                let (w, h) = image::ImageReader::open(path)
+                    .and_then(|r| r.with_guessed_format())
+                    .map_err(|e| format!("{name}: {e}"))?
+                    .into_dimensions()
+                    .map_err(|e| format!("{name}: {e}"))?;
+                (w as u64, h as u64)
+            }
+            "exr" => {
+                let meta = exr::meta::MetaData::read_from_file(path, false)
+                    .map_err(|e| format!("{name}: {e}"))?;
+                // The largest layer: the map is read from the first RGBA one.
+                (meta.headers.iter())
+                    .map(|h| (h.layer_size.width() as u64, h.layer_size.height() as u64))
+                    .max_by_key(|&(w, h)| w.saturating_mul(h))
+                    .ok_or_else(|| format!("{name}: the file has no layer"))?
+            }
+            _ => return Err(format!("{name}: not a .hdr or .exr file")),
+        };
+        Ok(EnvMap::bytes_for(width, height))
+    }
+
     /// Reads a Radiance `.hdr` or OpenEXR `.exr` file (linear RGB; alpha ignored), light
     /// sampling drawing directions as `sampling` says.
     pub fn load(

@@ -36,7 +36,7 @@ use super::layers::{Coat, Layered, Sheen, SheenTable};
 use super::microfacet::AlbedoTable;
 use crate::sampling::Onb;
 use crate::scene::extensions::bind_texture;
-use crate::scene::{AnisotropyLayer, Layers, Scene, TextureRef};
+use crate::scene::{AnisotropyLayer, Layers, MissingTexture, Scene, TextureRef};
 use crate::texture::{transform_uv, Encoding, Image};
 
 /// What the integrator needs to read from materials.
@@ -182,11 +182,15 @@ pub struct Materials {
     /// Each triangle's tangent frames for its normal map ([`Scene::tangent_frames`]); empty
     /// when no material some triangle uses has one.
     tangents: Vec<[Vec4; 3]>,
+    /// The textures bound as absent because their images cannot be had.
+    missing: Vec<MissingTexture>,
 }
 
 impl Materials {
     /// Prepares the scene's materials as `options` say, decoding the textures that `need`
-    /// requires.
+    /// requires. A texture whose image cannot be read or decoded is bound as no texture (the
+    /// material renders with its factors alone) and listed in [`Materials::missing_textures`];
+    /// an error is only for a texture naming an image the scene does not have.
     pub fn prepare(
         scene: &Scene,
         scene_path: &Path,
@@ -201,27 +205,59 @@ impl Materials {
             used[m as usize] = true;
         }
         // One decoded image per (glTF image, encoding): an image bound both as colour and as
-        // data is decoded twice.
-        let mut image_slot: HashMap<(usize, Encoding), usize> = HashMap::new();
+        // data is decoded twice. None: the image cannot be had (unreadable, or it does not
+        // decode), so every texture that uses it is bound as no texture at all.
+        let mut image_slot: HashMap<(usize, Encoding), Option<usize>> = HashMap::new();
         let mut images = Vec::new();
-        let mut bind_one = |t: &TextureRef, encoding: Encoding| -> Result<Binding, String> {
+        let mut missing: Vec<MissingTexture> = Vec::new();
+        // Binds material `material`'s texture `t`: every texture of every material, the
+        // extensions' included, is bound here ([`bind_texture`]).
+        let mut bind_one = |material: usize,
+                            t: &TextureRef,
+                            encoding: Encoding|
+         -> Result<Option<Binding>, String> {
             let src = scene.image_source(t.image, scene_path)?;
             let slot = match image_slot.get(&(t.image, encoding)) {
-                Some(&s) => s,
+                Some(&slot) => slot,
                 None => {
-                    images.push(Image::decode_as(src, t.image, scene_path, encoding)?);
-                    image_slot.insert((t.image, encoding), images.len() - 1);
-                    images.len() - 1
+                    let slot = match Image::decode_source(src, encoding) {
+                        Ok(image) => {
+                            images.push(image);
+                            Some(images.len() - 1)
+                        }
+                        Err(problem) => {
+                            missing.push(MissingTexture {
+                                image: t.image,
+                                material,
+                                problem,
+                            });
+                            None
+                        }
+                    };
+                    image_slot.insert((t.image, encoding), slot);
+                    slot
                 }
             };
-            Ok(Binding {
+            if slot.is_none() {
+                if let Some(first) = missing.iter().find(|m| m.image == t.image) {
+                    let also = MissingTexture {
+                        material,
+                        ..first.clone()
+                    };
+                    if !missing.contains(&also) {
+                        missing.push(also);
+                    }
+                }
+            }
+            Ok(slot.map(|image| Binding {
                 texture: t.clone(),
-                image: slot,
-            })
+                image,
+            }))
         };
         let gltf = options.model == MaterialModel::Gltf;
         let mut materials = Vec::with_capacity(scene.materials.len());
-        for (m, &is_used) in scene.materials.iter().zip(&used) {
+        for (i, (m, &is_used)) in scene.materials.iter().zip(&used).enumerate() {
+            let mut bind_one = |t: &TextureRef, encoding| bind_one(i, t, encoding);
             let normal_texture = match is_used {
                 true => bind_texture(&m.normal_texture, Encoding::Linear, &mut bind_one)?,
                 false => None,
@@ -313,7 +349,14 @@ impl Materials {
                     .any(|m: &Prepared| m.volume.is_some_and(|a| a.max_element() > 0.0)),
             materials,
             tangents,
+            missing,
         })
+    }
+
+    /// The textures that render as absent (their materials' factors alone) because their
+    /// images cannot be read or decoded ([`Scene::missing_texture_warnings`] words them).
+    pub fn missing_textures(&self) -> &[MissingTexture] {
+        &self.missing
     }
 
     /// Number of decoded images.

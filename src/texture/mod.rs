@@ -48,7 +48,7 @@ fn decode_bytes(data: &[u8]) -> Result<image::DynamicImage, String> {
     if ktx2::is_ktx2(data) {
         return ktx2::decode(data).map(image::DynamicImage::ImageRgba8);
     }
-    image::load_from_memory(data).map_err(|e| e.to_string())
+    image::load_from_memory(data).map_err(|e| describe(&e))
 }
 
 /// Decodes an image file: a KTX2 file by its identifier, the others by the `image` crate.
@@ -62,7 +62,66 @@ fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
         let data = std::fs::read(path).map_err(|e| e.to_string())?;
         return ktx2::decode(&data).map(image::DynamicImage::ImageRgba8);
     }
-    image::open(path).map_err(|e| e.to_string())
+    image::open(path).map_err(|e| describe(&e))
+}
+
+/// The bytes each texel of a decoded texture takes: strata keeps textures as linear RGBA in
+/// f32 ([`Image`] of `Vec4`), one level (no mip maps), decoded once per colour encoding the
+/// image is bound with.
+pub const BYTES_PER_TEXEL: u64 = 16;
+
+/// The width and height of the image at `source`, read from its header without decoding it:
+/// a KTX2 file's own header, the others' as the `image` crate reads them. An error says why
+/// the image cannot be had (it does not name the image).
+pub fn dimensions(source: &ImageSource) -> Result<(u32, u32), String> {
+    use std::io::{BufReader, Cursor, Read};
+    let (width, height) = match source {
+        ImageSource::Unreadable(why) => return Err(why.clone()),
+        ImageSource::Bytes { data, .. } if ktx2::is_ktx2(data) => ktx2::dimensions(data)?,
+        ImageSource::Bytes { data, .. } => image::ImageReader::new(Cursor::new(&data[..]))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?
+            .into_dimensions()
+            .map_err(|e| describe(&e))?,
+        ImageSource::File(path) => {
+            let cannot = |e: std::io::Error| format!("cannot read '{}': {e}", path.display());
+            let file = std::fs::File::open(path).map_err(cannot)?;
+            let mut head = Vec::with_capacity(ktx2::HEADER_BYTES);
+            (&file)
+                .take(ktx2::HEADER_BYTES as u64)
+                .read_to_end(&mut head)
+                .map_err(cannot)?;
+            if ktx2::is_ktx2(&head) {
+                ktx2::dimensions(&head)?
+            } else {
+                let mut reader = BufReader::new(file);
+                std::io::Seek::rewind(&mut reader).map_err(cannot)?;
+                image::ImageReader::new(reader)
+                    .with_guessed_format()
+                    .map_err(cannot)?
+                    .into_dimensions()
+                    .map_err(|e| describe(&e))?
+            }
+        }
+    };
+    if width == 0 || height == 0 {
+        return Err("the image has no pixels".into());
+    }
+    Ok((width, height))
+}
+
+/// The `image` crate's error in a message's words: its "format could not be determined"
+/// names no format, so say which ones strata reads; a short read is a file cut short.
+fn describe(e: &image::ImageError) -> String {
+    match e {
+        image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            format!("the image ends before its data does (truncated?): {io}")
+        }
+        image::ImageError::Unsupported(_) => {
+            format!("{e} (strata reads PNG, JPEG, WebP and KTX2 Basis Universal images)")
+        }
+        e => e.to_string(),
+    }
 }
 
 impl Image {
@@ -73,32 +132,40 @@ impl Image {
     }
 
     /// Decodes PNG, JPEG, WebP or KTX2 bytes whose colour channels are encoded as `encoding` says (alpha
-    /// is always linear).
+    /// is always linear); an error names the scene (`scene_path`) and the image (`index`).
     pub fn decode_as(
         source: &ImageSource,
         index: usize,
         scene_path: &Path,
         encoding: Encoding,
     ) -> Result<Image, String> {
-        let decoded = match source {
-            ImageSource::File(path) => decode_file(path).map_err(|e| {
-                format!(
-                    "{}: cannot decode image {index} ('{}'): {e}",
-                    scene_path.display(),
+        Image::decode_source(source, encoding).map_err(|e| {
+            let scene = scene_path.display();
+            match source {
+                ImageSource::File(path) => format!(
+                    "{scene}: cannot decode image {index} ('{}'): {e}",
                     path.display()
-                )
-            })?,
-            ImageSource::Bytes { data, .. } => decode_bytes(data).map_err(|e| {
-                format!(
-                    "{}: cannot decode embedded image {index}: {e}",
-                    scene_path.display()
-                )
-            })?,
+                ),
+                ImageSource::Bytes { .. } => {
+                    format!("{scene}: cannot decode embedded image {index}: {e}")
+                }
+                ImageSource::Unreadable(_) => format!("{scene}: image {index}: {e}"),
+            }
+        })
+    }
+
+    /// [`Image::decode_as`], with an error that says only why the image cannot be had (the
+    /// caller names it).
+    pub fn decode_source(source: &ImageSource, encoding: Encoding) -> Result<Image, String> {
+        let decoded = match source {
+            ImageSource::File(path) => decode_file(path)?,
+            ImageSource::Bytes { data, .. } => decode_bytes(data)?,
+            ImageSource::Unreadable(why) => return Err(why.clone()),
         };
         let rgba = decoded.to_rgba32f();
         let (width, height) = rgba.dimensions();
         if width == 0 || height == 0 {
-            return Err(format!("{}: an image has no pixels", scene_path.display()));
+            return Err("the image has no pixels".into());
         }
         let texels = rgba
             .pixels()

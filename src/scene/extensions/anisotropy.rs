@@ -63,7 +63,7 @@ impl<T> AnisotropyLayer<T> {
     /// The layer with its texture bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<AnisotropyLayer<U>, E> {
         Ok(AnisotropyLayer {
             strength: self.strength,

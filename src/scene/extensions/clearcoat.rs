@@ -69,7 +69,7 @@ impl<T> ClearcoatLayer<T> {
     /// The layer with its textures bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<ClearcoatLayer<U>, E> {
         Ok(ClearcoatLayer {
             factor: self.factor,

@@ -65,7 +65,7 @@ impl<T> IridescenceLayer<T> {
     /// The layer with its textures bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<IridescenceLayer<U>, E> {
         Ok(IridescenceLayer {
             factor: self.factor,

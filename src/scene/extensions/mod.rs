@@ -140,10 +140,11 @@ macro_rules! layers {
             }
 
             /// The layers with each texture bound by `bind` (given the texture and how its
-            /// image is encoded), in the list's order.
+            /// image is encoded; None where the image cannot be had, which leaves the layer
+            /// without that texture: [`bind_texture`]), in the list's order.
             pub fn bind<U, E>(
                 &self,
-                bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+                bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
             ) -> std::result::Result<Layers<U>, E> {
                 Ok(Layers {
                     $($field: self.$field.as_ref().map(|l| l.bind(bind)).transpose()?,)*
@@ -182,13 +183,21 @@ layers! {
     iridescence: iridescence::IridescenceLayer,
 }
 
-/// Binds an optional texture (`bind` as [`Layers::bind`] takes it).
+/// Binds an optional texture (`bind` as [`Layers::bind`] takes it). `bind` answers None for
+/// a texture whose image cannot be had: the binding is then no texture at all, so the layer
+/// renders with its factors alone. Every texture of every layer is bound here, and a layer's
+/// `bind` that mapped a texture otherwise would not type-check (it would hold an
+/// `Option<Option<U>>`), so none can keep a texture whose image is absent.
 pub(crate) fn bind_texture<T, U, E>(
     texture: &Option<T>,
     encoding: Encoding,
-    bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+    bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
 ) -> std::result::Result<Option<U>, E> {
-    texture.as_ref().map(|t| bind(t, encoding)).transpose()
+    Ok(texture
+        .as_ref()
+        .map(|t| bind(t, encoding))
+        .transpose()?
+        .flatten())
 }
 
 /// The number under `key` of an extension's JSON, `default` where it is absent; an error

@@ -72,7 +72,7 @@ impl<T> SheenLayer<T> {
     /// The layer with its textures bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<SheenLayer<U>, E> {
         Ok(SheenLayer {
             color: self.color,

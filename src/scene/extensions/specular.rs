@@ -62,7 +62,7 @@ impl<T> SpecularLayer<T> {
     /// The layer with its textures bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<SpecularLayer<U>, E> {
         Ok(SpecularLayer {
             factor: self.factor,

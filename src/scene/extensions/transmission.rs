@@ -104,7 +104,7 @@ impl<T> Transmission<T> {
     /// The transmission with its texture bound by `bind`.
     pub fn bind<U, E>(
         &self,
-        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<U, E>,
+        bind: &mut impl FnMut(&T, Encoding) -> std::result::Result<Option<U>, E>,
     ) -> std::result::Result<Transmission<U>, E> {
         Ok(Transmission {
             factor: self.factor,
