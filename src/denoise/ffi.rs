@@ -511,6 +511,25 @@ mod tests {
             assert!(text.contains(needle), "{needle:?} missing from: {text}");
         }
         assert!(!text.contains('\n'), "one line: {text}");
+
+        // Past an absent file the search reaches the next one: here a file that is there
+        // but no library, which is then named.
+        let c = dir.path().join("c/lib/libOpenImageDenoise.so.2");
+        std::fs::create_dir_all(c.parent().unwrap()).unwrap();
+        std::fs::write(&c, b"not a library").unwrap();
+        let next = [
+            looked[0].clone(),
+            Candidate::File {
+                path: c.clone(),
+                why: "the default prefix",
+            },
+        ];
+        let Err(e) = load(&next) else {
+            panic!("a text file loaded as a library")
+        };
+        let text = e.to_string();
+        assert!(text.contains(c.to_str().unwrap()), "{text}");
+        assert!(text.contains("cannot be loaded"), "{text}");
     }
 
     #[test]
