@@ -207,24 +207,6 @@ fn is_system_dir(dir: &Path) -> bool {
     default_lib_dirs().iter().any(|d| d == dir)
 }
 
-/// With the `denoise` feature, the `oidn` crate links Open Image Denoise from `OIDN_DIR/lib`;
-/// that private prefix is not on the loader's path either: record it in the binaries.
-fn oidn_run_path() {
-    println!("cargo::rerun-if-env-changed=OIDN_DIR");
-    if env::var_os("CARGO_FEATURE_DENOISE").is_none() {
-        return;
-    }
-    match env::var_os("OIDN_DIR").filter(|d| !d.is_empty()) {
-        Some(dir) => {
-            let lib = PathBuf::from(dir).join("lib");
-            println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
-        }
-        None => println!(
-            "cargo::warning=strata: the denoise feature without OIDN_DIR: Open Image Denoise must be on the loader's path at run time"
-        ),
-    }
-}
-
 const DRACO_HINT: &str = "strata needs Google's Draco library (headers and library) for \
 KHR_draco_mesh_compression. Install it: Debian / Ubuntu: `apt-get install libdraco-dev`; \
 Homebrew: `brew install draco`; or set DRACO_DIR to a prefix containing \
@@ -327,7 +309,6 @@ fn main() {
         }
     }
     println!("cargo::rustc-link-lib=dylib={}", lib_name(found.major));
-    oidn_run_path();
 
     let bindings = bindgen::Builder::default()
         .header(header.to_string_lossy())

@@ -360,7 +360,7 @@ pub struct Args {
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub passes: Vec<Pass>,
 
-    /// Denoise the beauty with Intel Open Image Denoise (a build with the `denoise` feature):
+    /// Denoise the beauty with Intel Open Image Denoise (loaded at run time; README, "Denoising"):
     /// the EXR's R, G, B are the denoised image, the raw one is kept as the layer `noisy`,
     /// and the albedo and normal passes the denoiser reads are written too.
     #[arg(long)]

@@ -57,9 +57,7 @@ fn main() -> ExitCode {
 
 /// `render denoise`: denoises an EXR strata wrote ([`strata::denoise::denoise_exr`]).
 fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
-    if !strata::denoise::available() {
-        return Err(anyhow!(strata::denoise::NOT_BUILT));
-    }
+    strata::denoise::check()?;
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.input.file_stem().unwrap_or_default().to_string_lossy();
         args.input.with_file_name(format!("{stem}-denoised.exr"))

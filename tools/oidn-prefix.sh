@@ -1,18 +1,17 @@
 #!/usr/bin/env bash
 # tools/oidn-prefix.sh -- assemble an Intel Open Image Denoise 2.5 prefix for strata's
-# `denoise` cargo feature, from PyPI's pyoidn wheel (Debian 12 packages no OIDN).
+# --denoise, from PyPI's pyoidn wheel (Debian 12 packages no OIDN).
 #
 # Usage: tools/oidn-prefix.sh [DEST]     (default: ~/.cache/strata/oidn-2.5.1)
 #
 # Result: DEST/lib holding libOpenImageDenoise.so{,.2,.2.5.1}, its core (the trained
 # weights), its CPU device module and the oneTBB it was built with. The GPU device modules
-# of the wheel are left out: strata denoises on the CPU. Build strata against it with
-#
-#     OIDN_DIR=DEST cargo build --release --features denoise
-#
-# (the `oidn` crate links DEST/lib/libOpenImageDenoise.so; strata's build.rs records DEST/lib
-# in the binary's run path, so nothing needs LD_LIBRARY_PATH). Idempotent: a complete prefix
-# whose stamp matches the pins below is left alone. The last line of output is DEST.
+# of the wheel are left out: strata denoises on the CPU. strata loads the library at run
+# time, from $OIDN_DIR/lib when OIDN_DIR is set and from the default DEST otherwise, so any
+# build of it denoises once this has run (another DEST: run render with OIDN_DIR=DEST).
+# The library finds its CPU module beside itself: nothing needs LD_LIBRARY_PATH.
+# Idempotent: a complete prefix whose stamp matches the pins below is left alone. The last
+# line of output is DEST.
 set -euo pipefail
 
 VERSION=2.5.1

@@ -30,16 +30,16 @@ else
     echo "setup: system packages already installed (${packages[*]})" >&2
 fi
 
-# Open Image Denoise for the optional `denoise` feature (Debian 12 packages none): the
-# libraries of PyPI's pyoidn wheel, fetched once into a cache outside the clone. Set
-# STRATA_NO_OIDN=1 to skip it.
+# Open Image Denoise for --denoise (Debian 12 packages none): the libraries of PyPI's pyoidn
+# wheel, fetched once into ~/.cache/strata/oidn-2.5.1, where strata loads them from at run
+# time. Set STRATA_NO_OIDN=1 to skip it.
 if [ -z "${STRATA_NO_OIDN:-}" ]; then
     if ! command -v pip3 >/dev/null 2>&1 && ! python3 -m pip --version >/dev/null 2>&1; then
-        echo "setup: no pip: skipping Open Image Denoise (the denoise feature); apt-get install python3-pip to have it" >&2
+        echo "setup: no pip: skipping Open Image Denoise (--denoise); apt-get install python3-pip to have it" >&2
     elif oidn=$("$(dirname "$0")/oidn-prefix.sh"); then
-        echo "setup: Open Image Denoise in $oidn; build with denoising: OIDN_DIR=$oidn cargo build --release --features denoise" >&2
+        echo "setup: Open Image Denoise in $oidn, where render --denoise finds it" >&2
     else
-        echo "setup: warning: could not fetch Open Image Denoise; strata builds and renders without --denoise" >&2
+        echo "setup: warning: could not fetch Open Image Denoise; strata builds and renders, and --denoise says how to get it" >&2
     fi
 fi
 

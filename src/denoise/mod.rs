@@ -9,12 +9,13 @@
 //! beauty's filter they are clean (`cleanAux`), which [`Options::prefilter`] does (the
 //! default). The filter runs on the CPU device with the thread count strata renders with.
 //!
-//! The library comes through the `oidn` crate (its raw `sys` bindings and its linking, from
-//! `OIDN_DIR`), behind strata's `denoise` cargo feature; `tools/oidn-prefix.sh` fetches the
-//! libraries from PyPI's `pyoidn` wheel. A build without the feature reports that plainly
-//! ([`available`], [`DenoiseError`]). The raw bindings are used rather than the crate's
-//! safe filter because prefiltering needs a filter with no colour image, which it cannot
-//! express, and shared host images save three copies of each image.
+//! The library is loaded at run time (`libloading`), so every build has `--denoise`: from
+//! `$OIDN_DIR/lib`, then the prefix `tools/oidn-prefix.sh` makes by default
+//! (`~/.cache/strata/oidn-2.5.1`, the libraries of PyPI's `pyoidn` wheel), then the dynamic
+//! loader's own search path (`ffi.rs`). Where none is found, [`check`] says where it looked
+//! and how to get one. The filter is driven through OIDN's C API rather than a wrapper
+//! because prefiltering needs a filter with no colour image, and shared host images save
+//! three copies of each image.
 
 /// What the beauty's filter is given, row-major from the top row, three floats per pixel.
 #[derive(Clone, Copy, Debug)]
@@ -52,12 +53,16 @@ impl Default for Options {
 #[error("{0}")]
 pub struct DenoiseError(pub String);
 
-/// What the build says when `--denoise` is asked of it without the library.
-pub const NOT_BUILT: &str = "this build of strata has no denoiser: rebuild with the `denoise` feature against Intel Open Image Denoise, e.g. `OIDN_DIR=$(tools/oidn-prefix.sh) cargo build --release --features denoise` (README, \"Denoising\")";
-
-/// Whether this build can denoise.
+/// Whether Open Image Denoise can be loaded here (it is looked for once per process).
 pub fn available() -> bool {
-    cfg!(feature = "denoise")
+    ffi::library().is_ok()
+}
+
+/// Ok where Open Image Denoise can be loaded; otherwise the one message `--denoise` and
+/// `render denoise` give: where the library was looked for and how to get it, or what is
+/// wrong with the one found.
+pub fn check() -> Result<(), DenoiseError> {
+    ffi::library().map(|_| ())
 }
 
 /// Denoises `inputs.color`, returning the denoised image in the same layout.
@@ -88,7 +93,7 @@ pub fn denoise(inputs: &Inputs, options: &Options) -> Result<Vec<f32>, DenoiseEr
     if n == 0 {
         return Ok(Vec::new());
     }
-    imp::denoise(inputs, options)
+    ffi::denoise(inputs, options)
 }
 
 /// Denoises a film's beauty with its albedo and normal passes (the values the EXR's
@@ -139,30 +144,12 @@ pub fn describe(options: &Options, aux: bool) -> String {
     format!("Intel Open Image Denoise {version}, RT filter, HDR, quality high, with the {aux}; the raw beauty is the layer noisy")
 }
 
-/// The library's version ("2.5.1"), or None in a build without it.
+/// The library's version ("2.5.1"), or None where it cannot be loaded.
 pub fn version() -> Option<String> {
-    // Asked of a device of its own: once per process.
-    static VERSION: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
-    VERSION.get_or_init(imp::version).clone()
+    ffi::library().ok().map(|oidn| oidn.version.clone())
 }
 
 mod exr_file;
 pub use exr_file::{denoise_exr, Report};
 
-#[cfg(feature = "denoise")]
 mod ffi;
-#[cfg(feature = "denoise")]
-use ffi as imp;
-
-#[cfg(not(feature = "denoise"))]
-mod imp {
-    use super::{DenoiseError, Inputs, Options, NOT_BUILT};
-
-    pub(super) fn denoise(_: &Inputs, _: &Options) -> Result<Vec<f32>, DenoiseError> {
-        Err(DenoiseError(NOT_BUILT.into()))
-    }
-
-    pub(super) fn version() -> Option<String> {
-        None
-    }
-}

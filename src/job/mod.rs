@@ -787,7 +787,7 @@ fn samples(
 }
 
 /// The passes written beside the beauty, with the albedo and normal that `--denoise` reads,
-/// and the denoiser's options (an error where the build has no denoiser).
+/// and the denoiser's options (an error where Open Image Denoise cannot be loaded).
 fn denoise_and_passes(
     args: &Args,
 ) -> Result<(Vec<Pass>, Option<crate::denoise::Options>), JobError> {
@@ -800,10 +800,10 @@ fn denoise_and_passes(
     }
     let denoise = match args.denoise {
         false => None,
-        true if !crate::denoise::available() => {
-            refuse!("--denoise: {}", crate::denoise::NOT_BUILT)
-        }
         true => {
+            if let Err(e) = crate::denoise::check() {
+                refuse!("--denoise: {e}")
+            }
             passes.extend([Pass::Albedo, Pass::Normal]);
             Some(crate::denoise::Options {
                 threads: 0,

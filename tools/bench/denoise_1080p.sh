@@ -4,7 +4,7 @@
 # it RUNS times with the prefilter on and RUNS times off, --threads THREADS. Prints each run's
 # denoise seconds (what `render denoise` reports: the filters, with their set-up, not the EXR
 # read and write) and the whole command's wall seconds, then best and median per setting and
-# the best per megapixel. Needs a render built with --features denoise.
+# the best per megapixel. Needs Open Image Denoise where render finds it (tools/oidn-prefix.sh).
 #   tools/bench/denoise_1080p.sh [RENDER] [RUNS] [THREADS]
 set -eu
 R=${1:-target/release/render}; RUNS=${2:-3}; T=${3:-2}

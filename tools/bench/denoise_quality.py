@@ -4,8 +4,8 @@
     tools/bench/denoise_quality.sh [--jobs cornell,spheres,helmet] [--out DIR]   # the wrapper:
     # nice -n 19, ~/.cache/strata/denoise-venv's python (numpy, flip-evaluator, OpenEXR)
 
-Needs a `render` built with the feature:
-    OIDN_DIR=~/.cache/strata/oidn-2.5.1 cargo build --release --features denoise
+Needs Open Image Denoise where `render` loads it from (README, "Denoising"):
+    tools/oidn-prefix.sh && cargo build --release
 
 For each job a ladder of 1, 2, 4, ... spp (up to the job's cap), at a fixed seed and --threads 2,
 every rung rendered
