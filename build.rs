@@ -273,7 +273,38 @@ fn draco_shim() {
     println!("cargo::rustc-link-lib=draco");
 }
 
+/// The commit strata is built from, for the EXR header (`strata:commit`): `git rev-parse HEAD`,
+/// or "unknown" outside a git checkout. Rebuilt when HEAD moves (its file, and the branch's
+/// ref or the packed refs).
+fn build_commit() {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    let commit = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    if let (Some(dir), Some(common)) = (
+        git(&["rev-parse", "--git-dir"]),
+        git(&["rev-parse", "--git-common-dir"]),
+    ) {
+        println!("cargo::rerun-if-changed={dir}/HEAD");
+        let branch = git(&["symbolic-ref", "-q", "HEAD"]).map(|r| PathBuf::from(&common).join(r));
+        match branch.filter(|r| r.is_file()) {
+            Some(r) => println!("cargo::rerun-if-changed={}", r.display()),
+            None if Path::new(&common).join("packed-refs").is_file() => {
+                println!("cargo::rerun-if-changed={common}/packed-refs")
+            }
+            None => {}
+        }
+    }
+    println!("cargo::rustc-env=STRATA_COMMIT={commit}");
+}
+
 fn main() {
+    build_commit();
     draco_shim();
     println!("cargo::rustc-check-cfg=cfg(embree3)");
     println!("cargo::rustc-check-cfg=cfg(embree4)");

@@ -28,78 +28,118 @@ pub struct Args {
     /// The scene: a .gltf (embedded or external buffers) or .glb file.
     pub scene: PathBuf,
 
-    /// Output file [default: the scene's name with .exr, in the current directory]: an .exr
-    /// (linear, with a .png preview beside it), or a .png or .jpg of the image through the view
-    /// transform alone.
-    #[arg(short, long, value_name = "FILE.exr")]
-    pub output: Option<PathBuf>,
+    /// Image size [default: 640 wide, height from the camera's aspect ratio, else 640x480].
+    #[arg(help_heading = "Scene and camera", long, value_name = "WxH", value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
 
-    /// Ray tracing backend: Embree, or the pure-Rust CWBVH of the obvhs crate.
+    /// Which camera of the file, in the order the default scene lists them (--list-cameras
+    /// prints them).
+    #[arg(help_heading = "Scene and camera", long, value_name = "N")]
+    pub camera: Option<usize>,
+
+    /// Print the file's cameras (index, name, projection, position) and exit.
+    #[arg(help_heading = "Scene and camera", long)]
+    pub list_cameras: bool,
+
+    /// Place the camera at X,Y,Z (world units, glTF's +Y up), looking at --look-at (default:
+    /// the centre of the scene's bounding box).
+    #[arg(help_heading = "Scene and camera", long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub look_from: Option<[f32; 3]>,
+
+    /// Turn the camera to look at X,Y,Z (without --look-from, from where the camera is).
+    #[arg(help_heading = "Scene and camera", long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub look_at: Option<[f32; 3]>,
+
+    /// The image's up direction with --look-from or --look-at [default: 0,1,0].
+    #[arg(help_heading = "Scene and camera", long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub up: Option<[f32; 3]>,
+
+    /// Vertical field of view in degrees, for the file's perspective camera or the framing
+    /// of a file without one [default: the camera's; 45 for the framing].
+    #[arg(help_heading = "Scene and camera", long, value_name = "DEGREES", value_parser = parse_fov)]
+    pub fov: Option<f32>,
+
+    /// Depth of field: a thin lens of this aperture diameter, in scene units (glTF's metres),
+    /// focused at --focus-distance. Perspective cameras only.
+    #[arg(help_heading = "Scene and camera", long, value_name = "DIAMETER", value_parser = parse_length, conflicts_with = "f_stop")]
+    pub aperture: Option<f32>,
+
+    /// Depth of field: a thin lens of this f-number, its focal length that of the field of
+    /// view on a 36 mm sensor across the image's larger side (Blender's default camera), in
+    /// a scene of metres; e.g. 2.8. Perspective cameras only.
+    #[arg(help_heading = "Scene and camera", long, value_name = "N", value_parser = parse_length)]
+    pub f_stop: Option<f32>,
+
+    /// The distance in focus, in scene units, with --aperture or --f-stop [default: the
+    /// distance from the camera to --look-at, or to the centre of the scene's bounding box
+    /// along the view].
+    #[arg(help_heading = "Scene and camera", long, value_name = "DISTANCE", value_parser = parse_length)]
+    pub focus_distance: Option<f32>,
+
+    /// Turn the camera by DEGREES about the vertical axis (+Y) through the centre of the
+    /// scene's bounding box, counter-clockwise seen from above. With --frames A..B, frame F
+    /// turns by DEGREES·(F − A)/(B − A + 1): --orbit 360 makes a turntable that loops.
     #[arg(
+        help_heading = "Scene and camera",
         long,
-        default_value = "embree",
-        value_name = "embree|obvhs",
-        hide_possible_values = true
+        value_name = "DEGREES",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
     )]
-    pub backend: Backend,
+    pub orbit: f32,
 
-    /// Light transport algorithm: path tracing (the image a user expects), direct lighting,
-    /// or ambient occlusion.
+    /// Render frame F of the file's animation (at time F / --fps seconds), writing the EXR
+    /// with the frame number in its name: `####` in -o becomes the zero-padded number,
+    /// otherwise `.FFFF` goes before `.exr`.
     #[arg(
+        help_heading = "Scene and camera",
         long,
-        default_value = "path",
-        value_name = "ao|direct|path",
-        hide_possible_values = true
+        value_name = "F",
+        conflicts_with = "frames"
     )]
-    pub integrator: IntegratorKind,
+    pub frame: Option<u32>,
 
-    /// Path tracing: the most bounces (1 = direct lighting; Mitsuba's max_depth is this + 1).
-    #[arg(long, default_value_t = 8, value_name = "BOUNCES")]
-    pub max_depth: u32,
+    /// Render frames A to B (inclusive) of the file's animation, one EXR each, named as for
+    /// --frame.
+    #[arg(help_heading = "Scene and camera", long, value_name = "A..B", value_parser = parse_frame_range)]
+    pub frames: Option<(u32, u32)>,
 
-    /// Direct and path: how direct light is sampled: MIS of light and BSDF sampling, or one alone.
+    /// Frames per second of --frame and --frames.
     #[arg(
+        help_heading = "Scene and camera",
         long,
-        default_value = "mis",
-        value_name = "mis|light|bsdf",
-        hide_possible_values = true
+        value_name = "FPS",
+        default_value_t = 24.0
     )]
-    pub strategy: Strategy,
+    pub fps: f64,
 
-    /// Path tracing: Russian roulette from this bounce on.
-    #[arg(long, default_value_t = 5, value_name = "BOUNCES")]
-    pub rr_depth: u32,
-
-    /// Direct and path: how points on emissive triangles are sampled.
+    /// Which of the file's animations --frame and --frames play (its index).
     #[arg(
+        help_heading = "Scene and camera",
         long,
-        default_value = "area",
-        value_name = "area|solid-angle",
-        hide_possible_values = true
+        value_name = "N",
+        default_value_t = 0
     )]
-    pub triangle_sampling: TriangleSampling,
-
-    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixels where an emitter's outline may be seen (antialiases lights' outlines); fewer where outlines cover much of the image (at most one per sample on average); 0: none.
-    #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
-    pub emitter_samples: u32,
+    pub animation: usize,
 
     /// Constant environment radiance, linear RGB [default: black, or a white sky of radiance 1
     /// for a scene that brings no light meant to light it]; with --env, what the camera sees
     /// behind the scene while the map lights it. `transparent`: the camera sees nothing
     /// behind the scene (the lighting is as without --background) and the EXR and PNG get
     /// an alpha channel, the scene's coverage of each pixel.
-    #[arg(long, value_name = "R,G,B|transparent", value_parser = parse_background)]
+    #[arg(help_heading = "Lighting", long, value_name = "R,G,B|transparent", value_parser = parse_background)]
     pub background: Option<Background>,
 
     /// Environment map: an equirectangular (latitude-longitude) Radiance .hdr or OpenEXR .exr
     /// of linear radiance, oriented as Blender orients a world environment texture, and
     /// importance-sampled (direct and path tracing). `none`: no environment, and no default
     /// sky for a scene that brings no light meant to light it (a file named so: ./none).
-    #[arg(long, value_name = "FILE")]
+    #[arg(help_heading = "Lighting", long, value_name = "FILE")]
     pub env: Option<PathBuf>,
 
     /// Turn the environment map about +Y by DEGREES, counter-clockwise seen from above.
     #[arg(
+        help_heading = "Lighting",
         long,
         value_name = "DEGREES",
         default_value_t = 0.0,
@@ -109,6 +149,7 @@ pub struct Args {
 
     /// Scale the environment map's radiance by S.
     #[arg(
+        help_heading = "Lighting",
         long,
         value_name = "S",
         default_value_t = 1.0,
@@ -120,6 +161,7 @@ pub struct Args {
     /// luminance less the mean (MIS compensation: light samples go to what outshines the
     /// average, BSDF samples find the rest). With --strategy light or bsdf: radiance.
     #[arg(
+        help_heading = "Lighting",
         long,
         default_value = "compensated",
         value_name = "radiance|compensated",
@@ -127,37 +169,41 @@ pub struct Args {
     )]
     pub env_sampling: MapSampling,
 
-    /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
-    pub pixel: Option<(u32, u32)>,
-
-    /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
+    /// Light transport algorithm: path tracing (the image a user expects), direct lighting,
+    /// or ambient occlusion.
     #[arg(
+        help_heading = "Quality",
         long,
-        default_value = "sobol",
-        value_name = "random|stratified|sobol",
+        default_value = "path",
+        value_name = "ao|direct|path",
         hide_possible_values = true
     )]
-    pub sampler: SamplerKind,
+    pub integrator: IntegratorKind,
 
     /// Samples per pixel; with --target-error or --time-limit, the most a pixel takes
     /// [default: 64; with --target-error or --time-limit, 65536].
-    #[arg(long)]
+    #[arg(help_heading = "Quality", long)]
     pub spp: Option<u32>,
 
     /// Adaptive sampling: stop sampling a pixel once the estimated relative standard error of
     /// its value (and of its eight neighbours') is at most this, e.g. 0.01 for 1%.
-    #[arg(long, value_name = "E", value_parser = parse_target_error)]
+    #[arg(help_heading = "Quality", long, value_name = "E", value_parser = parse_target_error)]
     pub target_error: Option<f32>,
 
     /// Adaptive sampling: the samples every pixel takes before its error is judged.
-    #[arg(long, value_name = "N", requires = "target_error")]
+    #[arg(
+        help_heading = "Quality",
+        long,
+        value_name = "N",
+        requires = "target_error"
+    )]
     pub min_spp: Option<u32>,
 
     /// Adaptive sampling: --target-error is relative to the pixel's value (what a tone-mapped
     /// image shows), or absolute, in radiance units (what RMSE measures). With --time-limit it
     /// also decides where the samples go: where they lower this error most.
     #[arg(
+        help_heading = "Quality",
         long,
         default_value = "relative",
         value_name = "relative|absolute",
@@ -169,114 +215,77 @@ pub struct Args {
     /// Stop the render after this many seconds of rendering (loading and the BVH build not
     /// counted), keeping every sample taken so far; exits with success. The image then
     /// depends on the machine's speed.
-    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(help_heading = "Quality", long, value_name = "SECONDS", value_parser = parse_seconds)]
     pub time_limit: Option<f64>,
 
+    /// Path tracing: the most bounces (1 = direct lighting; Mitsuba's max_depth is this + 1).
+    #[arg(
+        help_heading = "Quality",
+        long,
+        default_value_t = 8,
+        value_name = "BOUNCES"
+    )]
+    pub max_depth: u32,
+
+    /// Path tracing: Russian roulette from this bounce on.
+    #[arg(
+        help_heading = "Quality",
+        long,
+        default_value_t = 5,
+        value_name = "BOUNCES"
+    )]
+    pub rr_depth: u32,
+
+    /// Direct and path: how direct light is sampled: MIS of light and BSDF sampling, or one alone.
+    #[arg(
+        help_heading = "Quality",
+        long,
+        default_value = "mis",
+        value_name = "mis|light|bsdf",
+        hide_possible_values = true
+    )]
+    pub strategy: Strategy,
+
+    /// Direct and path: extra camera rays per sample that estimate the emission the camera sees directly, in the pixels where an emitter's outline may be seen (antialiases lights' outlines); fewer where outlines cover much of the image (at most one per sample on average); 0: none.
+    #[arg(help_heading = "Quality", long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=256))]
+    pub emitter_samples: u32,
+
+    /// Direct and path: how points on emissive triangles are sampled.
+    #[arg(
+        help_heading = "Quality",
+        long,
+        default_value = "area",
+        value_name = "area|solid-angle",
+        hide_possible_values = true
+    )]
+    pub triangle_sampling: TriangleSampling,
+
+    /// Sample generator: random, stratified (correlated multi-jitter) or sobol (Owen-scrambled).
+    #[arg(
+        help_heading = "Quality",
+        long,
+        default_value = "sobol",
+        value_name = "random|stratified|sobol",
+        hide_possible_values = true
+    )]
+    pub sampler: SamplerKind,
+
     /// Random seed; the same seed, scene and settings give the same image on any thread count.
-    #[arg(long, default_value_t = 0)]
+    #[arg(help_heading = "Quality", long, default_value_t = 0)]
     pub seed: u64,
 
-    /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
-
-    /// Image size [default: 640 wide, height from the camera's aspect ratio, else 640x480].
-    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
-    pub resolution: Option<(u32, u32)>,
-
-    /// Which camera of the file, in the order the default scene lists them (--list-cameras
-    /// prints them).
-    #[arg(long, value_name = "N")]
-    pub camera: Option<usize>,
-
-    /// Print the file's cameras (index, name, projection, position) and exit.
-    #[arg(long)]
-    pub list_cameras: bool,
-
-    /// Place the camera at X,Y,Z (world units, glTF's +Y up), looking at --look-at (default:
-    /// the centre of the scene's bounding box).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
-    pub look_from: Option<[f32; 3]>,
-
-    /// Turn the camera to look at X,Y,Z (without --look-from, from where the camera is).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
-    pub look_at: Option<[f32; 3]>,
-
-    /// The image's up direction with --look-from or --look-at [default: 0,1,0].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
-    pub up: Option<[f32; 3]>,
-
-    /// Vertical field of view in degrees, for the file's perspective camera or the framing
-    /// of a file without one [default: the camera's; 45 for the framing].
-    #[arg(long, value_name = "DEGREES", value_parser = parse_fov)]
-    pub fov: Option<f32>,
-
-    /// Depth of field: a thin lens of this aperture diameter, in scene units (glTF's metres),
-    /// focused at --focus-distance. Perspective cameras only.
-    #[arg(long, value_name = "DIAMETER", value_parser = parse_length, conflicts_with = "f_stop")]
-    pub aperture: Option<f32>,
-
-    /// Depth of field: a thin lens of this f-number, its focal length that of the field of
-    /// view on a 36 mm sensor across the image's larger side (Blender's default camera), in
-    /// a scene of metres; e.g. 2.8. Perspective cameras only.
-    #[arg(long, value_name = "N", value_parser = parse_length)]
-    pub f_stop: Option<f32>,
-
-    /// The distance in focus, in scene units, with --aperture or --f-stop [default: the
-    /// distance from the camera to --look-at, or to the centre of the scene's bounding box
-    /// along the view].
-    #[arg(long, value_name = "DISTANCE", value_parser = parse_length)]
-    pub focus_distance: Option<f32>,
-
-    /// Turn the camera by DEGREES about the vertical axis (+Y) through the centre of the
-    /// scene's bounding box, counter-clockwise seen from above. With --frames A..B, frame F
-    /// turns by DEGREES·(F − A)/(B − A + 1): --orbit 360 makes a turntable that loops.
-    #[arg(
-        long,
-        value_name = "DEGREES",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub orbit: f32,
-
-    /// Render frame F of the file's animation (at time F / --fps seconds), writing the EXR
-    /// with the frame number in its name: `####` in -o becomes the zero-padded number,
-    /// otherwise `.FFFF` goes before `.exr`.
-    #[arg(long, value_name = "F", conflicts_with = "frames")]
-    pub frame: Option<u32>,
-
-    /// Render frames A to B (inclusive) of the file's animation, one EXR each, named as for
-    /// --frame.
-    #[arg(long, value_name = "A..B", value_parser = parse_frame_range)]
-    pub frames: Option<(u32, u32)>,
-
-    /// Frames per second of --frame and --frames.
-    #[arg(long, value_name = "FPS", default_value_t = 24.0)]
-    pub fps: f64,
-
-    /// Which of the file's animations --frame and --frames play (its index).
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    pub animation: usize,
-
-    /// Render shard I of N (I from 0: a farm's task index, e.g. $SLURM_ARRAY_TASK_ID), the
-    /// samples spp·I/N to spp·(I+1)/N of every pixel, as a partial EXR named -o with
-    /// `.shard-I-of-N` before `.exr`. `render merge` joins the N partial files into the image
-    /// one machine would have rendered, bit for bit. No PNG preview.
-    #[arg(long, value_name = "I/N", value_parser = parse_shard, conflicts_with = "samples")]
-    pub shard: Option<(u32, u32)>,
-
-    /// Render the samples of index A to B − 1 of every pixel as a partial EXR named -o with
-    /// `.samples-A-B` before `.exr`, as --shard does for its share.
-    #[arg(long, value_name = "A..B", value_parser = parse_sample_range)]
-    pub samples: Option<(u32, u32)>,
-
     /// AO: occluders farther than this distance are ignored [default: unlimited].
-    #[arg(long, value_name = "DISTANCE")]
+    #[arg(help_heading = "Quality", long, value_name = "DISTANCE")]
     pub ao_distance: Option<f32>,
+
+    /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
+    #[arg(help_heading = "Quality", long, default_value_t = 1, value_name = "N")]
+    pub ao_samples: u32,
 
     /// Hemisphere sampling of AO rays and of Lambertian reflection (`--materials lambertian`):
     /// cosine-weighted, or uniform (weighted by cos θ / pdf), for comparisons.
     #[arg(
+        help_heading = "Quality",
         long,
         default_value = "cosine",
         value_name = "cosine|uniform",
@@ -288,6 +297,7 @@ pub struct Args {
     /// reflection of the base colour (a clay override for look-dev: metallic, roughness and
     /// their texture ignored).
     #[arg(
+        help_heading = "Quality",
         long,
         default_value = "gltf",
         value_name = "gltf|lambertian",
@@ -301,6 +311,7 @@ pub struct Args {
     /// brightness. `off` renders the specification's single-scattering model exactly,
     /// as the reference images do.
     #[arg(
+        help_heading = "Quality",
         long,
         default_value = "on",
         value_name = "on|off",
@@ -308,48 +319,11 @@ pub struct Args {
     )]
     pub energy_compensation: OnOff,
 
-    /// AO: rays per camera hit, averaged (Mitsuba's shading_samples).
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub ao_samples: u32,
-
-    /// BVH build quality.
-    #[arg(
-        long,
-        default_value = "medium",
-        value_name = "low|medium|high",
-        hide_possible_values = true
-    )]
-    pub bvh_quality: BuildQuality,
-
-    /// Adaptive sampling: estimate each pixel's error from its samples' variance alone, not
-    /// from the two halves of its samples; for measurements only.
-    #[arg(long, hide = true)]
-    pub sample_variance_error: bool,
-
-    /// Path tracing: draw each bounce's sample point from a Sobol sequence of its own
-    /// (padding) instead of stratifying the bounces jointly; for measurements only.
-    #[arg(long, hide = true)]
-    pub padded_bounces: bool,
-
-    /// Turn off Embree's watertight (robust) traversal, for measurements only.
-    #[arg(long, hide = true)]
-    pub no_robust: bool,
-
-    /// Trace every triangle as a triangle, never pairs of them as quads (Embree), for
-    /// measurements only.
-    #[arg(long, hide = true)]
-    pub no_quads: bool,
-
-    /// Render MASK and BLEND materials opaque, ignoring their alpha, as renderers that ignore
-    /// glTF alpha coverage do (for comparisons with them).
-    #[arg(long)]
-    pub no_alpha: bool,
-
-    /// Store every placement of a mesh as a world-space copy of its triangles, where a mesh
-    /// that several nodes or EXT_mesh_gpu_instancing instances place is otherwise stored
-    /// once and placed by BVH instances: memory grows with the placements (for comparisons).
-    #[arg(long)]
-    pub flatten_instances: bool,
+    /// Output file [default: the scene's name with .exr, in the current directory]: an .exr
+    /// (linear, with a .png preview beside it), or a .png or .jpg of the image through the view
+    /// transform alone.
+    #[arg(help_heading = "Output", short, long, value_name = "FILE.exr")]
+    pub output: Option<PathBuf>,
 
     /// Render passes written as layers of the EXR beside the beauty, comma-separated:
     /// albedo (albedo.R/G/B), normal (normal.X/Y/Z), depth (depth.Z), position
@@ -357,78 +331,158 @@ pub struct Args {
     /// ray's first hit; object_id, mesh_id, material_id (object_id.ID, ...), the glTF node,
     /// mesh and material indices of its sample 0's hit, exact, -1 where it met nothing
     /// (README, "Render passes").
-    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    #[arg(
+        help_heading = "Output",
+        long,
+        value_name = "LIST",
+        value_delimiter = ','
+    )]
     pub passes: Vec<Pass>,
 
     /// Denoise the beauty with Intel Open Image Denoise (loaded at run time; README, "Denoising"):
     /// the EXR's R, G, B are the denoised image, the raw one is kept as the layer `noisy`,
     /// and the albedo and normal passes the denoiser reads are written too.
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     pub denoise: bool,
 
     /// With --denoise: denoise the albedo and normal passes first and treat them as clean
     /// (on: final-frame quality), or give them to the denoiser as they are (off: faster).
-    #[arg(long, value_name = "on|off", default_value = "on")]
+    #[arg(
+        help_heading = "Output",
+        long,
+        value_name = "on|off",
+        default_value = "on"
+    )]
     pub denoise_prefilter: OnOff,
+
+    #[command(flatten, next_help_heading = "Output")]
+    pub preview: PreviewArgs,
 
     /// Also write each pixel's estimated variance of the mean (sample variance / samples) as
     /// an RGB EXR, for statistical comparisons.
-    #[arg(long, value_name = "FILE.exr")]
+    #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     pub variance: Option<PathBuf>,
 
     /// Also write each pixel's number of samples as a grey EXR (useful with --target-error).
-    #[arg(long, value_name = "FILE.exr")]
+    #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     pub spp_image: Option<PathBuf>,
-
-    #[command(flatten)]
-    pub preview: PreviewArgs,
-
-    /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
-    /// same; for measuring what packets gain)
-    #[arg(long)]
-    pub no_camera_packets: bool,
-
-    /// Print the time of each phase and the rays by kind.
-    #[arg(long)]
-    pub stats: bool,
-
-    /// Refuse a scene whose estimated memory (geometry, BVH, decoded textures, environment
-    /// map and image, from the file's declared counts and the images' headers, before
-    /// loading) exceeds this: bytes, or with a suffix K, M, G, T (powers of 1024), e.g.
-    /// 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical memory].
-    #[arg(long, value_name = "BYTES", value_parser = parse_memory)]
-    pub max_memory: Option<MemoryLimit>,
-
-    /// Refuse a scene with a texture image that is missing or does not decode, naming it and
-    /// the problem, instead of warning and rendering those textures as absent (their
-    /// factors alone).
-    #[arg(long)]
-    pub strict: bool,
 
     /// Write the running image (and the variance image) to the output path(s) at most every
     /// SECONDS during the render, atomically, so a crash or kill loses at most that much.
-    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(help_heading = "Output", long, value_name = "SECONDS", value_parser = parse_seconds)]
     pub checkpoint: Option<f64>,
 
     /// Continue the render saved in FILE (what an interrupted render or a checkpoint wrote) to
     /// --spp: give the options it was rendered with. Each pixel continues from its samples,
     /// so the image equals an uninterrupted render's bit for bit. Fixed-spp renders only.
-    #[arg(long, value_name = "FILE.exr")]
+    #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     pub resume: Option<PathBuf>,
 
     /// When stderr is not a terminal (a farm's log, a pipe), print a progress line every
     /// SECONDS instead of the progress bar; 0: none.
-    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds_or_zero)]
+    #[arg(help_heading = "Output", long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds_or_zero)]
     pub progress_every: f64,
 
+    /// Print the time of each phase and the rays by kind.
+    #[arg(help_heading = "Output", long)]
+    pub stats: bool,
+
+    /// Refuse a scene with a texture image that is missing or does not decode, naming it and
+    /// the problem, instead of warning and rendering those textures as absent (their
+    /// factors alone).
+    #[arg(help_heading = "Output", long)]
+    pub strict: bool,
+
+    /// Render shard I of N (I from 0: a farm's task index, e.g. $SLURM_ARRAY_TASK_ID), the
+    /// samples spp·I/N to spp·(I+1)/N of every pixel, as a partial EXR named -o with
+    /// `.shard-I-of-N` before `.exr`. `render merge` joins the N partial files into the image
+    /// one machine would have rendered, bit for bit. No PNG preview.
+    #[arg(help_heading = "Farm", long, value_name = "I/N", value_parser = parse_shard, conflicts_with = "samples")]
+    pub shard: Option<(u32, u32)>,
+
+    /// Render the samples of index A to B − 1 of every pixel as a partial EXR named -o with
+    /// `.samples-A-B` before `.exr`, as --shard does for its share.
+    #[arg(help_heading = "Farm", long, value_name = "A..B", value_parser = parse_sample_range)]
+    pub samples: Option<(u32, u32)>,
+
+    /// Worker threads (0: all cores).
+    #[arg(help_heading = "Advanced", long, default_value_t = 0)]
+    pub threads: usize,
+
+    /// Refuse a scene whose estimated memory (geometry, BVH, decoded textures, environment
+    /// map and image, from the file's declared counts and the images' headers, before
+    /// loading) exceeds this: bytes, or with a suffix K, M, G, T (powers of 1024), e.g.
+    /// 512M, 4G; 'unlimited' for no limit [default: 3/4 of physical memory].
+    #[arg(help_heading = "Advanced", long, value_name = "BYTES", value_parser = parse_memory)]
+    pub max_memory: Option<MemoryLimit>,
+
+    /// Ray tracing backend: Embree, or the pure-Rust CWBVH of the obvhs crate.
+    #[arg(
+        help_heading = "Advanced",
+        long,
+        default_value = "embree",
+        value_name = "embree|obvhs",
+        hide_possible_values = true
+    )]
+    pub backend: Backend,
+
+    /// BVH build quality.
+    #[arg(
+        help_heading = "Advanced",
+        long,
+        default_value = "medium",
+        value_name = "low|medium|high",
+        hide_possible_values = true
+    )]
+    pub bvh_quality: BuildQuality,
+
+    /// Render only this pixel (all its samples) and print its value; the rest of the image is 0.
+    #[arg(help_heading = "Advanced", long, value_name = "X,Y", value_parser = parse_pixel)]
+    pub pixel: Option<(u32, u32)>,
+
+    /// Render MASK and BLEND materials opaque, ignoring their alpha, as renderers that ignore
+    /// glTF alpha coverage do (for comparisons with them).
+    #[arg(help_heading = "Advanced", long)]
+    pub no_alpha: bool,
+
+    /// Store every placement of a mesh as a world-space copy of its triangles, where a mesh
+    /// that several nodes or EXT_mesh_gpu_instancing instances place is otherwise stored
+    /// once and placed by BVH instances: memory grows with the placements (for comparisons).
+    #[arg(help_heading = "Advanced", long)]
+    pub flatten_instances: bool,
+
+    /// Turn off Embree's watertight (robust) traversal, for measurements only.
+    #[arg(help_heading = "Advanced", long, hide = true)]
+    pub no_robust: bool,
+
+    /// Trace every triangle as a triangle, never pairs of them as quads (Embree), for
+    /// measurements only.
+    #[arg(help_heading = "Advanced", long, hide = true)]
+    pub no_quads: bool,
+
+    /// Trace camera rays one at a time instead of in packets of 4×2 pixels (the image is the
+    /// same; for measuring what packets gain)
+    #[arg(help_heading = "Advanced", long)]
+    pub no_camera_packets: bool,
+
+    /// Adaptive sampling: estimate each pixel's error from its samples' variance alone, not
+    /// from the two halves of its samples; for measurements only.
+    #[arg(help_heading = "Advanced", long, hide = true)]
+    pub sample_variance_error: bool,
+
+    /// Path tracing: draw each bounce's sample point from a Sobol sequence of its own
+    /// (padding) instead of stratifying the bounces jointly; for measurements only.
+    #[arg(help_heading = "Advanced", long, hide = true)]
+    pub padded_bounces: bool,
+
     /// Tile edge in pixels.
-    #[arg(long, default_value_t = 16, hide = true)]
+    #[arg(help_heading = "Advanced", long, default_value_t = 16, hide = true)]
     pub tile_size: u32,
 
     /// Least length of a pass, in seconds, at the rate measured so far (by a probe of a few
     /// tiles, for the first pass; 0: no probe, and passes of 1, 1, 2, 4, … samples per pixel,
     /// for measuring what passes cost).
-    #[arg(long, default_value_t = DEFAULT_MIN_PASS_SECONDS, hide = true,
+    #[arg(help_heading = "Advanced", long, default_value_t = DEFAULT_MIN_PASS_SECONDS, hide = true,
           value_parser = parse_seconds_or_zero)]
     pub min_pass_seconds: f64,
 }

@@ -1584,4 +1584,45 @@ fn the_header_records_the_camera() {
         }
         other => panic!("strata:projection: {other:?}"),
     }
+    // worldToNDC, with ao-wall's 8x8 image and --fov 90 (tan 45° = 1, aspect 1): a point c
+    // in camera space lands at x = ½ + ½·c.x/(−c.z), y = ½ − ½·c.y/(−c.z).
+    let out = tmp.path().join("ndc.exr");
+    let wall = ao_wall();
+    let args = [
+        s(&wall),
+        "-o",
+        s(&out),
+        "--resolution",
+        "8x8",
+        "--spp",
+        "1",
+        "--fov",
+        "90",
+    ];
+    render(tmp.path(), &args).assert_success();
+    let header = exr::meta::MetaData::read_from_file(&out, false)
+        .unwrap()
+        .headers[0]
+        .clone();
+    let n = (header.own_attributes)
+        .world_to_normalized_device
+        .expect("worldToNDC in the header");
+    let ndc = |p: [f32; 3]| -> [f32; 2] {
+        let v = [p[0], p[1], p[2], 1.0];
+        let q = [0, 1, 3].map(|j| (0..4).map(|i| v[i] * n[i * 4 + j]).sum::<f32>());
+        [q[0] / q[2], q[1] / q[2]]
+    };
+    for p in [[1.0, 0.0, 0.0], [1.3, -0.5, 0.2], [0.2, 0.4, -0.7]] {
+        let c = map(p);
+        let want = [0.5 + 0.5 * c[0] / -c[2], 0.5 - 0.5 * c[1] / -c[2]];
+        let got = ndc(p);
+        assert!(
+            (got[0] - want[0]).abs() < 1e-5 && (got[1] - want[1]).abs() < 1e-5,
+            "{p:?}: {got:?} against {want:?}"
+        );
+    }
+    assert!(
+        (ndc([1.0, 0.0, 0.0])[0] - 0.5).abs() < 1e-6,
+        "straight ahead: the centre"
+    );
 }

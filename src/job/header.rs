@@ -19,8 +19,34 @@ use crate::scene::Projection;
 /// ([`crate::render::output::WORLD_TO_CAMERA`]) and, as text, its projection.
 pub fn camera_attributes(view: &crate::job::View) -> Vec<(String, Attr)> {
     // Imath's row-vector convention: M_row = M_colᵀ, whose rows are M_col's columns.
-    let world_to_camera = view.camera.to_world.inverse().to_cols_array();
+    let to_camera = view.camera.to_world.inverse();
+    let world_to_camera = to_camera.to_cols_array();
     let aspect = view.width as f32 / view.height as f32;
+    // Camera space (looking down −Z, +Y up) to OpenEXR's NDC, x right and y down over [0, 1]:
+    // perspective x_ndc = ½ + ½·x / (−z·tan(fov/2)·aspect), y_ndc = ½ − ½·y / (−z·tan(fov/2)),
+    // with w = −z (and z_ndc = 1/−z, the inverse depth); orthographic without the division.
+    let (sx, sy, perspective) = match view.camera.projection {
+        Projection::Perspective { yfov } => {
+            let t = (0.5 * yfov).tan();
+            (t * aspect, t, true)
+        }
+        Projection::Orthographic { ymag } => (ymag * aspect, ymag, false),
+    };
+    let to_ndc = match perspective {
+        true => glam::Mat4::from_cols(
+            glam::Vec4::new(0.5 / sx, 0.0, 0.0, 0.0),
+            glam::Vec4::new(0.0, -0.5 / sy, 0.0, 0.0),
+            glam::Vec4::new(-0.5, -0.5, 0.0, -1.0),
+            glam::Vec4::new(0.0, 0.0, 1.0, 0.0),
+        ),
+        false => glam::Mat4::from_cols(
+            glam::Vec4::new(0.5 / sx, 0.0, 0.0, 0.0),
+            glam::Vec4::new(0.0, -0.5 / sy, 0.0, 0.0),
+            glam::Vec4::new(0.0, 0.0, -1.0, 0.0),
+            glam::Vec4::new(0.5, 0.5, 0.0, 1.0),
+        ),
+    };
+    let world_to_ndc = (to_ndc * to_camera).to_cols_array();
     let projection = match view.camera.projection {
         Projection::Perspective { yfov } => format!(
             "perspective, vertical field of view {} rad ({:.4}°), aspect ratio {aspect}",
@@ -35,6 +61,10 @@ pub fn camera_attributes(view: &crate::job::View) -> Vec<(String, Attr)> {
         (
             crate::render::output::WORLD_TO_CAMERA.to_string(),
             Attr::Matrix(world_to_camera),
+        ),
+        (
+            crate::render::output::WORLD_TO_NDC.to_string(),
+            Attr::Matrix(world_to_ndc),
         ),
         ("strata:projection".into(), Attr::Text(projection)),
     ]
@@ -58,6 +88,10 @@ pub fn header_attributes(job: &Job, backend: &str) -> Vec<(String, Attr)> {
         ("strata:spp".into(), Attr::Int(job.spp as i32)),
         ("strata:seed".into(), Attr::Text(job.seed.to_string())),
         ("strata:backend".into(), Attr::Text(backend.to_string())),
+        (
+            "strata:commit".into(),
+            Attr::Text(env!("STRATA_COMMIT").into()),
+        ),
         // What the PNG preview beside the EXR shows (the EXR itself stays linear).
         (
             "strata:preview_view".into(),
@@ -335,13 +369,14 @@ mod tests {
             "strata:spp",
             "strata:seed",
             "strata:backend",
+            "strata:commit",
             "strata:preview_view",
             "strata:preview_exposure",
         ];
         let ao = names(&["--integrator", "ao"]);
-        assert_eq!(ao[..8], common);
+        assert_eq!(ao[..9], common);
         assert_eq!(
-            ao[8..],
+            ao[9..],
             [
                 "strata:hemisphere",
                 "strata:ao_distance",
@@ -357,7 +392,7 @@ mod tests {
             "9",
         ]);
         assert_eq!(
-            path[8..],
+            path[9..],
             [
                 "strata:target_error",
                 "strata:min_spp",

@@ -187,6 +187,9 @@ pub(super) fn strata_header(path: &Path) -> Result<(BTreeMap<String, Attr>, usiz
     if let Some(m) = header.own_attributes.world_to_camera {
         attrs.insert(super::output::WORLD_TO_CAMERA.into(), Attr::Matrix(m));
     }
+    if let Some(m) = header.own_attributes.world_to_normalized_device {
+        attrs.insert(super::output::WORLD_TO_NDC.into(), Attr::Matrix(m));
+    }
     let size = header.layer_size;
     Ok((attrs, size.width(), size.height()))
 }

@@ -22,6 +22,11 @@ use crate::scene::Scene;
 /// to p·M), so the 16 values are the column-vector matrix's columns one after another.
 pub const WORLD_TO_CAMERA: &str = "worldToCamera";
 
+/// OpenEXR's standard attribute for the camera's projection: world to normalised device
+/// coordinates, x from 0 at the image's left edge to 1 at its right, y from 0 at its top to 1
+/// at its bottom (after dividing by w), as the exr crate's `world_to_normalized_device`.
+pub const WORLD_TO_NDC: &str = "worldToNDC";
+
 /// A header attribute value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Attr {
@@ -373,10 +378,17 @@ fn set_attributes(
     for (name, value) in attrs {
         let key = Text::new_or_none(name)
             .ok_or_else(|| err(path, format!("attribute name {name:?} is not ASCII")))?;
-        if let (WORLD_TO_CAMERA, Attr::Matrix(m)) = (name.as_str(), value) {
-            // A standard attribute the exr crate keeps in its own field.
-            layer.world_to_camera = Some(*m);
-            continue;
+        // Standard attributes the exr crate keeps in fields of their own.
+        match (name.as_str(), value) {
+            (WORLD_TO_CAMERA, Attr::Matrix(m)) => {
+                layer.world_to_camera = Some(*m);
+                continue;
+            }
+            (WORLD_TO_NDC, Attr::Matrix(m)) => {
+                layer.world_to_normalized_device = Some(*m);
+                continue;
+            }
+            _ => {}
         }
         let value = match value {
             Attr::Text(s) => AttributeValue::Text(

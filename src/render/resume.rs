@@ -75,6 +75,16 @@ pub fn read(path: &Path, expected: &Expected) -> Result<Resumed, String> {
             differences(&attrs, expected.header)
         )));
     }
+    // Another build may take other samples for the same settings (a change to the code),
+    // as a merge of its parts would refuse.
+    let ours = (expected.header.iter()).find(|(k, _)| k == "strata:commit");
+    if let (Some(there), Some((_, here))) = (text("strata:commit"), ours) {
+        if there != here.to_string() {
+            return Err(fail(format!(
+                "was rendered by another build of strata (commit {there}; this one is {here}), whose samples may differ: resume it with that build"
+            )));
+        }
+    }
     if text("strata:scene_hash").as_deref() != Some(expected.scene_hash) {
         return Err(fail(
             "was rendered from other files: the scene (or its buffers, images or environment map) changed since".into(),
@@ -133,7 +143,12 @@ pub fn read(path: &Path, expected: &Expected) -> Result<Resumed, String> {
 /// ` (strata:spp 64 there, 128 here; …)`, or nothing where none of them does.
 fn differences(file: &BTreeMap<String, Attr>, here: &[(String, Attr)]) -> String {
     // Attributes that describe the file rather than the settings.
-    const NOT_SETTINGS: [&str; 3] = ["strata:scene", "strata:environment", "strata:backend"];
+    const NOT_SETTINGS: [&str; 4] = [
+        "strata:scene",
+        "strata:environment",
+        "strata:backend",
+        "strata:commit",
+    ];
     let here: BTreeMap<&str, &Attr> = here.iter().map(|(k, v)| (k.as_str(), v)).collect();
     let mut names: Vec<&str> = (file.keys().map(String::as_str))
         .chain(here.keys().copied())
