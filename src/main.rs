@@ -81,11 +81,13 @@ fn denoise_file(args: DenoiseArgs) -> Result<Outcome> {
     if !preview.no_png {
         let display = strata::render::view::Display::new(preview.view, preview.exposure);
         let (w, h) = (report.width as u32, report.height as u32);
-        output::write_png_pixels(
+        // A transparent render's preview keeps its alpha.
+        output::write_png_rgba(
             &output.with_extension("png"),
             w,
             h,
             &report.denoised,
+            report.alpha.as_deref(),
             &display,
         )?;
     }
@@ -271,7 +273,8 @@ fn progress_bar(job: &Job) -> ProgressBar {
         }
         return bar;
     }
-    let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
+    // No length until the render sets one: a length of 0 shows as 100% done.
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     let template = match (job.time_limit, job.target_error) {
         (Some(_), _) => "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% of the time limit",
         (None, Some(_)) => "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} pixels converged",

@@ -489,4 +489,47 @@ mod with_oidn {
         assert!(!run.status.success());
         assert_one_error_line(&run.stderr, &["depth.exr", "no R, G, B", "depth.Z"]);
     }
+
+    /// A transparent render denoised keeps its alpha: `--denoise` writes the EXR's `A` and
+    /// an RGBA preview, and `render denoise` of it does too, its `A` unchanged.
+    #[test]
+    fn denoising_a_transparent_render_keeps_its_alpha() {
+        if !oidn_here("denoising_a_transparent_render_keeps_its_alpha") {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let scene = repo_path("scenes/suzanne.gltf");
+        let out = dir.path().join("t.exr");
+        let args = [
+            s(&scene),
+            "-o",
+            s(&out),
+            "--resolution",
+            "32x32",
+            "--spp",
+            "8",
+            "--background",
+            "transparent",
+            "--denoise",
+        ];
+        render(dir.path(), &args).assert_success();
+        let (c, _) = read_channels(&out);
+        let alpha = c["A"].clone();
+        assert!(alpha.contains(&0.0) && alpha.contains(&1.0));
+        let png = image::open(out.with_extension("png")).unwrap();
+        assert!(png.color().has_alpha(), "{:?}", png.color());
+        let again = dir.path().join("again.exr");
+        let run = render(dir.path(), &["denoise", s(&out), "-o", s(&again)]);
+        run.assert_success();
+        let (c2, _) = read_channels(&again);
+        assert_eq!(c2["A"], alpha, "the alpha passes through unchanged");
+        let preview = image::open(again.with_extension("png")).unwrap().to_rgba8();
+        let corner = preview.get_pixel(0, 0)[3];
+        assert_eq!(
+            corner,
+            (alpha[0] * 255.0 + 0.5) as u8,
+            "the preview's alpha"
+        );
+        assert!(preview.pixels().any(|p| p[3] == 255) && preview.pixels().any(|p| p[3] == 0));
+    }
 }

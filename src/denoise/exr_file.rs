@@ -32,6 +32,8 @@ pub struct Report {
     pub warnings: Vec<String>,
     /// Seconds the filter took.
     pub seconds: f64,
+    /// The input's alpha `A` where its background is transparent, for the preview.
+    pub alpha: Option<Vec<f32>>,
 }
 
 fn fail(path: &Path, message: impl std::fmt::Display) -> DenoiseError {
@@ -95,6 +97,14 @@ pub fn denoise_exr(input: &Path, output: &Path, options: &Options) -> Result<Rep
         Some(c) => c,
         None => rgb(layer, ["R", "G", "B"]).expect("the layer was chosen for its R, G, B"),
     };
+    // The alpha of a transparent background (not the coverage of `--passes alpha` against a
+    // visible one) goes into the preview.
+    let transparent = (layer.attributes.other)
+        .get(&Text::from("strata:background"))
+        .is_some_and(|v| matches!(v, AttributeValue::Text(t) if t.eq("transparent")));
+    let alpha = (layer.channel_data.list.iter())
+        .find(|c| transparent && c.name.eq("A"))
+        .map(samples);
     let mut warnings = Vec::new();
     let mut albedo = rgb(layer, ["albedo.R", "albedo.G", "albedo.B"]);
     let mut normal = rgb(layer, ["normal.X", "normal.Y", "normal.Z"]);
@@ -197,5 +207,6 @@ pub fn denoise_exr(input: &Path, output: &Path, options: &Options) -> Result<Rep
         aux,
         warnings,
         seconds,
+        alpha,
     })
 }

@@ -1006,8 +1006,6 @@ impl<'a> Run<'a> {
                 (x0.min(width), y0.min(height), x1.min(width), y1.min(height))
             });
         let tiles = tiles(window, settings.tile_size);
-        // On the pool: its workers' floating-point mode is the one the tiles trace with.
-        let setup = pool.install(|| TileSetup::new(ctx, settings));
         let stopping = settings.stopping;
         let (first_sample, end_sample) = settings.samples();
         assert!(
@@ -1030,7 +1028,10 @@ impl<'a> Run<'a> {
             None if adaptive_bar => window_pixels,
             None => window_pixels * spp as u64,
         };
+        // Before the setup's emitter rays, so that the bar never shows an empty length.
         progress.set_length(bar_length);
+        // On the pool: its workers' floating-point mode is the one the tiles trace with.
+        let setup = pool.install(|| TileSetup::new(ctx, settings));
         Run {
             ctx,
             settings,

@@ -162,7 +162,7 @@ fn load_inner(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene>
         let source = loader
             .image(&gltf.document, img.index(), &base_dir)
             .unwrap_or_else(ImageSource::Unreadable);
-        let source = match crate::texture::dimensions(&source) {
+        let source = match super::image_header::dimensions(&source) {
             Ok(size) => {
                 sizes.push(Some(size));
                 source

@@ -57,7 +57,7 @@ impl MemoryEstimate {
 /// The decoded textures of `materials` (the scene's), whose images are `sizes` in pixels
 /// (None for an image that cannot be read, which is never decoded): how many images are
 /// decoded, and their bytes. An image is decoded once per colour encoding its textures read
-/// it with, at [`crate::texture::BYTES_PER_TEXEL`]; the base colour image of a MASK or BLEND
+/// it with, at [`super::image_header::BYTES_PER_TEXEL`]; the base colour image of a MASK or BLEND
 /// material also once more as the alpha channel alpha coverage tests (4 bytes per texel).
 /// Every material counts, used or not, and every texture, whether the integrator reads it
 /// or not: an estimate from above.
@@ -86,7 +86,7 @@ pub(super) fn texture_memory(
     for &(image, _) in &decoded {
         if let Some(n) = texels(image) {
             count += 1;
-            bytes = bytes.saturating_add(n.saturating_mul(crate::texture::BYTES_PER_TEXEL));
+            bytes = bytes.saturating_add(n.saturating_mul(super::image_header::BYTES_PER_TEXEL));
         }
     }
     for &image in &alpha {

@@ -15,6 +15,7 @@ mod draco;
 pub mod extensions;
 mod files;
 mod gltf_loader;
+pub mod image_header;
 mod instancing;
 mod memory;
 mod meshopt;

@@ -12,39 +12,15 @@ use basisu_c_sys::extra::{
 };
 use basisu_c_sys::{BasisTextureFormat, TranscodeTargetFormat};
 
-/// The 12-byte identifier every KTX 2.0 file starts with.
-pub const IDENTIFIER: [u8; 12] = [
-    0xAB, b'K', b'T', b'X', b' ', b'2', b'0', 0xBB, b'\r', b'\n', 0x1A, b'\n',
-];
+// The header's fields, which the scene reads to size a texture before it is decoded.
+pub use crate::scene::image_header::{
+    is_ktx2, ktx2_dimensions as dimensions, KTX2_HEADER_BYTES as HEADER_BYTES,
+    KTX2_IDENTIFIER as IDENTIFIER,
+};
 
 /// The most bytes of RGBA8 a transcoded texture may take (the `image` crate's default limit
 /// for the other formats).
 const MAX_BYTES: u64 = 512 << 20;
-
-/// The bytes of a KTX 2.0 file's header up to and including its level count: the
-/// identifier, then nine little-endian u32 (vkFormat, typeSize, pixelWidth, pixelHeight,
-/// pixelDepth, layerCount, faceCount, levelCount, supercompressionScheme), of which
-/// [`dimensions`] reads the width and height.
-pub const HEADER_BYTES: usize = 12 + 9 * 4;
-
-/// The base level's width and height from a KTX2 file's header (`bytes` holds at least its
-/// first [`HEADER_BYTES`]), without transcoding anything.
-pub fn dimensions(bytes: &[u8]) -> Result<(u32, u32), String> {
-    let word = |offset: usize| {
-        bytes
-            .get(offset..offset + 4)
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    };
-    match (word(20), word(24)) {
-        (Some(width), Some(height)) => Ok((width, height)),
-        _ => Err("the KTX2 file ends inside its header (truncated?)".into()),
-    }
-}
-
-/// True when `bytes` start as a KTX 2.0 file.
-pub fn is_ktx2(bytes: &[u8]) -> bool {
-    bytes.starts_with(&IDENTIFIER)
-}
 
 /// The base level of a KTX2 Basis Universal texture as 8-bit RGBA, or why it cannot be had.
 pub fn decode(bytes: &[u8]) -> Result<image::RgbaImage, String> {

@@ -10,8 +10,13 @@ use std::path::Path;
 use glam::{Vec2, Vec4};
 
 pub use crate::scene::extensions::texture_transform::apply as transform_uv;
+use crate::scene::image_header::describe;
+pub use crate::scene::image_header::{dimensions, BYTES_PER_TEXEL};
 pub use crate::scene::Encoding;
 use crate::scene::{ImageSource, Wrap};
+
+// The scene's memory estimate counts this many bytes per texel.
+const _: () = assert!(std::mem::size_of::<Vec4>() as u64 == BYTES_PER_TEXEL);
 
 /// A decoded image in linear RGBA, row 0 at the top.
 ///
@@ -63,65 +68,6 @@ fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
         return ktx2::decode(&data).map(image::DynamicImage::ImageRgba8);
     }
     image::open(path).map_err(|e| describe(&e))
-}
-
-/// The bytes each texel of a decoded texture takes: strata keeps textures as linear RGBA in
-/// f32 ([`Image`] of `Vec4`), one level (no mip maps), decoded once per colour encoding the
-/// image is bound with.
-pub const BYTES_PER_TEXEL: u64 = 16;
-
-/// The width and height of the image at `source`, read from its header without decoding it:
-/// a KTX2 file's own header, the others' as the `image` crate reads them. An error says why
-/// the image cannot be had (it does not name the image).
-pub fn dimensions(source: &ImageSource) -> Result<(u32, u32), String> {
-    use std::io::{BufReader, Cursor, Read};
-    let (width, height) = match source {
-        ImageSource::Unreadable(why) => return Err(why.clone()),
-        ImageSource::Bytes { data, .. } if ktx2::is_ktx2(data) => ktx2::dimensions(data)?,
-        ImageSource::Bytes { data, .. } => image::ImageReader::new(Cursor::new(&data[..]))
-            .with_guessed_format()
-            .map_err(|e| e.to_string())?
-            .into_dimensions()
-            .map_err(|e| describe(&e))?,
-        ImageSource::File(path) => {
-            let cannot = |e: std::io::Error| format!("cannot read '{}': {e}", path.display());
-            let file = std::fs::File::open(path).map_err(cannot)?;
-            let mut head = Vec::with_capacity(ktx2::HEADER_BYTES);
-            (&file)
-                .take(ktx2::HEADER_BYTES as u64)
-                .read_to_end(&mut head)
-                .map_err(cannot)?;
-            if ktx2::is_ktx2(&head) {
-                ktx2::dimensions(&head)?
-            } else {
-                let mut reader = BufReader::new(file);
-                std::io::Seek::rewind(&mut reader).map_err(cannot)?;
-                image::ImageReader::new(reader)
-                    .with_guessed_format()
-                    .map_err(cannot)?
-                    .into_dimensions()
-                    .map_err(|e| describe(&e))?
-            }
-        }
-    };
-    if width == 0 || height == 0 {
-        return Err("the image has no pixels".into());
-    }
-    Ok((width, height))
-}
-
-/// The `image` crate's error in a message's words: its "format could not be determined"
-/// names no format, so say which ones strata reads; a short read is a file cut short.
-fn describe(e: &image::ImageError) -> String {
-    match e {
-        image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
-            format!("the image ends before its data does (truncated?): {io}")
-        }
-        image::ImageError::Unsupported(_) => {
-            format!("{e} (strata reads PNG, JPEG, WebP and KTX2 Basis Universal images)")
-        }
-        e => e.to_string(),
-    }
 }
 
 impl Image {
