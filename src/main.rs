@@ -718,7 +718,7 @@ fn prepare(job: &mut Job, scene: &scene::Scene) -> Result<(Prepared, Duration)> 
         .map_err(|e| anyhow!(e))?;
     if let Some(why) = job.default_light(scene, &prepared.lights) {
         job.use_default_sky();
-        prepared.relight(scene, &job.integrator, &job.shading);
+        prepared.relight(&job.integrator, &job.shading);
         let name = job.scene.display();
         let sky = strata::job::DEFAULT_SKY;
         match why {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use common::{render, repo_path, s};
+use common::{idiff_identical, render, repo_path, s};
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
 
 /// Every channel of an EXR's first layer as raw bits, by name.
@@ -27,34 +27,6 @@ fn channels(path: &Path) -> BTreeMap<String, Vec<u32>> {
             (c.name.to_string(), bits)
         })
         .collect()
-}
-
-/// `idiff -fail 0` of two images over all their channels (required under CI; skipped loudly
-/// without it, when the bitwise comparison still runs).
-fn idiff_identical(a: &Path, b: &Path) {
-    match Command::new("idiff").arg("--version").output() {
-        Ok(o) if o.status.success() => {}
-        _ => {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "idiff (Debian: openimageio-tools) is required under CI"
-            );
-            eprintln!("\n*** SKIPPED idiff: not found (install openimageio-tools); the bitwise comparison still runs ***\n");
-            return;
-        }
-    }
-    let out = Command::new("idiff")
-        .args(["-fail", "0", "-warn", "0"])
-        .args([a, b])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "idiff -fail 0 {} {}:\n{}",
-        a.display(),
-        b.display(),
-        String::from_utf8_lossy(&out.stdout)
-    );
 }
 
 /// Renders `args` whole, then in `n` shards on 1, 2, 1, … threads, merges them, and checks

@@ -624,6 +624,7 @@ fn a_resumed_render_equals_the_uninterrupted_one() {
                 path.display()
             );
         }
+        idiff_identical(&full, path);
         let a = int_attrs(path);
         assert_eq!(
             (attr(&a, "strata:interrupted"), attr(&a, "strata:spp_min")),

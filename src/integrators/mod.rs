@@ -14,7 +14,8 @@ use crate::experiments::Experiments;
 use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 use crate::shading::{
-    BackgroundSampling, Environment, LightSet, MaterialOptions, Materials, Need, TriangleSampling,
+    BackgroundSampling, Environment, LightSet, MaterialOptions, Materials, Need, SceneEmitters,
+    TriangleSampling,
 };
 use crate::shading::{LocalBsdf, SurfaceInteraction};
 
@@ -61,6 +62,9 @@ pub struct ShadingOptions {
 pub struct Prepared {
     pub materials: Materials,
     pub lights: LightSet,
+    /// The scene's emitters, collected once for [`Prepared::relight`] (empty where the
+    /// integrator needs no lights).
+    emitters: SceneEmitters,
 }
 
 impl Prepared {
@@ -93,21 +97,25 @@ impl Prepared {
             integrator.material_need(),
             &options.materials,
         )?;
+        let emitters = match integrator.needs_lights() {
+            true => SceneEmitters::collect(scene, &materials),
+            false => SceneEmitters::default(),
+        };
         let mut prepared = Prepared {
             materials,
             lights: LightSet::default(),
+            emitters,
         };
-        prepared.relight(scene, integrator, options);
+        prepared.relight(integrator, options);
         Ok(prepared)
     }
 
-    /// Collects the lights again as `options` say (another environment), keeping the
-    /// materials.
-    pub fn relight(&mut self, scene: &Scene, integrator: &Integrator, options: &ShadingOptions) {
+    /// Completes the lights as `options` say (another environment), keeping the materials and
+    /// the scene's emitters.
+    pub fn relight(&mut self, integrator: &Integrator, options: &ShadingOptions) {
         let mut lights = if integrator.needs_lights() {
-            LightSet::build(
-                scene,
-                &self.materials,
+            LightSet::with_environment(
+                &self.emitters,
                 options.environment.clone(),
                 match options.environment.constant() {
                     // An environment that varies is found by light sampling (importance

@@ -242,6 +242,46 @@ pub struct LightSet {
     emitted_power: f64,
 }
 
+/// A scene's punctual lights and emissive triangles with their selection weights: the part of
+/// a [`LightSet`] that does not depend on the environment, collected once (the emissive
+/// textures' means are the costly part) and completed by [`LightSet::with_environment`], as
+/// often as the environment changes.
+#[derive(Clone, Debug, Default)]
+pub struct SceneEmitters {
+    emitters: Vec<Emitter>,
+    weights: Vec<f64>,
+    triangle_light: Vec<u32>,
+    instance_lights: Vec<u32>,
+    alpha_tested_emitters: bool,
+    /// The radius of the scene's bounding sphere, which the environment's power is taken
+    /// over.
+    radius: f32,
+}
+
+impl SceneEmitters {
+    /// Collects the scene's punctual lights and emissive triangles.
+    pub fn collect(scene: &Scene, materials: &Materials) -> SceneEmitters {
+        let (lo, hi) = scene.bounds;
+        let radius = 0.5 * (hi - lo).length();
+        let (mut emitters, mut weights) = punctual_emitters(scene, radius);
+        let (triangle_light, instance_lights, alpha_tested_emitters) =
+            triangle_emitters(scene, materials, &mut emitters, &mut weights);
+        SceneEmitters {
+            emitters,
+            weights,
+            triangle_light,
+            instance_lights,
+            alpha_tested_emitters,
+            radius,
+        }
+    }
+
+    /// The power they emit, by luminance ([`LightSet::emitted_power`]).
+    pub fn emitted_power(&self) -> f64 {
+        self.weights.iter().sum()
+    }
+}
+
 impl LightSet {
     /// Collects the scene's punctual lights, emissive triangles and the environment;
     /// `background_sampling` says whether light sampling selects the environment.
@@ -251,11 +291,26 @@ impl LightSet {
         environment: Environment,
         background_sampling: BackgroundSampling,
     ) -> LightSet {
-        let (lo, hi) = scene.bounds;
-        let radius = 0.5 * (hi - lo).length();
-        let (mut emitters, mut weights) = punctual_emitters(scene, radius);
-        let (triangle_light, instance_lights, alpha_tested_emitters) =
-            triangle_emitters(scene, materials, &mut emitters, &mut weights);
+        let emitters = SceneEmitters::collect(scene, materials);
+        LightSet::with_environment(&emitters, environment, background_sampling)
+    }
+
+    /// The lights of `scene_emitters` and `environment`; `background_sampling` says whether
+    /// light sampling selects the environment.
+    pub fn with_environment(
+        scene_emitters: &SceneEmitters,
+        environment: Environment,
+        background_sampling: BackgroundSampling,
+    ) -> LightSet {
+        let SceneEmitters {
+            emitters,
+            weights,
+            triangle_light,
+            instance_lights,
+            alpha_tested_emitters,
+            radius,
+        } = scene_emitters.clone();
+        let (mut emitters, mut weights) = (emitters, weights);
         let emitted_power = weights.iter().sum();
         let mut environment_light = None;
         if !environment.is_black() {

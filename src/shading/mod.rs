@@ -41,5 +41,5 @@ pub use envmap::{EnvMap, MapSampling};
 pub use gltf_brdf::GltfBrdf;
 pub use interaction::SurfaceInteraction;
 pub use layers::{Coat, Layered, Sheen};
-pub use lights::{BackgroundSampling, LightSet, TriangleSampling};
+pub use lights::{BackgroundSampling, LightSet, SceneEmitters, TriangleSampling};
 pub use material::{DiffuseSampling, MaterialModel, MaterialOptions, Materials, Need, ShadeAs};
