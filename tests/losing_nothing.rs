@@ -643,16 +643,7 @@ fn resume_refuses_what_it_cannot_continue() {
     let scene = tmp.path().join("wall.gltf");
     std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
     let refused = |args: &[&str], words: &[&str]| {
-        let run = render(tmp.path(), args);
-        assert!(!run.status.success(), "{args:?} accepted:\n{}", run.stderr);
-        assert_no_panic(&run.stderr);
-        for w in words {
-            assert!(
-                run.stderr.contains(w),
-                "{args:?}: no {w:?} in:\n{}",
-                run.stderr
-            );
-        }
+        assert_refused(&render(tmp.path(), args), &format!("{args:?}"), words);
     };
     // A finished image.
     let finished = tmp.path().join("finished.exr");

@@ -109,6 +109,21 @@ pub fn assert_no_panic(stderr: &str) {
     );
 }
 
+/// Asserts that `run` (of `what`, for the message) failed without a panic and that its stderr
+/// names every word of `words` (clap's usage errors take several lines, so not
+/// [`assert_one_error_line`]).
+pub fn assert_refused(run: &Run, what: &str, words: &[&str]) {
+    assert!(!run.status.success(), "{what} accepted:\n{}", run.stderr);
+    assert_no_panic(&run.stderr);
+    for w in words {
+        assert!(
+            run.stderr.contains(w),
+            "{what}: no {w:?} in:\n{}",
+            run.stderr
+        );
+    }
+}
+
 /// Asserts that stderr is exactly one line, `error: ...`, mentioning every word of `words`
 /// (case-insensitively); returns that line.
 pub fn assert_one_error_line(stderr: &str, words: &[&str]) -> String {
