@@ -800,14 +800,10 @@ pub fn render_with_checkpoints(
     let progressive = stopping.is_progressive();
     let next_progressive = |c: u32| progressive_next(c, stopping.min_spp, spp);
     let resumed = resume.is_some();
-    let mut film = match resume {
-        Some(film) => run.resumed_film(film),
-        None => run.new_film(),
-    };
     // A resumed fixed-spp render's passes continue from its least count.
-    let mut done = match resumed {
-        true => run.least_count(&film),
-        false => 0,
+    let (mut film, mut done) = match resume {
+        Some(film) => run.resumed_film(film),
+        None => (run.new_film(), 0),
     };
     let base = done;
     // Adaptive sampling: which pixels have not converged (all of the window at first), and
@@ -1067,15 +1063,14 @@ impl<'a> Run<'a> {
     }
 
     /// The film a resumed render starts from, checked against the render's settings (the
-    /// caller has checked it against the job: [`resume`]); the progress bar counts its
-    /// samples as done.
-    fn resumed_film(&self, film: Film) -> Film {
+    /// caller has checked it against the job: [`resume`]), and its window's least count; the
+    /// progress bar counts its samples as done.
+    fn resumed_film(&self, film: Film) -> (Film, u32) {
         let settings = self.settings;
         assert!(
             !settings.stopping.is_progressive(),
             "a resumed render has a fixed number of samples"
         );
-        let fresh = self.new_film();
         assert_eq!(
             (
                 film.width,
@@ -1084,30 +1079,22 @@ impl<'a> Run<'a> {
                 film.keeps_first_hits()
             ),
             (
-                fresh.width,
-                fresh.height,
-                fresh.keeps_features(),
-                fresh.keeps_first_hits()
+                settings.width,
+                settings.height,
+                self.ctx.features,
+                self.ctx.ids
             ),
             "a resumed film is of the render's size and layers"
         );
         let (x0, y0, x1, y1) = self.window;
-        let done: u64 = (y0..y1)
-            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-            .map(|(x, y)| film.count(x, y).min(self.spp) as u64)
-            .sum();
+        let (mut done, mut least) = (0u64, u32::MAX);
+        for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
+            let count = film.count(x, y);
+            done += count.min(self.spp) as u64;
+            least = least.min(count);
+        }
         self.progress.set_position(done);
-        film
-    }
-
-    /// The least count of the window's pixels.
-    fn least_count(&self, film: &Film) -> u32 {
-        let (x0, y0, x1, y1) = self.window;
-        (y0..y1)
-            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-            .map(|(x, y)| film.count(x, y))
-            .min()
-            .unwrap_or(0)
+        (film, if least == u32::MAX { 0 } else { least })
     }
 
     /// Indexed like the film: true in the window.

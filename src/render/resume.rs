@@ -193,7 +193,7 @@ fn is_setting(name: &str) -> bool {
             | "strata:projection"
             | "strata:denoiser"
             | "strata:passes"
+            | "strata:time_limit_reached"
+            | "strata:unconverged_pixels"
     ) && !name.starts_with("strata:pass:")
-        && !name.starts_with("strata:time_limit_reached")
-        && !name.starts_with("strata:unconverged")
 }
