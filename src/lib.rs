@@ -30,6 +30,7 @@ pub mod embree;
 pub mod experiments;
 pub mod integrators;
 pub mod job;
+pub mod lanes;
 pub mod math;
 pub mod plot;
 pub mod ray;

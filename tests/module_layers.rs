@@ -39,6 +39,7 @@ const LAYERS: &[&str] = &[
     "embree",
     "ray",
     "math",
+    "lanes",
 ];
 
 /// A module path, e.g. `["shading", "bsdf"]`.

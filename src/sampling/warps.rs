@@ -5,16 +5,24 @@
 //! concentric disk; Malley's method (cosine hemisphere = disk lifted to the hemisphere);
 //! pbrt-v4 §A.5 for the pdfs.
 
-use glam::{Vec2, Vec3, Vec4};
+use crate::lanes::{self, Kernel, Real, Vec2L, Vec3L, F8};
+use crate::math;
+use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 /// Uniform direction on the hemisphere z ≥ 0; pdf 1/(2π) per steradian.
+#[inline(always)]
+pub fn uniform_hemisphere<R: Real>(u: Vec2L<R>) -> Vec3L<R> {
+    let z = u.x;
+    let r = (R::ONE - z * z).safe_sqrt();
+    let (s, c) = math::sin_cos(u.y * TAU);
+    Vec3L::new(r * c, r * s, z)
+}
+
+/// [`uniform_hemisphere`] of one point.
 #[inline]
 pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
-    let z = u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (TAU * u.y).sin_cos();
-    Vec3::new(r * c, r * s, z)
+    uniform_hemisphere(u.into()).into()
 }
 
 #[inline]
@@ -34,43 +42,32 @@ pub fn uniform_hemisphere_to_square(v: Vec3) -> Vec2 {
 ///
 /// Within a wedge the angle is θ = φ (right and left wedges) or θ = π/2 − φ (top and
 /// bottom), with φ = π/4 · (minor/major coordinate) in [−π/4, π/4]; so sin and cos of φ alone
-/// give the point, and over that range short polynomials reach f32 precision without the
-/// range reduction of a general `sin_cos` (which took a sixth of the AO rays' own work).
-#[inline]
-pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    if o.x.abs() > o.y.abs() {
-        let (s, c) = sin_cos_quarter(FRAC_PI_4 * (o.y / o.x));
-        o.x * Vec2::new(c, s)
-    } else {
-        // cos(π/2 − φ) = sin φ, sin(π/2 − φ) = cos φ.
-        let (s, c) = sin_cos_quarter(FRAC_PI_4 * (o.x / o.y));
-        o.y * Vec2::new(s, c)
-    }
+/// give the point, and over that range short polynomials ([`math::sin_cos_quarter`]) reach
+/// f32 precision without the range reduction of a general `sin_cos`. The wedge and the
+/// centre are chosen by masks, so no branch depends on the coin toss of which wedge a point
+/// falls in.
+#[inline(always)]
+pub fn concentric_disk<R: Real>(u: Vec2L<R>) -> Vec2L<R> {
+    let ox = u.x * 2.0 - 1.0;
+    let oy = u.y * 2.0 - 1.0;
+    // The wedge: `major` is the coordinate the concentric map divides by.
+    let right = ox.abs().gt(oy.abs());
+    let major = R::select(right, ox, oy);
+    let minor = R::select(right, oy, ox);
+    let (sin, cos) = math::sin_cos_quarter((minor / major) * FRAC_PI_4);
+    // d = major·(cos, sin) in the right and left wedges, major·(sin, cos) in the top and
+    // bottom ones, and 0 at the centre (where the division gave NaN).
+    let centre = ox.eq(R::ZERO) & oy.eq(R::ZERO);
+    Vec2L::new(
+        R::select(centre, R::ZERO, major * R::select(right, cos, sin)),
+        R::select(centre, R::ZERO, major * R::select(right, sin, cos)),
+    )
 }
 
-/// (sin φ, cos φ) for |φ| ≤ π/4: the Taylor polynomials through φ⁹ and φ¹⁰, whose first
-/// omitted terms, φ¹¹/11! and φ¹²/12!, are below 2e-9 there (a thirtieth of an f32 ulp at
-/// 0.7); the result is within a few ulps of the exact values (tested against f64).
+/// [`concentric_disk`] of one point.
 #[inline]
-fn sin_cos_quarter<T>(phi: T) -> (T, T)
-where
-    T: Copy + std::ops::Mul<Output = T> + std::ops::Mul<f32, Output = T>,
-    f32: std::ops::Add<T, Output = T>,
-{
-    let x2 = phi * phi;
-    let s = phi
-        * (1.0
-            + x2 * (-1.0 / 6.0
-                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
-    let c = 1.0
-        + x2 * (-0.5
-            + x2 * (1.0 / 24.0
-                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
-    (s, c)
+pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
+    concentric_disk(u.into()).into()
 }
 
 /// Inverse of [`square_to_concentric_disk`].
@@ -104,53 +101,43 @@ pub fn concentric_disk_to_square(p: Vec2) -> Vec2 {
 
 /// Cosine-weighted direction on the hemisphere z ≥ 0 (Malley's method on the concentric
 /// disk); pdf cos θ / π.
+#[inline(always)]
+pub fn cosine_hemisphere<R: Real>(u: Vec2L<R>) -> Vec3L<R> {
+    let d = concentric_disk(u);
+    // safe_sqrt keeps rounding from making the radicand negative.
+    let z = (R::ONE - (d.x * d.x + d.y * d.y)).safe_sqrt();
+    Vec3L::new(d.x, d.y, z)
+}
+
+/// [`cosine_hemisphere`] of one point.
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_concentric_disk(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    cosine_hemisphere(u.into()).into()
 }
 
-/// [`square_to_cosine_hemisphere`] of `N` points, bit for bit, four at a time in `Vec4`
-/// lanes (SSE on x86-64) with the wedge and the centre chosen by masks: the divisions,
-/// polynomials and square roots of four points take one instruction each, and no branch
-/// depends on the coin toss of which wedge a point falls in. (Written over plain arrays, the
-/// same steps stayed scalar, with branches.)
+/// [`cosine_hemisphere`] of `N` points, eight at a time in [`F8`] lanes (AVX2 where the
+/// processor has it): bit for bit the one-point warp, the lanes' arithmetic side by side.
 #[inline]
 pub fn square_to_cosine_hemisphere_lanes<const N: usize>(u: &[Vec2; N]) -> [Vec3; N] {
-    let mut out = [Vec3::ZERO; N];
-    for (u, out) in u.chunks(4).zip(out.chunks_mut(4)) {
-        // Lanes past the chunk's end warp the centre; they are not used.
-        let lane = |i: usize| u.get(i).copied().unwrap_or(Vec2::splat(0.5));
-        let ux = Vec4::new(lane(0).x, lane(1).x, lane(2).x, lane(3).x);
-        let uy = Vec4::new(lane(0).y, lane(1).y, lane(2).y, lane(3).y);
-        let (dx, dy, z) = square_to_cosine_hemisphere_x4(ux, uy);
-        for (i, out) in out.iter_mut().enumerate() {
-            *out = Vec3::new(dx[i], dy[i], z[i]);
+    struct Warp<'a, const N: usize>(&'a [Vec2; N]);
+    impl<const N: usize> Kernel for Warp<'_, N> {
+        type Output = [Vec3; N];
+        #[inline(always)]
+        fn run(self) -> [Vec3; N] {
+            let mut out = [Vec3::ZERO; N];
+            for (u, out) in self.0.chunks(8).zip(out.chunks_mut(8)) {
+                // Lanes past the chunk's end warp the centre; they are not used.
+                let points =
+                    Vec2L::<F8>::from_fn(|i| u.get(i).copied().unwrap_or(Vec2::splat(0.5)));
+                let d = cosine_hemisphere(points);
+                for (i, out) in out.iter_mut().enumerate() {
+                    *out = d.lane(i);
+                }
+            }
+            out
         }
     }
-    out
-}
-
-/// [`square_to_cosine_hemisphere`] of four points given as their x and y lanes: the
-/// directions' x, y and z lanes, bit for bit those of the scalar warp.
-#[inline(always)]
-pub fn square_to_cosine_hemisphere_x4(ux: Vec4, uy: Vec4) -> (Vec4, Vec4, Vec4) {
-    let ox = 2.0 * ux - Vec4::ONE;
-    let oy = 2.0 * uy - Vec4::ONE;
-    // The wedge: `major` is the coordinate the concentric map divides by.
-    let right = ox.abs().cmpgt(oy.abs());
-    let major = Vec4::select(right, ox, oy);
-    let minor = Vec4::select(right, oy, ox);
-    let (sin, cos) = sin_cos_quarter(FRAC_PI_4 * (minor / major));
-    // d = major·(cos, sin) in the right and left wedges, major·(sin, cos) in the top and
-    // bottom ones, and 0 at the centre (where the division gave NaN).
-    let centre = ox.cmpeq(Vec4::ZERO) & oy.cmpeq(Vec4::ZERO);
-    let dx = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, cos, sin));
-    let dy = Vec4::select(centre, Vec4::ZERO, major * Vec4::select(right, sin, cos));
-    // max(0) keeps rounding from making the radicand negative; it is never NaN.
-    let z = (Vec4::ONE - (dx * dx + dy * dy)).max(Vec4::ZERO).sqrt();
-    (dx, dy, z)
+    lanes::dispatch(Warp(u))
 }
 
 #[inline]
@@ -163,12 +150,18 @@ pub fn cosine_hemisphere_to_square(v: Vec3) -> Vec2 {
 }
 
 /// Uniform direction on the unit sphere; pdf 1/(4π).
+#[inline(always)]
+pub fn uniform_sphere<R: Real>(u: Vec2L<R>) -> Vec3L<R> {
+    let z = R::ONE - u.x * 2.0;
+    let r = (R::ONE - z * z).safe_sqrt();
+    let (s, c) = math::sin_cos(u.y * TAU);
+    Vec3L::new(r * c, r * s, z)
+}
+
+/// [`uniform_sphere`] of one point.
 #[inline]
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
-    let z = 1.0 - 2.0 * u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (TAU * u.y).sin_cos();
-    Vec3::new(r * c, r * s, z)
+    uniform_sphere(u.into()).into()
 }
 
 #[inline]
@@ -181,14 +174,20 @@ pub fn uniform_sphere_to_square(v: Vec3) -> Vec2 {
 }
 
 /// Uniform direction in the cone of half-angle θmax around +z; pdf 1/(2π(1 − cos θmax)).
-#[inline]
-pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
+#[inline(always)]
+pub fn uniform_cone<R: Real>(u: Vec2L<R>, cos_theta_max: R) -> Vec3L<R> {
     // Rounding of 1 − u·(1 − cos θmax) can land just below cos θmax (u.x = 1, cos θmax =
     // −0.9304151 gives −0.93041515), outside the cone where the pdf is 0: clamp.
-    let z = (1.0 - u.x * (1.0 - cos_theta_max)).max(cos_theta_max);
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (TAU * u.y).sin_cos();
-    Vec3::new(r * c, r * s, z)
+    let z = (R::ONE - u.x * (R::ONE - cos_theta_max)).max(cos_theta_max);
+    let r = (R::ONE - z * z).safe_sqrt();
+    let (s, c) = math::sin_cos(u.y * TAU);
+    Vec3L::new(r * c, r * s, z)
+}
+
+/// [`uniform_cone`] of one point.
+#[inline]
+pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
+    uniform_cone(u.into(), cos_theta_max).into()
 }
 
 #[inline]
@@ -206,13 +205,19 @@ pub fn uniform_cone_to_square(v: Vec3, cos_theta_max: f32) -> Vec2 {
 
 /// Uniform barycentrics (b0, b1) on a triangle, b2 = 1 − b0 − b1 (pbrt-v4 §A.5.5's
 /// square-root mapping); the pdf with respect to area is 1/area.
-#[inline]
-pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+#[inline(always)]
+pub fn uniform_triangle<R: Real>(u: Vec2L<R>) -> Vec2L<R> {
     let s = u.x.sqrt();
-    let b0 = 1.0 - s;
+    let b0 = R::ONE - s;
     // Bound b1 by 1 − b0 as rounded, so that b2 = 1 − b0 − b1 is never negative (without
     // it, u.x = 1e-45 rounds b0 to 1 while b1 = u.y·s stays positive).
-    Vec2::new(b0, (u.y * s).min(1.0 - b0))
+    Vec2L::new(b0, (u.y * s).min(R::ONE - b0))
+}
+
+/// [`uniform_triangle`] of one point.
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    uniform_triangle(u.into()).into()
 }
 
 pub fn uniform_triangle_to_square(b: Vec2) -> Vec2 {
@@ -232,6 +237,48 @@ fn azimuth_fraction(v: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every forward warp: eight lanes give the bits of eight single lanes, over random
+    /// points, the square's centre, corners and edges and its diagonals (where the concentric
+    /// map's wedge changes).
+    #[test]
+    fn warps_have_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>([ux, uy, c]: [R; 3]) -> [R; 15] {
+            let u = Vec2L::new(ux, uy);
+            let (d, h, s) = (
+                concentric_disk(u),
+                cosine_hemisphere(u),
+                uniform_hemisphere(u),
+            );
+            let (sphere, cone, tri) = (
+                uniform_sphere(u),
+                uniform_cone(u, c * 2.0 - 1.0),
+                uniform_triangle(u),
+            );
+            [
+                d.x, d.y, h.x, h.y, h.z, s.x, s.z, sphere.x, sphere.y, sphere.z, cone.x, cone.y,
+                cone.z, tri.x, tri.y,
+            ]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(47);
+        let mut inputs: Vec<[f32; 3]> = (0..20_000).map(|_| [next(), next(), next()]).collect();
+        for k in 0..=64 {
+            let t = k as f32 / 64.0;
+            let edge = t.min(1.0 - f32::EPSILON / 2.0);
+            for (x, y) in [
+                (t, t),
+                (t, 1.0 - t),
+                (0.0, edge),
+                (edge, 0.0),
+                (0.5, 0.5),
+                (0.5, t),
+            ] {
+                inputs.push([x, y, t]);
+            }
+        }
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [3] -> [15], inputs);
+    }
 
     fn grid() -> impl Iterator<Item = Vec2> {
         (1..40).flat_map(|i| (1..40).map(move |j| Vec2::new(i as f32 / 40.0, j as f32 / 40.0)))
@@ -350,7 +397,7 @@ mod tests {
         let mut worst = 0f64;
         for k in -steps..=steps {
             let phi = (FRAC_PI_4 as f64 * k as f64 / steps as f64) as f32;
-            let (s, c) = sin_cos_quarter(phi);
+            let (s, c) = math::sin_cos_quarter(phi);
             let (es, ec) = (phi as f64).sin_cos();
             for (got, exact) in [(s, es), (c, ec)] {
                 let ulp = (exact.abs() as f32).next_up() - exact.abs() as f32;

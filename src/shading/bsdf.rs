@@ -29,8 +29,10 @@ use super::gltf_brdf::GltfBrdf;
 use super::interaction::SurfaceInteraction;
 use super::layers::Layered;
 pub use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
-use crate::sampling::warps::{square_to_cosine_hemisphere, square_to_uniform_hemisphere};
+use crate::lanes::{Real, Vec2L, Vec3L};
+use crate::sampling::warps::{cosine_hemisphere, uniform_hemisphere};
 use crate::sampling::Onb;
+use std::f32::consts::FRAC_1_PI;
 
 /// How Lambertian reflection draws its directions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -61,6 +63,37 @@ impl Lambertian {
     }
 }
 
+// Lambertian reflection written once over [`Real`]: [`Lambertian`] is this at one lane.
+
+/// f·cos θi = ρ cos θi / π of a Lambertian surface of reflectance `albedo`, 0 below it.
+#[inline(always)]
+pub fn lambertian_eval<R: Real>(albedo: Vec3L<R>, wi: Vec3L<R>) -> Vec3L<R> {
+    let cos = wi.z;
+    let f = albedo * (cos * FRAC_1_PI);
+    Vec3L::select(cos.le(R::ZERO), Vec3L::new(R::ZERO, R::ZERO, R::ZERO), f)
+}
+
+/// The solid-angle density of [`lambertian_sample`]'s directions: cos θ / π, or 1 / (2π)
+/// for uniform sampling; 0 below the surface.
+#[inline(always)]
+pub fn lambertian_pdf<R: Real>(sampling: DiffuseSampling, wi: Vec3L<R>) -> R {
+    let cos = wi.z;
+    let pdf = match sampling {
+        DiffuseSampling::Cosine => cos * FRAC_1_PI,
+        DiffuseSampling::Uniform => R::splat(0.5 * FRAC_1_PI),
+    };
+    R::select(cos.le(R::ZERO), R::ZERO, pdf)
+}
+
+/// A direction of the upper hemisphere drawn from `u` as `sampling` says.
+#[inline(always)]
+pub fn lambertian_sample<R: Real>(sampling: DiffuseSampling, u: Vec2L<R>) -> Vec3L<R> {
+    match sampling {
+        DiffuseSampling::Cosine => cosine_hemisphere(u),
+        DiffuseSampling::Uniform => uniform_hemisphere(u),
+    }
+}
+
 impl LocalBsdf for Lambertian {
     #[inline(always)]
     fn depends_on_cos_theta_only(&self) -> bool {
@@ -84,31 +117,17 @@ impl LocalBsdf for Lambertian {
 
     #[inline]
     fn eval(&self, _wo: Vec3, wi: Vec3) -> Vec3 {
-        let cos = wi.z;
-        if cos <= 0.0 {
-            return Vec3::ZERO;
-        }
-        self.albedo * (cos * std::f32::consts::FRAC_1_PI)
+        lambertian_eval(self.albedo.into(), wi.into()).into()
     }
 
     #[inline]
     fn pdf(&self, _wo: Vec3, wi: Vec3) -> f32 {
-        let cos = wi.z;
-        if cos <= 0.0 {
-            return 0.0;
-        }
-        match self.sampling {
-            DiffuseSampling::Cosine => cos * std::f32::consts::FRAC_1_PI,
-            DiffuseSampling::Uniform => 0.5 * std::f32::consts::FRAC_1_PI,
-        }
+        lambertian_pdf(self.sampling, wi.into())
     }
 
     #[inline(always)]
     fn sample_direction(&self, _wo: Vec3, _uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        let wi = match self.sampling {
-            DiffuseSampling::Cosine => square_to_cosine_hemisphere(u),
-            DiffuseSampling::Uniform => square_to_uniform_hemisphere(u),
-        };
+        let wi = lambertian_sample(self.sampling, u.into()).into();
         Some((wi, BsdfFlags::DIFFUSE_REFLECTION))
     }
 
@@ -412,6 +431,38 @@ impl<B: LocalBsdf> SurfaceBsdf<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Lambertian reflection's value, densities and samples: eight lanes give the bits of
+    /// eight single lanes.
+    #[test]
+    fn lambertian_has_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>(x: [R; 6]) -> [R; 11] {
+            let albedo = Vec3L::new(x[0], x[1], x[2]);
+            let u = Vec2L::new(x[3], x[4]);
+            let cosine = lambertian_sample(DiffuseSampling::Cosine, u);
+            let uniform = lambertian_sample(DiffuseSampling::Uniform, u);
+            // A direction below the surface for some lanes.
+            let below = Vec3L::new(uniform.x, uniform.y, x[5] - 0.5);
+            let f = lambertian_eval(albedo, below);
+            [
+                f.x,
+                f.y,
+                f.z,
+                lambertian_pdf(DiffuseSampling::Cosine, cosine),
+                lambertian_pdf(DiffuseSampling::Uniform, below),
+                cosine.x,
+                cosine.y,
+                cosine.z,
+                uniform.x,
+                uniform.y,
+                uniform.z,
+            ]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(46);
+        let inputs = (0..20_000).map(|_| std::array::from_fn(|_| next()));
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [6] -> [11], inputs);
+    }
 
     fn interaction(n: Vec3) -> SurfaceInteraction {
         SurfaceInteraction {

@@ -18,7 +18,10 @@
 //!   about h, the direction wi = 2(wo·h)h − wo has the density D_wo(h) / (4 wo·h)
 //!   = G1(wo) D(h) / (4 n·wo).
 
+use crate::lanes::{Real, Vec2L, Vec3L};
+use crate::math;
 use glam::{Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
 
 /// Below this α, a distribution is treated as a perfect mirror (a delta lobe): f32 can no
 /// longer evaluate D near its peak (pbrt-v4 uses the same bound).
@@ -71,44 +74,26 @@ impl Ggx {
     /// D(h) for a unit microfacet normal `h` (0 below the surface).
     #[inline]
     pub fn d(&self, h: Vec3) -> f32 {
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let a2 = self.alpha * self.alpha;
-        let t = h.z * h.z * (a2 - 1.0) + 1.0;
-        a2 / (std::f32::consts::PI * t * t)
+        ggx_d(self.alpha, h.into())
     }
 
     /// Smith's masking G1(w) = 2 (n·w) / (n·w + √(α² (1 − (n·w)²) + (n·w)²)).
     #[inline]
     pub fn g1(&self, w: Vec3) -> f32 {
-        let c = w.z.abs();
-        if c == 0.0 {
-            return 0.0;
-        }
-        let a2 = self.alpha * self.alpha;
-        2.0 * c / (c + (a2 * (1.0 - c * c) + c * c).max(0.0).sqrt())
+        ggx_g1(self.alpha, w.into())
     }
 
     /// The visibility term V = G2 / (4 |n·wo| |n·wi|), height-correlated (glTF 2.0 Appendix B).
     #[inline]
     pub fn v(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (no, ni) = (wo.z.abs(), wi.z.abs());
-        let a2 = self.alpha * self.alpha;
-        let denominator =
-            ni * (no * no * (1.0 - a2) + a2).sqrt() + no * (ni * ni * (1.0 - a2) + a2).sqrt();
-        if denominator > 0.0 {
-            0.5 / denominator
-        } else {
-            0.0
-        }
+        ggx_v(self.alpha, wo.into(), wi.into())
     }
 
     /// A microfacet normal visible from `wo` (n·wo > 0), drawn with density D_wo(h) from
     /// `u` (Heitz 2018, listing 1).
     #[inline]
     pub fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        visible_normal(self.alpha, self.alpha, wo, u)
+        visible_normal(self.alpha, self.alpha, wo.into(), u.into()).into()
     }
 
     /// [`Microfacet::reflection_pdf`].
@@ -154,52 +139,27 @@ impl AnisotropicGgx {
     pub fn new(alpha_x: f32, alpha_y: f32) -> AnisotropicGgx {
         AnisotropicGgx { alpha_x, alpha_y }
     }
-
-    /// αx² wx² + αy² wy²: α(φ)² tan²θ times wz².
-    #[inline(always)]
-    fn stretched_sin2(&self, w: Vec3) -> f32 {
-        let (x, y) = (self.alpha_x * w.x, self.alpha_y * w.y);
-        x * x + y * y
-    }
 }
 
 impl Microfacet for AnisotropicGgx {
     #[inline]
     fn d(&self, h: Vec3) -> f32 {
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let (ax, ay) = (self.alpha_x, self.alpha_y);
-        let (x, y) = (h.x / ax, h.y / ay);
-        let t = x * x + y * y + h.z * h.z;
-        1.0 / (std::f32::consts::PI * ax * ay * t * t)
+        anisotropic_d(self.alpha_x, self.alpha_y, h.into())
     }
 
-    /// 2 (n·w) / (n·w + √(αx² wx² + αy² wy² + (n·w)²)).
     #[inline]
     fn g1(&self, w: Vec3) -> f32 {
-        let c = w.z.abs();
-        if c == 0.0 {
-            return 0.0;
-        }
-        2.0 * c / (c + (self.stretched_sin2(w) + c * c).sqrt())
+        anisotropic_g1(self.alpha_x, self.alpha_y, w.into())
     }
 
     #[inline]
     fn v(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (no, ni) = (wo.z.abs(), wi.z.abs());
-        let denominator = ni * (self.stretched_sin2(wo) + no * no).sqrt()
-            + no * (self.stretched_sin2(wi) + ni * ni).sqrt();
-        if denominator > 0.0 {
-            0.5 / denominator
-        } else {
-            0.0
-        }
+        anisotropic_v(self.alpha_x, self.alpha_y, wo.into(), wi.into())
     }
 
     #[inline]
     fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        visible_normal(self.alpha_x, self.alpha_y, wo, u)
+        visible_normal(self.alpha_x, self.alpha_y, wo.into(), u.into()).into()
     }
 
     #[inline]
@@ -208,32 +168,107 @@ impl Microfacet for AnisotropicGgx {
     }
 }
 
+// The distributions' terms, written once over [`Real`]: [`Ggx`] and [`AnisotropicGgx`] are
+// these at one lane, and eight paths' shading calls them at eight.
+
+/// Isotropic D(h) = α² / (π ((h·n)²(α² − 1) + 1)²), 0 where h is below the surface.
+#[inline(always)]
+pub fn ggx_d<R: Real>(alpha: R, h: Vec3L<R>) -> R {
+    let a2 = alpha * alpha;
+    let t = h.z * h.z * (a2 - 1.0) + 1.0;
+    R::select(h.z.le(R::ZERO), R::ZERO, a2 / (t * t * PI))
+}
+
+/// Isotropic G1(w) = 2 (n·w) / (n·w + √(α² (1 − (n·w)²) + (n·w)²)), 0 at grazing.
+#[inline(always)]
+pub fn ggx_g1<R: Real>(alpha: R, w: Vec3L<R>) -> R {
+    let c = w.z.abs();
+    let a2 = alpha * alpha;
+    let g = c * 2.0 / (c + (a2 * (R::ONE - c * c) + c * c).safe_sqrt());
+    R::select(c.eq(R::ZERO), R::ZERO, g)
+}
+
+/// Isotropic height-correlated V = 0.5 / (n·wi √((n·wo)²(1 − α²) + α²) + n·wo √((n·wi)²(1 − α²)
+/// + α²)) (glTF 2.0 Appendix B), 0 where both cosines vanish.
+#[inline(always)]
+pub fn ggx_v<R: Real>(alpha: R, wo: Vec3L<R>, wi: Vec3L<R>) -> R {
+    let (no, ni) = (wo.z.abs(), wi.z.abs());
+    let a2 = alpha * alpha;
+    let one_minus = R::ONE - a2;
+    let denominator =
+        ni * (no * no * one_minus + a2).sqrt() + no * (ni * ni * one_minus + a2).sqrt();
+    R::select(
+        denominator.gt(R::ZERO),
+        R::splat(0.5) / denominator,
+        R::ZERO,
+    )
+}
+
+/// αx² wx² + αy² wy²: α(φ)² tan²θ times wz².
+#[inline(always)]
+fn stretched_sin2<R: Real>(ax: R, ay: R, w: Vec3L<R>) -> R {
+    let (x, y) = (ax * w.x, ay * w.y);
+    x * x + y * y
+}
+
+/// Anisotropic D(h) = 1 / (π αx αy (hx²/αx² + hy²/αy² + hz²)²) (Heitz 2014, eq. 85), 0 below
+/// the surface.
+#[inline(always)]
+pub fn anisotropic_d<R: Real>(ax: R, ay: R, h: Vec3L<R>) -> R {
+    let (x, y) = (h.x / ax, h.y / ay);
+    let t = x * x + y * y + h.z * h.z;
+    R::select(h.z.le(R::ZERO), R::ZERO, (ax * ay * t * t * PI).recip())
+}
+
+/// Anisotropic G1(w) = 2 (n·w) / (n·w + √(αx² wx² + αy² wy² + (n·w)²)), 0 at grazing.
+#[inline(always)]
+pub fn anisotropic_g1<R: Real>(ax: R, ay: R, w: Vec3L<R>) -> R {
+    let c = w.z.abs();
+    let g = c * 2.0 / (c + (stretched_sin2(ax, ay, w) + c * c).sqrt());
+    R::select(c.eq(R::ZERO), R::ZERO, g)
+}
+
+/// Anisotropic height-correlated V (KHR_materials_anisotropy): glTF's form with
+/// √(αx² wx² + αy² wy² + wz²) for each square root.
+#[inline(always)]
+pub fn anisotropic_v<R: Real>(ax: R, ay: R, wo: Vec3L<R>, wi: Vec3L<R>) -> R {
+    let (no, ni) = (wo.z.abs(), wi.z.abs());
+    let denominator = ni * (stretched_sin2(ax, ay, wo) + no * no).sqrt()
+        + no * (stretched_sin2(ax, ay, wi) + ni * ni).sqrt();
+    R::select(
+        denominator.gt(R::ZERO),
+        R::splat(0.5) / denominator,
+        R::ZERO,
+    )
+}
+
 /// A normal of the GGX distribution of roughnesses (`ax`, `ay`) visible from `wo`, drawn from
 /// `u` (Heitz 2018, listing 1): the view stretched to the hemisphere configuration, a point of
 /// the projected visible hemisphere, unstretched.
 #[inline(always)]
-fn visible_normal(ax: f32, ay: f32, wo: Vec3, u: Vec2) -> Vec3 {
+pub fn visible_normal<R: Real>(ax: R, ay: R, wo: Vec3L<R>, u: Vec2L<R>) -> Vec3L<R> {
     // The view direction in the hemisphere configuration (α stretched to 1).
-    let vh = Vec3::new(ax * wo.x, ay * wo.y, wo.z).normalize();
+    let vh = Vec3L::new(ax * wo.x, ay * wo.y, wo.z).normalize();
     // An orthonormal basis around it (T1 = z × vh, or x when vh is the pole).
     let lensq = vh.x * vh.x + vh.y * vh.y;
-    let t1 = if lensq > 0.0 {
-        Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
-    } else {
-        Vec3::X
-    };
+    let len = lensq.sqrt();
+    let pole = lensq.le(R::ZERO);
+    let t1 = Vec3L::new(
+        R::select(pole, R::ONE, -vh.y / len),
+        R::select(pole, R::ZERO, vh.x / len),
+        R::ZERO,
+    );
     let t2 = vh.cross(t1);
     // A point of the unit disk, its lower half compressed toward the projected hemisphere's
     // outline.
     let r = u.x.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u.y;
-    let (sin_phi, cos_phi) = phi.sin_cos();
+    let (sin_phi, cos_phi) = math::sin_cos(u.y * TAU);
     let p1 = r * cos_phi;
-    let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * sin_phi);
+    let s = (R::ONE + vh.z) * 0.5;
+    let p2 = (R::ONE - s) * (R::ONE - p1 * p1).safe_sqrt() + s * (r * sin_phi);
     // Back onto the hemisphere, then unstretched.
-    let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
-    Vec3::new(ax * nh.x, ay * nh.y, nh.z.max(0.0)).normalize()
+    let nh = t1 * p1 + t2 * p2 + vh * (R::ONE - p1 * p1 - p2 * p2).safe_sqrt();
+    Vec3L::new(ax * nh.x, ay * nh.y, nh.z.max(R::ZERO)).normalize()
 }
 
 /// The directional albedo E(μ, α) of GGX reflection with F = 1, single scattering:
@@ -400,6 +435,70 @@ impl AlbedoRow {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Inputs for the width tests: random directions of both hemispheres (wo above), points
+    /// of the square, and roughnesses from near-smooth to rough, with the corners (grazing
+    /// and pole directions, u = 0) among them.
+    fn microfacet_inputs() -> Vec<[f32; 10]> {
+        let mut next = crate::sampling::hash::uniform_sequence(45);
+        let mut inputs: Vec<[f32; 10]> = (0..20_000)
+            .map(|_| {
+                let mut r = [0.0; 10];
+                for (k, r) in r.iter_mut().enumerate() {
+                    *r = match k {
+                        0 | 1 | 3 | 4 | 5 => next() * 2.0 - 1.0,
+                        8 | 9 => (next() * next()).max(2e-3),
+                        _ => next(),
+                    };
+                }
+                r
+            })
+            .collect();
+        inputs.extend([
+            [0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.5],
+            [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.5, 0.1, 0.9],
+            [
+                0.3,
+                -0.2,
+                0.5,
+                0.3,
+                0.2,
+                -0.5,
+                1.0 - f32::EPSILON,
+                0.999,
+                1.0,
+                1e-3,
+            ],
+        ]);
+        inputs
+    }
+
+    /// Every term of both distributions and the visible-normal sampling: eight lanes give
+    /// the bits of eight single lanes.
+    #[test]
+    fn microfacet_terms_have_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>(x: [R; 10]) -> [R; 11] {
+            let wo = Vec3L::new(x[0], x[1], x[2]).normalize();
+            let wi = Vec3L::new(x[3], x[4], x[5]).normalize();
+            let (ax, ay) = (x[8], x[9]);
+            let h = visible_normal(ax, ay, wo, Vec2L::new(x[6], x[7]));
+            [
+                ggx_d(ax, h),
+                ggx_g1(ax, wo),
+                ggx_v(ax, wo, wi),
+                anisotropic_d(ax, ay, h),
+                anisotropic_g1(ax, ay, wi),
+                anisotropic_v(ax, ay, wo, wi),
+                h.x,
+                h.y,
+                h.z,
+                visible_normal(ax, ax, wo, Vec2L::new(x[7], x[6])).x,
+                ggx_d(ax, wi),
+            ]
+        }
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [10] -> [11], microfacet_inputs());
+    }
 
     /// ∫ D(h) (n·h) dh = 1 over the hemisphere: the projected microfacet area is the
     /// macro-surface's (Heitz 2014, eq. 4), integrated in (cos θ, φ) by the midpoint rule.

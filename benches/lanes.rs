@@ -1,0 +1,151 @@
+//! One source at two widths: the glossy lobe's sampling step (a GGX visible normal, the
+//! reflected direction, D·V·cos and the pdf) and the cosine warp, for 8192 random states
+//! one lane at a time (`f32`), eight at a time in AVX2 (`F8` inside `lanes::dispatch`) and
+//! eight at a time in baseline SSE (`F8` outside it). The three give the same bits (the
+//! width tests in `src/`); this measures what the width buys.
+//!
+//!     cargo bench --bench lanes
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use std::hint::black_box;
+use strata::lanes::{dispatch, Kernel, Real, Vec2L, Vec3L, F8};
+use strata::sampling::warps::cosine_hemisphere;
+use strata::shading::microfacet::{ggx_d, ggx_g1, ggx_v, visible_normal};
+
+const N: usize = 8192;
+
+/// The glossy sampling step: (value·cos, pdf) of the direction reflected about a visible
+/// normal drawn from `u`, summed so that nothing is optimised away.
+#[inline(always)]
+fn ggx_step<R: Real>(alpha: R, wo: Vec3L<R>, u: Vec2L<R>) -> R {
+    let h = visible_normal(alpha, alpha, wo, u);
+    let wi = h * (wo.dot(h) * 2.0) - wo;
+    let d = ggx_d(alpha, h);
+    let f_cos = d * ggx_v(alpha, wo, wi) * wi.z.max(R::ZERO);
+    let pdf = ggx_g1(alpha, wo) * d / (wo.z * 4.0);
+    f_cos + pdf
+}
+
+#[inline(always)]
+fn cosine_step<R: Real>(u: Vec2L<R>) -> R {
+    let d = cosine_hemisphere(u);
+    d.x + d.y + d.z
+}
+
+/// The states in structure-of-arrays groups of eight, as a wavefront integrator keeps its
+/// paths.
+struct States {
+    alpha: Vec<F8>,
+    wo: Vec<Vec3L<F8>>,
+    u: Vec<Vec2L<F8>>,
+}
+
+fn states() -> States {
+    let mut x = 0x2545_f491u32;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        (x >> 8) as f32 / (1 << 24) as f32
+    };
+    let mut s = States {
+        alpha: vec![],
+        wo: vec![],
+        u: vec![],
+    };
+    for _ in 0..N / 8 {
+        s.alpha.push(F8::from_fn(|_| 0.05 + next() * 0.6));
+        s.wo.push(Vec3L::from_fn(|_| {
+            let z = 0.05 + 0.95 * next();
+            let phi = std::f32::consts::TAU * next();
+            let r = (1.0 - z * z).sqrt();
+            glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        }));
+        s.u.push(Vec2L::from_fn(|_| glam::Vec2::new(next(), next())));
+    }
+    s
+}
+
+#[inline(always)]
+fn one(s: &States) -> f32 {
+    let mut sum = 0.0;
+    for ((a, wo), u) in s.alpha.iter().zip(&s.wo).zip(&s.u) {
+        for i in 0..8 {
+            sum += ggx_step(a.lane(i), wo.lane(i).into(), u.lane(i).into());
+        }
+    }
+    sum
+}
+
+#[inline(always)]
+fn eight(s: &States) -> f32 {
+    let mut sum = F8::ZERO;
+    for ((a, wo), u) in s.alpha.iter().zip(&s.wo).zip(&s.u) {
+        sum += ggx_step(*a, *wo, *u);
+    }
+    (0..8).map(|i| sum.lane(i)).sum()
+}
+
+#[inline(always)]
+fn one_cosine(s: &States) -> f32 {
+    let mut sum = 0.0;
+    for u in &s.u {
+        for i in 0..8 {
+            sum += cosine_step::<f32>(u.lane(i).into());
+        }
+    }
+    sum
+}
+
+#[inline(always)]
+fn eight_cosine(s: &States) -> f32 {
+    let mut sum = F8::ZERO;
+    for u in &s.u {
+        sum += cosine_step(*u);
+    }
+    (0..8).map(|i| sum.lane(i)).sum()
+}
+
+struct Ggx<'a>(&'a States);
+impl Kernel for Ggx<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        eight(self.0)
+    }
+}
+
+struct Cosine<'a>(&'a States);
+impl Kernel for Cosine<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        eight_cosine(self.0)
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let s = states();
+    let mut g = c.benchmark_group("ggx sampling step");
+    g.throughput(Throughput::Elements(N as u64));
+    g.bench_function("one lane", |b| b.iter(|| one(black_box(&s))));
+    g.bench_function("eight lanes, AVX2 dispatch", |b| {
+        b.iter(|| dispatch(Ggx(black_box(&s))))
+    });
+    g.bench_function("eight lanes, baseline", |b| b.iter(|| eight(black_box(&s))));
+    g.finish();
+
+    let mut g = c.benchmark_group("cosine warp step");
+    g.throughput(Throughput::Elements(N as u64));
+    g.bench_function("one lane", |b| b.iter(|| one_cosine(black_box(&s))));
+    g.bench_function("eight lanes, AVX2 dispatch", |b| {
+        b.iter(|| dispatch(Cosine(black_box(&s))))
+    });
+    g.bench_function("eight lanes, baseline", |b| {
+        b.iter(|| eight_cosine(black_box(&s)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
