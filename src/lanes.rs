@@ -73,6 +73,8 @@ pub trait Bits:
     + Not<Output = Self>
 {
     type Mask: Mask;
+    /// How many lanes one value carries.
+    const LANES: usize;
     /// Every lane `x`.
     fn splat(x: u32) -> Self;
     /// Lane `i` from `f(i)`.
@@ -90,7 +92,24 @@ pub trait Bits:
     /// Unsigned less-than.
     fn lt(self, o: Self) -> Self::Mask;
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Each lane's bits in reverse order.
+    fn reverse_bits(self) -> Self;
+    /// `table[index % N]` per lane: the modulo (a mask for the power-of-two sizes tables
+    /// have) spares each lane a bounds check and its branch; an index ≥ N is a bug that
+    /// debug builds catch.
+    fn gather<const N: usize>(table: &[u32; N], index: Self) -> Self;
 }
+
+/// Each byte value with its bits in reverse order.
+const REVERSED_BYTE: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut b = 0;
+    while b < 256 {
+        t[b] = (b as u8).reverse_bits();
+        b += 1;
+    }
+    t
+};
 
 /// A float of one lane or several: what the lobes, warps, samplers and lookups are written
 /// over (see the module documentation for why every width gives the same bits).
@@ -150,8 +169,8 @@ pub trait Real:
     fn trunc_i32(self) -> Self::Bits;
     /// Each lane's bits read as an `i32`, converted to the nearest float.
     fn from_i32(b: Self::Bits) -> Self;
-    /// `table[index]` per lane (an index out of range panics, as indexing does).
-    fn gather(table: &[f32], index: Self::Bits) -> Self;
+    /// `table[index % N]` per lane, as [`Bits::gather`].
+    fn gather<const N: usize>(table: &[f32; N], index: Self::Bits) -> Self;
 
     /// `self` where `self < o`, else `o`.
     #[inline(always)]
@@ -216,6 +235,7 @@ impl Mask for bool {
 
 impl Bits for u32 {
     type Mask = bool;
+    const LANES: usize = 1;
     #[inline(always)]
     fn splat(x: u32) -> u32 {
         x
@@ -263,6 +283,19 @@ impl Bits for u32 {
         } else {
             b
         }
+    }
+    /// By byte lookups: x86-64 has no bit-reversal instruction, and four loads cost less
+    /// than the dozen shifts and masks of `u32::reverse_bits` (which eight lanes use, as
+    /// AVX2 reverses bytes with one shuffle).
+    #[inline(always)]
+    fn reverse_bits(self) -> u32 {
+        let r = |k: u32| REVERSED_BYTE[((self >> (8 * k)) & 0xff) as usize] as u32;
+        (r(0) << 24) | (r(1) << 16) | (r(2) << 8) | r(3)
+    }
+    #[inline(always)]
+    fn gather<const N: usize>(table: &[u32; N], index: u32) -> u32 {
+        debug_assert!((index as usize) < N);
+        table[index as usize % N]
     }
 }
 
@@ -346,8 +379,9 @@ impl Real for f32 {
         b as i32 as f32
     }
     #[inline(always)]
-    fn gather(table: &[f32], index: u32) -> f32 {
-        table[index as usize]
+    fn gather<const N: usize>(table: &[f32; N], index: u32) -> f32 {
+        debug_assert!((index as usize) < N);
+        table[index as usize % N]
     }
 }
 
@@ -456,6 +490,7 @@ impl Mask for M8 {
 
 impl Bits for U8 {
     type Mask = M8;
+    const LANES: usize = 8;
     #[inline(always)]
     fn splat(x: u32) -> U8 {
         U8([x; 8])
@@ -501,6 +536,14 @@ impl Bits for U8 {
         U8(std::array::from_fn(|i| {
             (m.0[i] & a.0[i]) | (!m.0[i] & b.0[i])
         }))
+    }
+    #[inline(always)]
+    fn reverse_bits(self) -> U8 {
+        U8(self.0.map(u32::reverse_bits))
+    }
+    #[inline(always)]
+    fn gather<const N: usize>(table: &[u32; N], index: U8) -> U8 {
+        U8(index.0.map(|i| u32::gather(table, i)))
     }
 }
 
@@ -591,8 +634,8 @@ impl Real for F8 {
         F8(b.0.map(|x| x as i32 as f32))
     }
     #[inline(always)]
-    fn gather(table: &[f32], index: U8) -> F8 {
-        F8(index.0.map(|i| table[i as usize]))
+    fn gather<const N: usize>(table: &[f32; N], index: U8) -> F8 {
+        F8(index.0.map(|i| f32::gather(table, i)))
     }
 }
 

@@ -7,9 +7,11 @@
 //! a sixth of a path-traced render. With the sampler's 16-bit indices, two 256-entry tables
 //! (one per index byte, each entry the XOR of that byte's direction vectors) give the same
 //! point with two loads and one XOR. The tables are built once from the crate's own
-//! `parts::sobol_int4_rev`, so they hold its matrices by construction; the index shuffle and
-//! the per-dimension Owen scrambles are the crate's `parts` too, keyed here by our seeds, and
-//! run in scalar code per dimension, so a 2D point costs half a 4D one.
+//! `parts::sobol_int4_rev`, so they hold its matrices by construction. The index shuffle and
+//! the per-dimension Owen scrambles are Burley's hash with the crate's constants (tested equal
+//! to its `owen_scramble_rev`), keyed here by our seeds. All of it is written once over
+//! [`Bits`] ([`Sequence::points`]): one sequence per lane, one lane or eight with the same
+//! bits, and a 2D point costs half a 4D one.
 //!
 //! Dimensions 4 to 31 (sets 1–7, [`Sequence::sample_4d_of_set`]) have tables too, 8 KiB
 //! each, for a path's later bounces, which take further dimensions of their first bounce's
@@ -18,7 +20,8 @@
 
 use std::sync::OnceLock;
 
-use sobol_burley::parts::{hash, owen_scramble_rev, u32_to_f32_norm};
+use crate::lanes::{Bits, Real};
+use sobol_burley::parts::hash;
 
 /// The most sample indices per sequence: the tables cover 16 index bits.
 pub const MAX_INDEX: u32 = 1 << 16;
@@ -27,8 +30,9 @@ struct Tables {
     /// XOR of the bit-reversed direction vectors of index bits 0–7 / 8–15, by the value of
     /// the *bit-reversed* index's top byte / next byte (index bit k sits at bit 31 − k), so
     /// that the shuffled index, which the scramble leaves bit-reversed, needs no reversal.
-    top: [[u32; 4]; 256],
-    next: [[u32; 4]; 256],
+    /// Entry 4·byte + dimension.
+    top: [u32; 1024],
+    next: [u32; 1024],
 }
 
 /// Dimension sets with tables: dimensions 0–31 of the sequence, in sets of four.
@@ -42,50 +46,55 @@ fn tables(set: u32) -> &'static Tables {
         [const { OnceLock::new() }; DIMENSION_SETS as usize];
     TABLES[set as usize].get_or_init(|| {
         let mut t = Tables {
-            top: [[0; 4]; 256],
-            next: [[0; 4]; 256],
+            top: [0; 1024],
+            next: [0; 1024],
         };
         for b in 0..256u32 {
-            t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, set).into();
-            t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, set).into();
+            let (top, next): ([u32; 4], [u32; 4]) = (
+                sobol_burley::parts::sobol_int4_rev(b << 24, set).into(),
+                sobol_burley::parts::sobol_int4_rev(b << 16, set).into(),
+            );
+            let at = 4 * b as usize;
+            t.top[at..at + 4].copy_from_slice(&top);
+            t.next[at..at + 4].copy_from_slice(&next);
         }
         t
     })
 }
 
-/// The unscrambled Sobol point of tables `t` (a dimension set, bit-reversed) for the 16-bit
-/// index whose bit-reversal is `index_rev` (only its top 16 bits are read).
+/// Burley's hash-based Owen scramble of a bit-reversed word keyed by `scramble` ("Practical
+/// Hash-based Owen Scrambling", JCGT 9(4), 2020, §3, with the constants `sobol_burley` 0.5
+/// settled on; tested equal to its `owen_scramble_rev`), at any width: a nested uniform
+/// scramble, each bit flipped by a hash of the bits above it (below it, reversed).
 #[inline(always)]
-fn lookup(t: &Tables, index_rev: u32) -> [u32; 4] {
-    let (top, next) = (
-        t.top[(index_rev >> 24) as usize],
-        t.next[((index_rev >> 16) & 0xff) as usize],
-    );
-    std::array::from_fn(|d| top[d] ^ next[d])
+fn owen_scramble_rev<B: Bits>(n: B, scramble: B) -> B {
+    let n = n ^ n.wrapping_mul(B::splat(0x3d20_adea));
+    let n = n.wrapping_add(scramble);
+    let n = n.wrapping_mul(scramble.shr(16) | B::splat(1));
+    let n = n ^ n.wrapping_mul(B::splat(0x0552_6c56));
+    n ^ n.wrapping_mul(B::splat(0x53a2_2864))
 }
 
-/// The index shuffle of Burley §4, an Owen scramble of the index's bits with the hashed key
-/// `scramble`; returns the shuffled index bit-reversed, as the tables take it.
-#[inline]
-fn shuffled_rev(index: u32, scramble: u32) -> u32 {
-    debug_assert!(index < MAX_INDEX);
-    // The 16-bit index reversed by bytes: two loads instead of a 32-bit reversal (x86-64
-    // has no bit-reversal instruction).
-    let index_rev = ((REVERSED_BYTE[(index & 0xff) as usize] as u32) << 24)
-        | ((REVERSED_BYTE[((index >> 8) & 0xff) as usize] as u32) << 16);
-    owen_scramble_rev(index_rev, scramble)
+/// The index shuffle of Burley §4: an Owen scramble of the index's bits keyed by `shuffle`,
+/// left bit-reversed, as the tables take it.
+#[inline(always)]
+fn shuffled_rev<B: Bits>(index: B, shuffle: B) -> B {
+    owen_scramble_rev(index.reverse_bits(), shuffle)
 }
 
-/// Each byte value with its bits in reverse order.
-const REVERSED_BYTE: [u8; 256] = {
-    let mut t = [0u8; 256];
-    let mut b = 0;
-    while b < 256 {
-        t[b] = (b as u8).reverse_bits();
-        b += 1;
-    }
-    t
-};
+/// Dimension `d` (of the tables' set) of the point whose shuffled, bit-reversed index is
+/// `shuffled`: the two byte tables' XOR, the dimension's Owen scramble keyed by `key`, and
+/// the bits put back in order, a multiple of 2^-23 in [0, 1).
+#[inline(always)]
+fn dimension<R: Real>(t: &Tables, shuffled: R::Bits, d: u32, key: R::Bits) -> R {
+    let dim = R::Bits::splat(d);
+    let top_row = shuffled.shr(24).shl(2) | dim;
+    let next_row = (shuffled.shr(16) & R::Bits::splat(0xff)).shl(2) | dim;
+    let sobol = R::Bits::gather(&t.top, top_row) ^ R::Bits::gather(&t.next, next_row);
+    let v = owen_scramble_rev(sobol, key).reverse_bits();
+    // The top 23 bits as the mantissa of a float in [1, 2), less 1.
+    R::from_bits(v.shr(9) | R::Bits::splat(0x3f80_0000)) - 1.0
+}
 
 /// The seeds of the four dimensions' nested uniform scrambles, XORed with the sequence's.
 const DIMENSION_KEYS: [u32; 4] = [0x8f1b_bcdc, 0x3c6e_f372, 0xa54f_f53a, 0x510e_527f];
@@ -94,11 +103,11 @@ const DIMENSION_KEYS: [u32; 4] = [0x8f1b_bcdc, 0x3c6e_f372, 0xa54f_f53a, 0x510e_
 /// 0–3, each a multiple of 2^-23 in [0, 1). Different seeds give statistically independent
 /// sequences (Burley's index shuffle and padding).
 ///
-/// Scalar code, bit for bit the crate's 4-lane `owen_scramble_int4_rev` form (tested): the
-/// x86-64 baseline (SSE2) has no 32-bit vector multiply, so each of that form's six
-/// multiplies is emulated in several instructions, and its bit reversal takes a dozen
-/// shuffles, where the scalar form reverses with byte lookups. Measured with
-/// `cargo bench --bench ao -- sobol`, in BENCHMARKS.md.
+/// One lane, bit for bit the crate's 4-lane `owen_scramble_int4_rev` form (tested). That
+/// form's four lanes are four dimensions of one point; strata's lanes are eight points, one
+/// per path, whose multiplies AVX2 does in one instruction each ([`Sequence::points`] at
+/// eight lanes inside `lanes::dispatch`). Measured with `cargo bench --bench ao -- sobol`,
+/// in BENCHMARKS.md.
 #[inline]
 pub fn sample_4d(index: u32, seed: u32) -> [f32; 4] {
     Sequence::new(seed).sample_4d(index)
@@ -120,10 +129,42 @@ pub fn sample_1d(index: u32, seed: u32) -> f32 {
 /// and of its four dimensions: they depend on the seed alone, so a caller that draws several
 /// points of one sequence (a pixel's samples in one dimension slot) hashes them once.
 /// Its points are those of [`sample_4d`] with the same seed.
+///
+/// `Sequence<U8>` holds eight sequences, one per lane, whose points [`Sequence::points`]
+/// computes side by side with the bits of one at a time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Sequence {
-    shuffle: u32,
-    dims: [u32; 4],
+pub struct Sequence<B = u32> {
+    shuffle: B,
+    dims: [B; 4],
+}
+
+impl<B: Bits> Sequence<B> {
+    /// The sequences of the lanes, lane `i` from `f(i)`.
+    #[inline(always)]
+    pub fn from_lanes(mut f: impl FnMut(usize) -> Sequence) -> Sequence<B> {
+        let lanes: [Sequence; 8] = std::array::from_fn(|i| f(i.min(B::LANES - 1)));
+        Sequence {
+            shuffle: B::from_fn(|i| lanes[i].shuffle),
+            dims: std::array::from_fn(|d| B::from_fn(|i| lanes[i].dims[d])),
+        }
+    }
+
+    /// Dimensions 4·`set` to 4·`set` + N − 1 of point `index` (< 2^16) of each lane's
+    /// sequence, each a multiple of 2^-23 in [0, 1): the index shuffle of Burley §4 (an
+    /// Owen scramble of the index's bits, left bit-reversed, as the tables take it), the
+    /// two byte tables' XOR, each dimension's Owen scramble, and the bits put back in order.
+    #[inline(always)]
+    pub fn points<R: Real<Bits = B>, const N: usize>(&self, index: B, set: u32) -> [R; N] {
+        let shuffled = shuffled_rev(index, self.shuffle);
+        let t = tables(set);
+        // A loop, not `array::from_fn`: LLVM left that closure out of line, outside the
+        // AVX2 function.
+        let mut out = [R::ZERO; N];
+        for (d, out) in out.iter_mut().enumerate() {
+            *out = dimension(t, shuffled, d as u32, self.dims[d]);
+        }
+        out
+    }
 }
 
 impl Sequence {
@@ -178,10 +219,8 @@ impl Sequence {
     /// The first `N` ≤ 4 dimensions of dimension set `set` of point `index`.
     #[inline(always)]
     fn sample_of_set<const N: usize>(&self, index: u32, set: u32) -> [f32; N] {
-        // Shuffle the index by an Owen scramble of its bits (Burley §4), look up the point,
-        // then scramble each dimension with its own key.
-        let sobol = lookup(tables(set), shuffled_rev(index, self.shuffle));
-        std::array::from_fn(|d| scrambled(sobol[d], self.dims[d]))
+        debug_assert!(index < MAX_INDEX);
+        self.points::<f32, N>(index, set)
     }
 }
 
@@ -207,34 +246,45 @@ pub fn sample_4d_lanes<const N: usize>(
 }
 
 /// Dimensions 0 to `D` − 1 (`D` ≤ 4) of `N` points, a step at a time over all of them.
+/// The points of `N` sequences side by side, each at one lane, in two phases (every
+/// lane's index shuffle, then every lane's dimensions) so that the lanes' chains of
+/// multiplies and lookups overlap. Moving sequences stored one per pixel into eight-lane
+/// form ([`Sequence::from_lanes`]) and the points back cost more than eight-lane arithmetic
+/// saves here (13.8 against 7.5 ns per 2D point, `cargo bench --bench ao -- "sobol point"`);
+/// the wavefront integrator keeps its sequences in lanes and calls [`Sequence::points`].
 #[inline]
 fn sample_lanes<const N: usize, const D: usize>(
     sequences: &[Sequence; N],
     indices: &[u32; N],
 ) -> [[f32; D]; N] {
-    let shuffled: [u32; N] =
-        std::array::from_fn(|i| shuffled_rev(indices[i], sequences[i].shuffle));
+    let mut shuffled = [0u32; N];
+    for ((shuffled, &index), sequence) in shuffled.iter_mut().zip(indices).zip(sequences) {
+        *shuffled = shuffled_rev(index, sequence.shuffle);
+    }
     let t = tables(0);
-    let sobol: [[u32; 4]; N] = std::array::from_fn(|i| lookup(t, shuffled[i]));
-    std::array::from_fn(|i| std::array::from_fn(|d| scrambled(sobol[i][d], sequences[i].dims[d])))
-}
-
-/// One dimension's nested uniform scramble with the hashed key `scramble`, as a float in
-/// [0, 1).
-#[inline]
-fn scrambled(sobol_rev: u32, scramble: u32) -> f32 {
-    let v = owen_scramble_rev(sobol_rev, scramble);
-    // The float keeps the top 23 bits of the reversed value, which are v's low 23 bits
-    // reversed: three byte lookups (bits 24–31 of v would land below bit 8, which the
-    // conversion drops).
-    let r = |k: u32| REVERSED_BYTE[((v >> (8 * k)) & 0xff) as usize] as u32;
-    u32_to_f32_norm((r(0) << 24) | (r(1) << 16) | (r(2) << 8))
+    let mut out = [[0.0; D]; N];
+    for ((out, &shuffled), sequence) in out.iter_mut().zip(&shuffled).zip(sequences) {
+        for (d, out) in out.iter_mut().enumerate() {
+            *out = dimension(t, shuffled, d as u32, sequence.dims[d]);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use sobol_burley::parts::{hash_int4, owen_scramble_int4_rev, sobol_int4_rev, Int4};
+
+    /// The unscrambled Sobol point of tables `t` for the 16-bit index whose bit-reversal is
+    /// `index_rev`, looked up as [`Sequence::points`] does.
+    fn lookup(t: &Tables, index_rev: u32) -> [u32; 4] {
+        let (top, next) = (
+            4 * (index_rev >> 24) as usize,
+            4 * ((index_rev >> 16) & 0xff) as usize,
+        );
+        std::array::from_fn(|d| t.top[top + d] ^ t.next[next + d])
+    }
 
     /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of a 16-bit index.
     fn sobol_rev(index: u32) -> Int4 {
@@ -245,7 +295,8 @@ mod tests {
     /// product instead of our tables: the reference the scalar code must equal.
     fn sample_4d_lanes(index: u32, seed: u32) -> [f32; 4] {
         let shuffled =
-            owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x2c1b_3c6d)).reverse_bits();
+            sobol_burley::parts::owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x2c1b_3c6d))
+                .reverse_bits();
         let sobol = sobol_int4_rev((shuffled & 0xffff).reverse_bits(), 0);
         let keys: Int4 = DIMENSION_KEYS.map(|k| seed ^ k).into();
         owen_scramble_int4_rev(sobol, hash_int4(keys))
@@ -376,6 +427,39 @@ mod tests {
                 sample_2d(7, seeds[5]).map(f32::to_bits)
             );
         }
+    }
+
+    /// The scramble equals the crate's, over random words and keys.
+    #[test]
+    fn the_scramble_is_the_crates() {
+        let mut x = 0x1234_5678u32;
+        for _ in 0..1_000_000 {
+            let (n, k) = (hash(x), hash(x ^ 0x9e37_79b9));
+            x = x.wrapping_add(1);
+            let want = sobol_burley::parts::owen_scramble_rev(n, k);
+            assert_eq!(owen_scramble_rev(n, k), want, "{n:#x} {k:#x}");
+        }
+    }
+
+    /// Points of every dimension set at eight lanes, in and out of the AVX2 dispatch, have
+    /// the bits of the same points at one lane.
+    #[test]
+    fn points_have_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>([seed, index, set]: [R; 3]) -> [R; 4] {
+            let (seed, index) = (seed.to_bits(), index.to_bits());
+            let set = (set.lane(0) as u32).min(DIMENSION_SETS - 1);
+            let sequence = Sequence::from_lanes(|i| Sequence::new(seed.lane(i)));
+            sequence.points(index, set)
+        }
+        let mut x = 7u32;
+        let inputs = (0..4096).map(|k| {
+            x = hash(x);
+            // The set is the group's (lane 0's), so it varies by group of eight.
+            let set = ((k / 8) % DIMENSION_SETS as usize) as f32;
+            [f32::from_bits(x), f32::from_bits(x % MAX_INDEX), set]
+        });
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [3] -> [4], inputs);
     }
 
     /// Different seeds give different sequences.
