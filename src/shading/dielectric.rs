@@ -66,6 +66,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::fresnel;
 use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
 use super::microfacet::{AlbedoTable, Ggx};
 
@@ -80,32 +81,13 @@ const SPECULAR: BsdfFlags = BsdfFlags::REFLECTION
 const GLOSSY_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::GLOSSY);
 const SPECULAR_TRANSMISSION: BsdfFlags = BsdfFlags::TRANSMISSION.union(BsdfFlags::SPECULAR);
 
-/// The exact Fresnel reflectance of unpolarized light at a smooth dielectric interface, for
-/// light arriving with direction cosine `cos_i` against the normal (negative: from the side
-/// the normal points away from) and relative index `eta` = n(below) / n(above), the normal
-/// pointing above. Total internal reflection gives 1.
-///
-/// With η' the index ratio across the interface as the light sees it (η, or 1/η from
-/// below), sin²θt = (1 − cos²θi) / η'² (Snell), and
-/// F = (r∥² + r⊥²) / 2, r∥ = (η' cos θi − cos θt) / (η' cos θi + cos θt),
-/// r⊥ = (cos θi − η' cos θt) / (cos θi + η' cos θt) (Born & Wolf §1.5; Walter eq. 22).
+/// The exact Fresnel reflectance of unpolarized light at a smooth dielectric interface for
+/// light arriving with direction cosine `cos_i` (negative from below) and relative index `eta`
+/// = n(below) / n(above): [`fresnel::dielectric`] at one lane. Total internal reflection
+/// gives 1.
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let mut cos_i = cos_i.clamp(-1.0, 1.0);
-    let mut eta = eta;
-    // From below: the same formula with the media swapped.
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
-        cos_i = -cos_i;
-    }
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
+    fresnel::dielectric(cos_i, eta)
 }
 
 /// The direction `w` (pointing away from the interface) refracts into, through an interface

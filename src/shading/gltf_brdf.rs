@@ -85,6 +85,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::fresnel;
 use super::lobe::{BsdfFlags, BsdfSample};
 use super::microfacet::{AlbedoRow, AlbedoTable, AnisotropicGgx, Ggx, Microfacet};
 use super::spectrum::luminance;
@@ -658,10 +659,9 @@ fn reflect_visible_normal<M: Microfacet>(m: &M, wo: Vec3, u: Vec2) -> Vec3 {
     2.0 * wo.dot(h) * h - wo
 }
 
-/// Schlick's Fresnel approximation F = f0 + (1 − f0)(1 − cos)⁵.
+/// Schlick's Fresnel approximation F = f0 + (1 − f0)(1 − cos)⁵ ([`fresnel::schlick3`] at
+/// one lane).
 #[inline]
 fn schlick(f0: Vec3, cos: f32) -> Vec3 {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m2 = m * m;
-    f0 + (Vec3::ONE - f0) * (m2 * m2 * m)
+    fresnel::schlick3(f0.into(), cos).into()
 }

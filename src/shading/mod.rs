@@ -9,6 +9,7 @@
 //! | [`bsdf`]        | [`Bsdf`]: the closed set of scattering models, in the shading frame   |
 //! | [`dielectric`]  | dielectric interfaces (glass): refractive and thin-walled, rough or  |
 //! |                 | smooth, with exact Fresnel                                           |
+//! | [`fresnel`]     | Schlick's and the exact dielectric Fresnel reflectance, at any width  |
 //! | [`gltf_brdf`]   | the glTF 2.0 metallic-roughness BRDF (Appendix B)                     |
 //! | [`layers`]      | sheen and clear coat over it (`KHR_materials_sheen`, `_clearcoat`)    |
 //! | [`material`]    | glTF materials prepared for rendering; the BSDF at a surface point    |
@@ -24,6 +25,7 @@ pub mod bsdf;
 pub mod dielectric;
 pub mod environment;
 pub mod envmap;
+pub mod fresnel;
 pub mod gltf_brdf;
 pub mod interaction;
 pub mod layers;

@@ -19,20 +19,14 @@
 
 use glam::Vec3;
 
+use super::fresnel::schlick;
+
 /// The reflectance at normal incidence of an interface from index `incident` to
 /// `transmitted`: ((n_t − n_i) / (n_t + n_i))².
 #[inline]
 fn f0_between(transmitted: f32, incident: f32) -> f32 {
     let r = (transmitted - incident) / (transmitted + incident);
     r * r
-}
-
-/// Schlick's approximation of the reflectance at cosine `cos` from `f0`.
-#[inline]
-fn schlick(f0: f32, cos: f32) -> f32 {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m2 = m * m;
-    f0 + (1.0 - f0) * m2 * m2 * m
 }
 
 /// The linear sRGB channels' sensitivity to interference at optical path difference `opd`
