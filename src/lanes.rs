@@ -171,6 +171,9 @@ pub trait Real:
     fn from_i32(b: Self::Bits) -> Self;
     /// `table[index % N]` per lane, as [`Bits::gather`].
     fn gather<const N: usize>(table: &[f32; N], index: Self::Bits) -> Self;
+    /// The four floats of `table[index]` per lane (a texel, say), one load of 16 bytes per
+    /// lane; an index out of range panics.
+    fn gather4(table: &[[f32; 4]], index: Self::Bits) -> [Self; 4];
 
     /// `self` where `self < o`, else `o`.
     #[inline(always)]
@@ -382,6 +385,10 @@ impl Real for f32 {
     fn gather<const N: usize>(table: &[f32; N], index: u32) -> f32 {
         debug_assert!((index as usize) < N);
         table[index as usize % N]
+    }
+    #[inline(always)]
+    fn gather4(table: &[[f32; 4]], index: u32) -> [f32; 4] {
+        table[index as usize]
     }
 }
 
@@ -636,6 +643,11 @@ impl Real for F8 {
     #[inline(always)]
     fn gather<const N: usize>(table: &[f32; N], index: U8) -> F8 {
         F8(index.0.map(|i| f32::gather(table, i)))
+    }
+    #[inline(always)]
+    fn gather4(table: &[[f32; 4]], index: U8) -> [F8; 4] {
+        let rows = index.0.map(|i| table[i as usize]);
+        std::array::from_fn(|k| F8(std::array::from_fn(|i| rows[i][k])))
     }
 }
 

@@ -39,6 +39,7 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::spectrum::luminance;
+use crate::lanes::{Bits, Real, Vec3L};
 use crate::math;
 
 /// What light sampling draws directions of the map in proportion to.
@@ -163,8 +164,8 @@ pub struct EnvMap {
     width: usize,
     height: usize,
     /// (width + 1) × height texels, row 0 the top (straight up), the last of each row a copy
-    /// of its first.
-    texels: Vec<Texel>,
+    /// of its first; as arrays, so that lanes gather their channels from the flat floats.
+    texels: Vec<[f32; 4]>,
     /// The marginal distribution over the height + 1 rows of cells (height + 2 entries),
     /// then each cell row's conditional one over its width cells (width + 1 entries each).
     cells: Vec<Cell>,
@@ -277,7 +278,7 @@ impl EnvMap {
         EnvMap {
             width,
             height,
-            texels: padded,
+            texels: padded.iter().map(Vec4::to_array).collect(),
             cells,
             integral: integral as f32,
             rotation: rotation.sin_cos(),
@@ -383,7 +384,7 @@ impl EnvMap {
     /// Bytes held (texels with their densities, and the sampling distributions), for
     /// `--stats`.
     pub fn memory(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<Texel>()
+        self.texels.len() * std::mem::size_of::<[f32; 4]>()
             + self.cells.len() * std::mem::size_of::<Cell>()
     }
 
@@ -402,13 +403,20 @@ impl EnvMap {
     /// The direction's (u, v) in the unrotated map, for a direction of unit length.
     #[inline]
     fn uv(&self, d: Vec3) -> Vec2 {
+        let (u, v) = self.uv_lanes(d.into());
+        Vec2::new(u, v)
+    }
+
+    /// [`EnvMap::uv`] at any width.
+    #[inline(always)]
+    fn uv_lanes<R: Real>(&self, d: Vec3L<R>) -> (R, R) {
         let (s, c) = self.rotation;
         // R_y(−rotation)·d.
-        let x = c * d.x - s * d.z;
-        let z = s * d.x + c * d.z;
-        let u = 0.5 + math::atan2(z, x) * (0.5 * FRAC_1_PI);
+        let x = d.x * c - d.z * s;
+        let z = d.x * s + d.z * c;
+        let u = math::atan2(z, x) * (0.5 * FRAC_1_PI) + 0.5;
         let v = math::acos(d.y) * FRAC_1_PI;
-        Vec2::new(u, v)
+        (u, v)
     }
 
     /// The world direction of unrotated (u, v), and sin θ there.
@@ -425,49 +433,92 @@ impl EnvMap {
     /// The texel at `row`, `col` (col ≤ width: the padding column).
     #[inline]
     fn texel(&self, row: usize, col: usize) -> Texel {
-        self.texels[row * (self.width + 1) + col]
+        Vec4::from_array(self.texels[row * (self.width + 1) + col])
     }
 
     /// The unscaled radiance and the density at (u, v) ∈ [0, 1]², bilinear between texel
     /// centres.
     #[inline]
     fn lookup(&self, uv: Vec2) -> Texel {
+        Vec4::from_array(self.lookup_lanes(uv.x, uv.y))
+    }
+
+    /// [`EnvMap::lookup`] at any width: the four corners' channels gathered per lane.
+    #[inline(always)]
+    fn lookup_lanes<R: Real>(&self, u: R, v: R) -> [R; 4] {
         let (w, h) = (self.width as f32, self.height as f32);
         // Texel centres sit at half-integers; left of the first centre, u wraps to the last
         // texel, whose right neighbour is the padding copy of the first.
-        let x = uv.x * w - 0.5;
-        let x = if x < 0.0 { x + w } else { x };
-        let x0 = (x as usize).min(self.width - 1);
-        let fx = (x - x0 as f32).clamp(0.0, 1.0);
+        let x = u * w - 0.5;
+        let x = R::select(x.lt(R::ZERO), x + w, x);
+        // The column min(⌊x⌋, width − 1), clamped in floats before the conversion.
+        let x0 = x
+            .max(R::ZERO)
+            .min(R::splat((self.width - 1) as f32))
+            .trunc_i32();
+        let fx = (x - R::from_i32(x0)).clamp(R::ZERO, R::ONE);
         // v is clamped at the poles.
-        let y = (uv.y * h - 0.5).max(0.0);
-        let y0 = (y as usize).min(self.height - 1);
-        let y1 = (y0 + 1).min(self.height - 1);
-        let fy = (y - y0 as f32).clamp(0.0, 1.0);
-        let row = |r: usize| self.texel(r, x0).lerp(self.texel(r, x0 + 1), fx);
-        row(y0).lerp(row(y1), fy)
+        let y = (v * h - 0.5).max(R::ZERO);
+        let y0 = y.min(R::splat((self.height - 1) as f32)).trunc_i32();
+        let last = R::Bits::splat(self.height as u32 - 1);
+        let y1 = R::Bits::select(y0.lt(last), y0.wrapping_add(R::Bits::splat(1)), last);
+        let fy = (y - R::from_i32(y0)).clamp(R::ZERO, R::ONE);
+        let stride = R::Bits::splat(self.width as u32 + 1);
+        // The texel `dx` right of column x0 in `row`, its four channels.
+        let corner = |row: R::Bits, dx: u32| {
+            let texel = row
+                .wrapping_mul(stride)
+                .wrapping_add(x0)
+                .wrapping_add(R::Bits::splat(dx));
+            R::gather4(&self.texels, texel)
+        };
+        let (t00, t10, t01, t11) = (corner(y0, 0), corner(y0, 1), corner(y1, 0), corner(y1, 1));
+        // As glam's lerp: a(1 − t) + bt.
+        let lerp = |a: R, b: R, t: R| a * (R::ONE - t) + b * t;
+        std::array::from_fn(|k| lerp(lerp(t00[k], t10[k], fx), lerp(t01[k], t11[k], fx), fy))
     }
 
     /// The radiance seen along unit direction `dir` (bilinear between texel centres).
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
-        let uv = self.uv(dir);
-        if !uv.is_finite() {
-            return Vec3::ZERO;
-        }
-        self.lookup(uv).truncate() * self.scale
+        self.radiance_lanes(dir.into()).into()
     }
 
     /// The radiance seen along unit direction `dir` and the solid-angle pdf of
     /// [`EnvMap::sample`] drawing it, from one parametrisation and one interpolation.
     #[inline]
     pub fn radiance_pdf(&self, dir: Vec3) -> (Vec3, f32) {
-        let uv = self.uv(dir);
-        if !uv.is_finite() {
-            return (Vec3::ZERO, 0.0);
-        }
-        let l = self.lookup(uv);
-        (l.truncate() * self.scale, solid_angle_pdf(l.w, dir))
+        let (l, pdf) = self.radiance_pdf_lanes(dir.into());
+        (l.into(), pdf)
+    }
+
+    /// [`EnvMap::radiance`] at any width.
+    #[inline(always)]
+    pub fn radiance_lanes<R: Real>(&self, dir: Vec3L<R>) -> Vec3L<R> {
+        self.radiance_pdf_parts(dir).0
+    }
+
+    /// [`EnvMap::radiance_pdf`] at any width.
+    #[inline(always)]
+    pub fn radiance_pdf_lanes<R: Real>(&self, dir: Vec3L<R>) -> (Vec3L<R>, R) {
+        let (l, density, finite) = self.radiance_pdf_parts(dir);
+        let pdf = R::select(finite, solid_angle_pdf(density, dir), R::ZERO);
+        (l, pdf)
+    }
+
+    /// The scaled radiance along `dir` (zero where its (u, v) is not finite), the density
+    /// there, and where (u, v) was finite.
+    #[inline(always)]
+    fn radiance_pdf_parts<R: Real>(&self, dir: Vec3L<R>) -> (Vec3L<R>, R, R::Mask) {
+        let (u, v) = self.uv_lanes(dir);
+        let inf = R::splat(f32::INFINITY);
+        let finite = u.abs().lt(inf) & v.abs().lt(inf);
+        let [r, g, b, density] =
+            self.lookup_lanes(R::select(finite, u, R::ZERO), R::select(finite, v, R::ZERO));
+        let scale = R::splat(self.scale);
+        let l = Vec3L::new(r * scale, g * scale, b * scale);
+        let zero = Vec3L::new(R::ZERO, R::ZERO, R::ZERO);
+        (Vec3L::select(finite, l, zero), density, finite)
     }
 
     /// A direction drawn with `u`, its radiance and its solid-angle pdf (0 at the poles,
@@ -515,7 +566,7 @@ impl EnvMap {
     pub fn pdf(&self, dir: Vec3) -> f32 {
         let uv = self.uv(dir);
         match uv.is_finite() {
-            true => solid_angle_pdf(self.lookup(uv).w, dir),
+            true => solid_angle_pdf(self.lookup(uv).w, dir.into()),
             false => 0.0,
         }
     }
@@ -523,13 +574,10 @@ impl EnvMap {
 
 /// The solid-angle pdf of unit direction `dir` whose interpolated density (over (u, v), by
 /// 2π²) is `density`: that over sin θ, 0 at the poles where the parametrisation degenerates.
-#[inline]
-fn solid_angle_pdf(density: f32, dir: Vec3) -> f32 {
+#[inline(always)]
+fn solid_angle_pdf<R: Real>(density: R, dir: Vec3L<R>) -> R {
     let sin_theta = (dir.x * dir.x + dir.z * dir.z).sqrt();
-    match sin_theta > 0.0 {
-        true => density / sin_theta,
-        false => 0.0,
-    }
+    R::select(sin_theta.gt(R::ZERO), density / sin_theta, R::ZERO)
 }
 
 /// sin θ at the centre of row `y` of `height`.
@@ -608,6 +656,35 @@ fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The radiance and pdf of a turned, scaled, random map at eight lanes have the bits of
+    /// one lane, over random directions, the poles and the seam.
+    #[test]
+    fn lookups_have_the_same_bits_at_every_width() {
+        static MAP: std::sync::OnceLock<EnvMap> = std::sync::OnceLock::new();
+        #[inline(always)]
+        fn kernel<R: Real>([x, y, z]: [R; 3]) -> [R; 4] {
+            let map = MAP.get().expect("made below");
+            let (l, pdf) = map.radiance_pdf_lanes(Vec3L::new(x, y, z).normalize());
+            [l.x, l.y, l.z, pdf]
+        }
+        let (w, h) = (37, 19);
+        let mut next = crate::sampling::hash::uniform_sequence(51);
+        let texels = (0..w * h)
+            .map(|_| Vec3::new(next(), next(), next()) * 4.0)
+            .collect();
+        MAP.get_or_init(|| EnvMap::new(w, h, texels, 0.7, 1.5));
+        let mut inputs: Vec<[f32; 3]> = (0..20_000)
+            .map(|_| [next() * 2.0 - 1.0, next() * 2.0 - 1.0, next() * 2.0 - 1.0])
+            .collect();
+        inputs.extend([
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [-1.0, 0.0, 1e-9],
+            [-1.0, 0.0, -1e-9],
+        ]);
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [3] -> [4], inputs);
+    }
 
     /// Four quadrants of u (the map's columns) with distinct colours, and a bright top half.
     fn quadrants(width: usize, height: usize) -> Vec<Vec3> {
@@ -910,7 +987,7 @@ mod tests {
     fn negative_and_non_finite_texels_are_zero() {
         let texels = vec![Vec3::new(-1.0, f32::NAN, f32::INFINITY), Vec3::ONE];
         let map = EnvMap::new(2, 1, texels, 0.0, 1.0);
-        assert_eq!(map.texels[0].truncate(), Vec3::ZERO);
+        assert_eq!(map.texel(0, 0).truncate(), Vec3::ZERO);
         assert!(map.radiance(Vec3::X).is_finite());
     }
 }
