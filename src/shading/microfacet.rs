@@ -18,7 +18,7 @@
 //!   about h, the direction wi = 2(wo·h)h − wo has the density D_wo(h) / (4 wo·h)
 //!   = G1(wo) D(h) / (4 n·wo).
 
-use crate::lanes::{Real, Vec2L, Vec3L};
+use crate::lanes::{Bits, Real, Vec2L, Vec3L};
 use crate::math;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -281,10 +281,12 @@ pub fn visible_normal<R: Real>(ax: R, ay: R, wo: Vec3L<R>, u: Vec2L<R>) -> Vec3L
 /// up bilinearly; with, per roughness, the cosine-weighted averages over μ (2 ∫ · μ dμ) of
 /// E, E_s and E_s (1 − E) / E that energy compensation needs.
 pub struct AlbedoTable {
-    e: Vec<f32>,
-    e_s: Vec<f32>,
-    /// Per roughness row: the averages of E, E_s and E_s (1 − E) / E.
-    averages: Vec<[f32; 3]>,
+    /// Row-major, roughness rows of `N` cosines: fixed sizes, which lanes gather from
+    /// without bounds checks.
+    e: Box<[f32; 1024]>,
+    e_s: Box<[f32; 1024]>,
+    /// Per roughness row, the averages of E, E_s and E_s (1 − E) / E (entry 3·row + which).
+    averages: [f32; 96],
 }
 
 impl AlbedoTable {
@@ -364,8 +366,16 @@ impl AlbedoTable {
                 }
                 avg.map(|a| a as f32)
             })
-            .collect();
-        AlbedoTable { e, e_s, averages }
+            .collect::<Vec<[f32; 3]>>();
+        let averages: Vec<f32> = averages.as_flattened().to_vec();
+        let table = |v: Vec<f32>| -> Box<[f32; 1024]> {
+            v.into_boxed_slice().try_into().expect("a 32 × 32 table")
+        };
+        AlbedoTable {
+            e: table(e),
+            e_s: table(e_s),
+            averages: averages.try_into().expect("32 rows of three averages"),
+        }
     }
 
     /// E at direction cosine `mu` and GGX α `alpha` (bilinear in μ and √α).
@@ -382,16 +392,28 @@ impl AlbedoTable {
     /// weights.
     #[inline]
     pub fn e_and_e_s(&self, mu: f32, row: AlbedoRow) -> (f32, f32) {
-        let n = Self::N;
-        let x = (mu.clamp(0.0, 1.0) * (n - 1) as f32).min((n - 1) as f32);
-        let x0 = x as usize;
-        let x1 = (x0 + 1).min(n - 1);
-        let fx = x - x0 as f32;
-        let (lo, hi, fy) = (row.lo as usize * n, row.hi as usize * n, row.t);
-        let bilinear = |t: &[f32]| {
-            let low = t[lo + x0] * (1.0 - fx) + t[lo + x1] * fx;
-            let high = t[hi + x0] * (1.0 - fx) + t[hi + x1] * fx;
-            low * (1.0 - fy) + high * fy
+        self.e_and_e_s_lanes(mu, row.into())
+    }
+
+    /// [`AlbedoTable::e_and_e_s`] at any width: the four corners gathered per lane.
+    #[inline(always)]
+    pub fn e_and_e_s_lanes<R: Real>(&self, mu: R, row: AlbedoRowLanes<R>) -> (R, R) {
+        let n = R::Bits::splat(Self::N as u32);
+        let last = (Self::N - 1) as f32;
+        let x = (mu.clamp(R::ZERO, R::ONE) * last).min(R::splat(last));
+        let x0 = x.trunc_i32();
+        let x1 = R::Bits::select(
+            x0.lt(R::Bits::splat(Self::N as u32 - 1)),
+            x0.wrapping_add(R::Bits::splat(1)),
+            x0,
+        );
+        let fx = x - R::from_i32(x0);
+        let (lo, hi, fy) = (row.lo.wrapping_mul(n), row.hi.wrapping_mul(n), row.t);
+        let bilinear = |t: &[f32; 1024]| {
+            let at = |r: R::Bits, c: R::Bits| R::gather(t, r.wrapping_add(c));
+            let low = at(lo, x0) * (R::ONE - fx) + at(lo, x1) * fx;
+            let high = at(hi, x0) * (R::ONE - fx) + at(hi, x1) * fx;
+            low * (R::ONE - fy) + high * fy
         };
         (bilinear(&self.e), bilinear(&self.e_s))
     }
@@ -405,8 +427,25 @@ impl AlbedoTable {
     /// [`AlbedoTable::averages`] in roughness row `row`.
     #[inline]
     pub fn averages_in(&self, row: AlbedoRow) -> [f32; 3] {
-        let (lo, hi, t) = (row.lo as usize, row.hi as usize, row.t);
-        std::array::from_fn(|c| self.averages[lo][c] * (1.0 - t) + self.averages[hi][c] * t)
+        self.averages_in_lanes(row.into())
+    }
+
+    /// [`AlbedoTable::averages_in`] at any width.
+    #[inline(always)]
+    pub fn averages_in_lanes<R: Real>(&self, row: AlbedoRowLanes<R>) -> [R; 3] {
+        let three = R::Bits::splat(3);
+        let (lo, hi, t) = (
+            row.lo.wrapping_mul(three),
+            row.hi.wrapping_mul(three),
+            row.t,
+        );
+        let mut out = [R::ZERO; 3];
+        for (c, out) in out.iter_mut().enumerate() {
+            let c = R::Bits::splat(c as u32);
+            let at = |r: R::Bits| R::gather(&self.averages, r.wrapping_add(c));
+            *out = at(lo) * (R::ONE - t) + at(hi) * t;
+        }
+        out
     }
 }
 
@@ -421,13 +460,51 @@ pub struct AlbedoRow {
 
 impl AlbedoRow {
     pub fn new(alpha: f32) -> AlbedoRow {
-        let n = AlbedoTable::N;
-        let y = (alpha.max(0.0).sqrt().min(1.0) * (n - 1) as f32).min((n - 1) as f32);
-        let lo = y as usize;
+        let r = AlbedoRowLanes::new(alpha);
         AlbedoRow {
-            lo: lo as u8,
-            hi: (lo + 1).min(n - 1) as u8,
-            t: y - lo as f32,
+            lo: r.lo as u8,
+            hi: r.hi as u8,
+            t: r.t,
+        }
+    }
+}
+
+impl From<AlbedoRow> for AlbedoRowLanes<f32> {
+    #[inline(always)]
+    fn from(r: AlbedoRow) -> Self {
+        AlbedoRowLanes {
+            lo: r.lo as u32,
+            hi: r.hi as u32,
+            t: r.t,
+        }
+    }
+}
+
+/// [`AlbedoRow`] at any width: each lane's rows and weight.
+#[derive(Clone, Copy, Debug)]
+pub struct AlbedoRowLanes<R: Real> {
+    lo: R::Bits,
+    hi: R::Bits,
+    t: R,
+}
+
+impl<R: Real> AlbedoRowLanes<R> {
+    /// The rows around √α on the table's grid, and the weight of the upper one.
+    #[inline(always)]
+    pub fn new(alpha: R) -> Self {
+        let n = AlbedoTable::N as u32;
+        let last = (n - 1) as f32;
+        let y = (alpha.max(R::ZERO).sqrt().min(R::ONE) * last).min(R::splat(last));
+        let lo = y.trunc_i32();
+        let hi = R::Bits::select(
+            lo.lt(R::Bits::splat(n - 1)),
+            lo.wrapping_add(R::Bits::splat(1)),
+            lo,
+        );
+        AlbedoRowLanes {
+            lo,
+            hi,
+            t: y - R::from_i32(lo),
         }
     }
 }
@@ -471,6 +548,29 @@ mod tests {
             ],
         ]);
         inputs
+    }
+
+    /// The albedo table's lookups (E, E_s and the averages, bilinear between rows and
+    /// cosines): eight lanes give the bits of eight single lanes, over the whole range of
+    /// both and the grid's corners.
+    #[test]
+    fn albedo_lookups_have_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>([mu, alpha]: [R; 2]) -> [R; 5] {
+            let table = AlbedoTable::get();
+            let row = AlbedoRowLanes::new(alpha);
+            let (e, e_s) = table.e_and_e_s_lanes(mu, row);
+            let [a, b, c] = table.averages_in_lanes(row);
+            [e, e_s, a, b, c]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(52);
+        let mut inputs: Vec<[f32; 2]> = (0..20_000)
+            .map(|_| [next() * 1.2 - 0.1, next() * 1.1 - 0.05])
+            .collect();
+        for (mu, alpha) in [(0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0), (0.5, 1e-6)] {
+            inputs.push([mu, alpha]);
+        }
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [2] -> [5], inputs);
     }
 
     /// Every term of both distributions and the visible-normal sampling: eight lanes give
