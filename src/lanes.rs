@@ -98,6 +98,8 @@ pub trait Bits:
     /// have) spares each lane a bounds check and its branch; an index ≥ N is a bug that
     /// debug builds catch.
     fn gather<const N: usize>(table: &[u32; N], index: Self) -> Self;
+    /// The four words of `table[index % N]` per lane, one load of 16 bytes per lane.
+    fn gather4<const N: usize>(table: &[[u32; 4]; N], index: Self) -> [Self; 4];
 }
 
 /// Each byte value with its bits in reverse order.
@@ -297,6 +299,11 @@ impl Bits for u32 {
     }
     #[inline(always)]
     fn gather<const N: usize>(table: &[u32; N], index: u32) -> u32 {
+        debug_assert!((index as usize) < N);
+        table[index as usize % N]
+    }
+    #[inline(always)]
+    fn gather4<const N: usize>(table: &[[u32; 4]; N], index: u32) -> [u32; 4] {
         debug_assert!((index as usize) < N);
         table[index as usize % N]
     }
@@ -551,6 +558,11 @@ impl Bits for U8 {
     #[inline(always)]
     fn gather<const N: usize>(table: &[u32; N], index: U8) -> U8 {
         U8(index.0.map(|i| u32::gather(table, i)))
+    }
+    #[inline(always)]
+    fn gather4<const N: usize>(table: &[[u32; 4]; N], index: U8) -> [U8; 4] {
+        let rows = index.0.map(|i| u32::gather4(table, i));
+        std::array::from_fn(|k| U8(std::array::from_fn(|i| rows[i][k])))
     }
 }
 

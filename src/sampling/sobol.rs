@@ -30,9 +30,8 @@ struct Tables {
     /// XOR of the bit-reversed direction vectors of index bits 0–7 / 8–15, by the value of
     /// the *bit-reversed* index's top byte / next byte (index bit k sits at bit 31 − k), so
     /// that the shuffled index, which the scramble leaves bit-reversed, needs no reversal.
-    /// Entry 4·byte + dimension.
-    top: [u32; 1024],
-    next: [u32; 1024],
+    top: [[u32; 4]; 256],
+    next: [[u32; 4]; 256],
 }
 
 /// Dimension sets with tables: dimensions 0–31 of the sequence, in sets of four.
@@ -46,17 +45,12 @@ fn tables(set: u32) -> &'static Tables {
         [const { OnceLock::new() }; DIMENSION_SETS as usize];
     TABLES[set as usize].get_or_init(|| {
         let mut t = Tables {
-            top: [0; 1024],
-            next: [0; 1024],
+            top: [[0; 4]; 256],
+            next: [[0; 4]; 256],
         };
         for b in 0..256u32 {
-            let (top, next): ([u32; 4], [u32; 4]) = (
-                sobol_burley::parts::sobol_int4_rev(b << 24, set).into(),
-                sobol_burley::parts::sobol_int4_rev(b << 16, set).into(),
-            );
-            let at = 4 * b as usize;
-            t.top[at..at + 4].copy_from_slice(&top);
-            t.next[at..at + 4].copy_from_slice(&next);
+            t.top[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 24, set).into();
+            t.next[b as usize] = sobol_burley::parts::sobol_int4_rev(b << 16, set).into();
         }
         t
     })
@@ -82,16 +76,26 @@ fn shuffled_rev<B: Bits>(index: B, shuffle: B) -> B {
     owen_scramble_rev(index.reverse_bits(), shuffle)
 }
 
-/// Dimension `d` (of the tables' set) of the point whose shuffled, bit-reversed index is
-/// `shuffled`: the two byte tables' XOR, the dimension's Owen scramble keyed by `key`, and
-/// the bits put back in order, a multiple of 2^-23 in [0, 1).
+/// The unscrambled Sobol point (the tables' four dimensions, bit-reversed) of the shuffled,
+/// bit-reversed index `shuffled`: the XOR of the two byte tables' rows, one 16-byte load
+/// each per lane.
 #[inline(always)]
-fn dimension<R: Real>(t: &Tables, shuffled: R::Bits, d: u32, key: R::Bits) -> R {
-    let dim = R::Bits::splat(d);
-    let top_row = shuffled.shr(24).shl(2) | dim;
-    let next_row = (shuffled.shr(16) & R::Bits::splat(0xff)).shl(2) | dim;
-    let sobol = R::Bits::gather(&t.top, top_row) ^ R::Bits::gather(&t.next, next_row);
-    let v = owen_scramble_rev(sobol, key).reverse_bits();
+fn sobol_rev<B: Bits>(t: &Tables, shuffled: B) -> [B; 4] {
+    let top = B::gather4(&t.top, shuffled.shr(24));
+    let next = B::gather4(&t.next, shuffled.shr(16) & B::splat(0xff));
+    [
+        top[0] ^ next[0],
+        top[1] ^ next[1],
+        top[2] ^ next[2],
+        top[3] ^ next[3],
+    ]
+}
+
+/// One dimension of an unscrambled point: its Owen scramble keyed by `key`, the bits put
+/// back in order, and the top 23 as a multiple of 2^-23 in [0, 1).
+#[inline(always)]
+fn scrambled<R: Real>(sobol_rev: R::Bits, key: R::Bits) -> R {
+    let v = owen_scramble_rev(sobol_rev, key).reverse_bits();
     // The top 23 bits as the mantissa of a float in [1, 2), less 1.
     R::from_bits(v.shr(9) | R::Bits::splat(0x3f80_0000)) - 1.0
 }
@@ -155,13 +159,12 @@ impl<B: Bits> Sequence<B> {
     /// two byte tables' XOR, each dimension's Owen scramble, and the bits put back in order.
     #[inline(always)]
     pub fn points<R: Real<Bits = B>, const N: usize>(&self, index: B, set: u32) -> [R; N] {
-        let shuffled = shuffled_rev(index, self.shuffle);
-        let t = tables(set);
+        let sobol = sobol_rev(tables(set), shuffled_rev(index, self.shuffle));
         // A loop, not `array::from_fn`: LLVM left that closure out of line, outside the
         // AVX2 function.
         let mut out = [R::ZERO; N];
         for (d, out) in out.iter_mut().enumerate() {
-            *out = dimension(t, shuffled, d as u32, self.dims[d]);
+            *out = scrambled(sobol[d], self.dims[d]);
         }
         out
     }
@@ -262,10 +265,11 @@ fn sample_lanes<const N: usize, const D: usize>(
         *shuffled = shuffled_rev(index, sequence.shuffle);
     }
     let t = tables(0);
+    let sobol: [[u32; 4]; N] = std::array::from_fn(|i| sobol_rev(t, shuffled[i]));
     let mut out = [[0.0; D]; N];
-    for ((out, &shuffled), sequence) in out.iter_mut().zip(&shuffled).zip(sequences) {
+    for ((out, sobol), sequence) in out.iter_mut().zip(&sobol).zip(sequences) {
         for (d, out) in out.iter_mut().enumerate() {
-            *out = dimension(t, shuffled, d as u32, sequence.dims[d]);
+            *out = scrambled(sobol[d], sequence.dims[d]);
         }
     }
     out
@@ -277,13 +281,13 @@ mod tests {
     use sobol_burley::parts::{hash_int4, owen_scramble_int4_rev, sobol_int4_rev, Int4};
 
     /// The unscrambled Sobol point of tables `t` for the 16-bit index whose bit-reversal is
-    /// `index_rev`, looked up as [`Sequence::points`] does.
+    /// `index_rev`, looked up apart from [`Sequence::points`].
     fn lookup(t: &Tables, index_rev: u32) -> [u32; 4] {
         let (top, next) = (
-            4 * (index_rev >> 24) as usize,
-            4 * ((index_rev >> 16) & 0xff) as usize,
+            t.top[(index_rev >> 24) as usize],
+            t.next[((index_rev >> 16) & 0xff) as usize],
         );
-        std::array::from_fn(|d| t.top[top + d] ^ t.next[next + d])
+        std::array::from_fn(|d| top[d] ^ next[d])
     }
 
     /// The unscrambled Sobol point (dimensions 0–3, bit-reversed) of a 16-bit index.
