@@ -1,8 +1,10 @@
 //! One source at two widths: the glossy lobe's sampling step (a GGX visible normal, the
-//! reflected direction, D·V·cos and the pdf) and the cosine warp, for 8192 random states
-//! one lane at a time (`f32`), eight at a time in AVX2 (`F8` inside `lanes::dispatch`) and
-//! eight at a time in baseline SSE (`F8` outside it). The three give the same bits (the
-//! width tests in `src/`); this measures what the width buys.
+//! reflected direction, D·V·cos and the pdf), the cosine warp and the environment map's
+//! radiance and pdf lookup (the bundled 1k studio map, the directions incoherent as bounce
+//! rays are), for 8192 random states one lane at a time (`f32`), eight at a time in AVX2
+//! (`F8` inside `lanes::dispatch`) and eight at a time in baseline SSE (`F8` outside it).
+//! The three give the same bits (the width tests in `src/`); this measures what the width
+//! buys.
 //!
 //!     cargo bench --bench lanes
 
@@ -11,6 +13,7 @@ use std::hint::black_box;
 use strata::lanes::{dispatch, Kernel, Real, Vec2L, Vec3L, F8};
 use strata::sampling::warps::cosine_hemisphere;
 use strata::shading::microfacet::{ggx_d, ggx_g1, ggx_v, visible_normal};
+use strata::shading::EnvMap;
 
 const N: usize = 8192;
 
@@ -106,6 +109,37 @@ fn eight_cosine(s: &States) -> f32 {
     (0..8).map(|i| sum.lane(i)).sum()
 }
 
+#[inline(always)]
+fn one_map(s: &States, map: &EnvMap) -> f32 {
+    let mut sum = 0.0;
+    for wo in &s.wo {
+        for i in 0..8 {
+            let (l, pdf) = map.radiance_pdf_lanes::<f32>(wo.lane(i).into());
+            sum += l.x + pdf;
+        }
+    }
+    sum
+}
+
+#[inline(always)]
+fn eight_map(s: &States, map: &EnvMap) -> f32 {
+    let mut sum = F8::ZERO;
+    for wo in &s.wo {
+        let (l, pdf) = map.radiance_pdf_lanes(*wo);
+        sum += l.x + pdf;
+    }
+    (0..8).map(|i| sum.lane(i)).sum()
+}
+
+struct Map<'a>(&'a States, &'a EnvMap);
+impl Kernel for Map<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        eight_map(self.0, self.1)
+    }
+}
+
 struct Ggx<'a>(&'a States);
 impl Kernel for Ggx<'_> {
     type Output = f32;
@@ -143,6 +177,34 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("eight lanes, baseline", |b| {
         b.iter(|| eight_cosine(black_box(&s)))
+    });
+    g.finish();
+
+    // Directions over the whole sphere: the states' directions (z up) turned a quarter
+    // about x, (x, y, z) → (x, ∓z, y), every other group toward the map's top (+y) and the
+    // rest toward its bottom.
+    let mut sphere = states();
+    for (k, wo) in sphere.wo.iter_mut().enumerate() {
+        let (y, z) = (wo.y, wo.z);
+        wo.y = if k % 2 == 0 { z } else { -z };
+        wo.z = y;
+    }
+    let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let map = EnvMap::load(
+        &repo.join("scenes/env/studio_small_05_1k/studio_small_05_1k.hdr"),
+        0.5,
+        1.0,
+        Default::default(),
+    )
+    .expect("the bundled map");
+    let mut g = c.benchmark_group("environment radiance and pdf");
+    g.throughput(Throughput::Elements(N as u64));
+    g.bench_function("one lane", |b| b.iter(|| one_map(black_box(&sphere), &map)));
+    g.bench_function("eight lanes, AVX2 dispatch", |b| {
+        b.iter(|| dispatch(Map(black_box(&sphere), &map)))
+    });
+    g.bench_function("eight lanes, baseline", |b| {
+        b.iter(|| eight_map(black_box(&sphere), &map))
     });
     g.finish();
 }
