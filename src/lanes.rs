@@ -783,6 +783,40 @@ impl<R: Real> Vec3L<R> {
     pub fn normalize(self) -> Self {
         self * self.length().recip()
     }
+    /// Every component `v`.
+    #[inline(always)]
+    pub fn all(v: R) -> Self {
+        Vec3L::new(v, v, v)
+    }
+    /// `self·(1 − t) + o·t`, as glam's `lerp`.
+    #[inline(always)]
+    pub fn lerp(self, o: Self, t: R) -> Self {
+        self * (R::ONE - t) + o * t
+    }
+    /// The largest component (as glam's `max_element` for components that are not NaN).
+    #[inline(always)]
+    pub fn max_element(self) -> R {
+        self.x.max(self.y).max(self.z)
+    }
+    /// The component-wise maximum.
+    #[inline(always)]
+    pub fn max(self, o: Self) -> Self {
+        Vec3L::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+    }
+    /// The component-wise minimum.
+    #[inline(always)]
+    pub fn min(self, o: Self) -> Self {
+        Vec3L::new(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
+    }
+}
+
+impl<R: Real> Mul for Vec3L<R> {
+    type Output = Self;
+    /// The component-wise product (colours).
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Vec3L::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
 }
 
 impl<R: Real> Add for Vec3L<R> {
@@ -1059,5 +1093,12 @@ mod tests {
         }
         let v: glam::Vec3 = Vec3L::from(a).normalize().into();
         assert_eq!(v, a.normalize());
+        let (la, lb) = (Vec3L::from(a), Vec3L::from(b));
+        assert_eq!(glam::Vec3::from(la.lerp(lb, 0.3)), a.lerp(b, 0.3));
+        assert_eq!(la.max_element(), a.max_element());
+        assert_eq!(glam::Vec3::from(la * lb), a * b);
+        assert_eq!(glam::Vec3::from(la.max(lb)), a.max(b));
+        assert_eq!(glam::Vec3::from(la.min(lb)), a.min(b));
+        assert_eq!(glam::Vec3::from(Vec3L::all(0.25)), glam::Vec3::splat(0.25));
     }
 }

@@ -16,12 +16,19 @@
 //!   n(λ) = max(n_d + (n_d − 1) / V_d (523655 / λ² − 1.5168), 1), V_d = 20 / dispersion the
 //!   Abbe number and n_d the material's `ior` (at 587.6 nm).
 
+use crate::lanes::{Real, Vec3L};
 use glam::Vec3;
 
 /// Relative luminance of linear Rec.709 RGB.
 #[inline]
 pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+    luminance_lanes(c.into())
+}
+
+/// [`luminance`] at any width.
+#[inline(always)]
+pub fn luminance_lanes<R: Real>(c: Vec3L<R>) -> R {
+    c.x * 0.2126 + c.y * 0.7152 + c.z * 0.0722
 }
 
 /// The range of wavelengths drawn, in nm.
@@ -156,6 +163,21 @@ pub fn dispersed_ior(n_d: f32, dispersion: f32, lambda: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Luminance weighs Rec.709's primaries (white is 1, green the largest share), and eight
+    /// lanes give the bits of one.
+    #[test]
+    fn luminance_weighs_the_primaries_at_every_width() {
+        assert!((luminance(Vec3::ONE) - 1.0).abs() < 1e-6);
+        assert_eq!(luminance(Vec3::Y), 0.7152);
+        #[inline(always)]
+        fn kernel<R: Real>([r, g, b]: [R; 3]) -> [R; 1] {
+            [luminance_lanes(Vec3L::new(r, g, b))]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(53);
+        let inputs = (0..4096).map(|_| [next() * 8.0, next(), next() * 0.5]);
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [3] -> [1], inputs);
+    }
 
     /// The fit against the CIE 1931 2° table at a few wavelengths (values from CIE 15:2004's
     /// table, to the fit's stated accuracy of a few hundredths).
