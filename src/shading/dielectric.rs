@@ -69,6 +69,7 @@ use glam::{Vec2, Vec3};
 use super::fresnel;
 use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
 use super::microfacet::{AlbedoTable, Ggx};
+use crate::lanes::{Real, Vec3L};
 
 /// The lobes of a rough interface.
 const GLOSSY: BsdfFlags = BsdfFlags::REFLECTION
@@ -98,16 +99,24 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 /// vector form: wt = −w / η' + (cos θi / η' − cos θt) n', cos θt = √(1 − (1 − cos²θi) / η'²).
 #[inline]
 pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
-    let (mut n, mut eta, mut cos_i) = (n, eta, w.dot(n).clamp(-1.0, 1.0));
-    if cos_i < 0.0 {
-        (n, eta, cos_i) = (-n, 1.0 / eta, -cos_i);
-    }
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    Some(-w / eta + (cos_i / eta - cos_t) * n)
+    let (t, refracts) = refract_lanes(w.into(), n.into(), eta);
+    refracts.then(|| t.into())
+}
+
+/// [`refract`] at any width: the refracted direction, and the lanes where there is one
+/// (false on total internal reflection, where the direction is not meaningful).
+#[inline(always)]
+pub fn refract_lanes<R: Real>(w: Vec3L<R>, n: Vec3L<R>, eta: R) -> (Vec3L<R>, R::Mask) {
+    let cos_i = w.dot(n).clamp(-R::ONE, R::ONE);
+    // From below: the normal and the ratio taken on w's side.
+    let below = cos_i.lt(R::ZERO);
+    let n = Vec3L::select(below, -n, n);
+    let eta = R::select(below, eta.recip(), eta);
+    let cos_i = R::select(below, -cos_i, cos_i);
+    let sin2_t = (R::ONE - cos_i * cos_i) / (eta * eta);
+    let cos_t = (R::ONE - sin2_t).safe_sqrt();
+    let t = Vec3L::new(-w.x / eta, -w.y / eta, -w.z / eta) + n * (cos_i / eta - cos_t);
+    (t, !sin2_t.ge(R::ONE))
 }
 
 /// Which way up a query is: directions are turned (negated) so that wo lies above the
@@ -765,6 +774,41 @@ impl LocalBsdf for ThinDielectric {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Refraction at eight lanes has the bits of one lane, and the same lanes refract,
+    /// over directions from both sides, indices below and above 1 (total internal reflection
+    /// among them) and tilted normals.
+    #[test]
+    fn refraction_has_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>(x: [R; 7]) -> [R; 4] {
+            let w = Vec3L::new(x[0], x[1], x[2]).normalize();
+            let n = Vec3L::new(x[3], x[4], x[5]).normalize();
+            let (t, refracts) = refract_lanes(w, n, x[6]);
+            let zero = Vec3L::all(R::ZERO);
+            let t = Vec3L::select(refracts, t, zero);
+            [t.x, t.y, t.z, R::select(refracts, R::ONE, R::ZERO)]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(54);
+        let inputs: Vec<[f32; 7]> = (0..20_000)
+            .map(|k| {
+                let mut x: [f32; 7] = std::array::from_fn(|_| next() * 2.0 - 1.0);
+                x[5] = x[5].abs() + 0.5;
+                x[6] = if k % 2 == 0 { 1.5 } else { 0.4 + next() * 2.0 };
+                x
+            })
+            .collect();
+        assert!(
+            inputs.iter().any(|x| refract(
+                Vec3::new(x[0], x[1], x[2]).normalize(),
+                Vec3::new(x[3], x[4], x[5]).normalize(),
+                x[6]
+            )
+            .is_none()),
+            "some inputs are totally reflected"
+        );
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [7] -> [4], inputs);
+    }
 
     /// The largest f32 below 1.
     const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
