@@ -70,7 +70,7 @@ impl Lambertian {
 pub fn lambertian_eval<R: Real>(albedo: Vec3L<R>, wi: Vec3L<R>) -> Vec3L<R> {
     let cos = wi.z;
     let f = albedo * (cos * FRAC_1_PI);
-    Vec3L::select(cos.le(R::ZERO), Vec3L::new(R::ZERO, R::ZERO, R::ZERO), f)
+    Vec3L::select(cos.le(R::ZERO), Vec3L::all(R::ZERO), f)
 }
 
 /// The solid-angle density of [`lambertian_sample`]'s directions: cos θ / π, or 1 / (2π)

@@ -400,14 +400,15 @@ impl EnvMap {
         self.integral * self.scale * PI / 2.0
     }
 
-    /// The direction's (u, v) in the unrotated map, for a direction of unit length.
-    #[inline]
+    /// The direction's (u, v) in the unrotated map, for a direction of unit length (the
+    /// tests' one-lane form of [`EnvMap::uv_lanes`]).
+    #[cfg(test)]
     fn uv(&self, d: Vec3) -> Vec2 {
         let (u, v) = self.uv_lanes(d.into());
         Vec2::new(u, v)
     }
 
-    /// [`EnvMap::uv`] at any width.
+    /// The direction's (u, v) in the unrotated map, for a direction of unit length.
     #[inline(always)]
     fn uv_lanes<R: Real>(&self, d: Vec3L<R>) -> (R, R) {
         let (s, c) = self.rotation;
@@ -437,13 +438,7 @@ impl EnvMap {
     }
 
     /// The unscaled radiance and the density at (u, v) ∈ [0, 1]², bilinear between texel
-    /// centres.
-    #[inline]
-    fn lookup(&self, uv: Vec2) -> Texel {
-        Vec4::from_array(self.lookup_lanes(uv.x, uv.y))
-    }
-
-    /// [`EnvMap::lookup`] at any width: the four corners' channels gathered per lane.
+    /// centres, at any width: the four corners' texels gathered per lane.
     #[inline(always)]
     fn lookup_lanes<R: Real>(&self, u: R, v: R) -> [R; 4] {
         let (w, h) = (self.width as f32, self.height as f32);
@@ -517,8 +512,11 @@ impl EnvMap {
             self.lookup_lanes(R::select(finite, u, R::ZERO), R::select(finite, v, R::ZERO));
         let scale = R::splat(self.scale);
         let l = Vec3L::new(r * scale, g * scale, b * scale);
-        let zero = Vec3L::new(R::ZERO, R::ZERO, R::ZERO);
-        (Vec3L::select(finite, l, zero), density, finite)
+        (
+            Vec3L::select(finite, l, Vec3L::all(R::ZERO)),
+            density,
+            finite,
+        )
     }
 
     /// A direction drawn with `u`, its radiance and its solid-angle pdf (0 at the poles,
@@ -564,11 +562,7 @@ impl EnvMap {
     /// The solid-angle pdf of [`EnvMap::sample`] drawing unit direction `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        let uv = self.uv(dir);
-        match uv.is_finite() {
-            true => solid_angle_pdf(self.lookup(uv).w, dir.into()),
-            false => 0.0,
-        }
+        self.radiance_pdf_lanes(dir.into()).1
     }
 }
 

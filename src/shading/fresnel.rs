@@ -25,8 +25,8 @@ pub fn schlick<R: Real>(f0: R, cos: R) -> R {
 #[inline(always)]
 pub fn schlick3<R: Real>(f0: Vec3L<R>, cos: R) -> Vec3L<R> {
     let w = schlick_weight(cos);
-    let one_minus = |c: R| c + (R::ONE - c) * w;
-    Vec3L::new(one_minus(f0.x), one_minus(f0.y), one_minus(f0.z))
+    let channel = |c: R| c + (R::ONE - c) * w;
+    Vec3L::new(channel(f0.x), channel(f0.y), channel(f0.z))
 }
 
 /// The exact Fresnel reflectance of unpolarized light at a smooth dielectric interface, for

@@ -302,16 +302,15 @@ impl LightSet {
         environment: Environment,
         background_sampling: BackgroundSampling,
     ) -> LightSet {
+        let emitted_power = scene_emitters.emitted_power();
         let SceneEmitters {
-            emitters,
-            weights,
+            mut emitters,
+            mut weights,
             triangle_light,
             instance_lights,
             alpha_tested_emitters,
             radius,
         } = scene_emitters.clone();
-        let (mut emitters, mut weights) = (emitters, weights);
-        let emitted_power = weights.iter().sum();
         let mut environment_light = None;
         if !environment.is_black() {
             environment_light = Some(emitters.len());
