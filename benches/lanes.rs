@@ -1,5 +1,8 @@
 //! One source at two widths: the glossy lobe's sampling step (a GGX visible normal, the
-//! reflected direction, D·V·cos and the pdf), the cosine warp and the environment map's
+//! reflected direction, D·V·cos and the pdf), the glTF BRDF's step (its terms of wo, a
+//! drawn direction with its value and pdf, and a light direction's for MIS, on materials
+//! that differ lane by lane: dielectrics, metals and blends, energy-compensated), the cosine
+//! warp and the environment map's
 //! radiance and pdf lookup (the bundled 1k studio map, the directions incoherent as bounce
 //! rays are), for 8192 random states one lane at a time (`f32`), eight at a time in AVX2
 //! (`F8` inside `lanes::dispatch`) and eight at a time in baseline SSE (`F8` outside it).
@@ -12,8 +15,9 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use strata::lanes::{dispatch, Kernel, Real, Vec2L, Vec3L, F8};
 use strata::sampling::warps::cosine_hemisphere;
+use strata::shading::gltf_brdf::GltfBrdfLanes;
 use strata::shading::microfacet::{ggx_d, ggx_g1, ggx_v, visible_normal};
-use strata::shading::EnvMap;
+use strata::shading::{EnvMap, GltfBrdf};
 
 const N: usize = 8192;
 
@@ -29,6 +33,17 @@ fn ggx_step<R: Real>(alpha: R, wo: Vec3L<R>, u: Vec2L<R>) -> R {
     f_cos + pdf
 }
 
+/// The glTF BRDF's step at a path vertex: wo's terms, a direction drawn from `u` with its
+/// f·cos and pdf, and the f·cos and pdf of light direction `wl`, summed.
+#[inline(always)]
+fn brdf_step<R: Real>(brdf: &GltfBrdfLanes<R>, wo: Vec3L<R>, u: Vec2L<R>, wl: Vec3L<R>) -> R {
+    let o = brdf.outgoing(wo);
+    let d = brdf.sample_direction(&o, wo, u);
+    let (f, pdf) = brdf.eval_pdf(&o, wo, d.wi);
+    let (fl, pdfl) = brdf.eval_pdf(&o, wo, wl);
+    R::select(d.valid, f.x + pdf, R::ZERO) + fl.y + pdfl
+}
+
 #[inline(always)]
 fn cosine_step<R: Real>(u: Vec2L<R>) -> R {
     let d = cosine_hemisphere(u);
@@ -41,6 +56,11 @@ struct States {
     alpha: Vec<F8>,
     wo: Vec<Vec3L<F8>>,
     u: Vec<Vec2L<F8>>,
+    /// Eight materials per group, and each alone.
+    brdf: Vec<GltfBrdfLanes<F8>>,
+    one_brdf: Vec<GltfBrdfLanes<f32>>,
+    /// Light directions, above the surface or (a fifth) below it.
+    wl: Vec<Vec3L<F8>>,
 }
 
 fn states() -> States {
@@ -55,6 +75,9 @@ fn states() -> States {
         alpha: vec![],
         wo: vec![],
         u: vec![],
+        brdf: vec![],
+        one_brdf: vec![],
+        wl: vec![],
     };
     for _ in 0..N / 8 {
         s.alpha.push(F8::from_fn(|_| 0.05 + next() * 0.6));
@@ -65,6 +88,21 @@ fn states() -> States {
             glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
         }));
         s.u.push(Vec2L::from_fn(|_| glam::Vec2::new(next(), next())));
+        let group: Vec<GltfBrdfLanes<f32>> = (0..8)
+            .map(|_| {
+                let base = glam::Vec3::new(next(), next(), next());
+                let metallic = [0.0, 1.0, next()][(next() * 3.0) as usize % 3];
+                *GltfBrdf::new(base, metallic, 0.2 + 0.7 * next()).lanes()
+            })
+            .collect();
+        s.brdf.push(GltfBrdfLanes::from_fn(|i| group[i]));
+        s.one_brdf.extend(group);
+        s.wl.push(Vec3L::from_fn(|_| {
+            let z = next() * 1.25 - 0.25;
+            let phi = std::f32::consts::TAU * next();
+            let r = (1.0 - z * z).sqrt();
+            glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        }));
     }
     s
 }
@@ -87,6 +125,36 @@ fn eight(s: &States) -> f32 {
         sum += ggx_step(*a, *wo, *u);
     }
     (0..8).map(|i| sum.lane(i)).sum()
+}
+
+#[inline(always)]
+fn one_brdf(s: &States) -> f32 {
+    let mut sum = 0.0;
+    for (k, ((wo, u), wl)) in s.wo.iter().zip(&s.u).zip(&s.wl).enumerate() {
+        for i in 0..8 {
+            let brdf = &s.one_brdf[8 * k + i];
+            sum += brdf_step(brdf, wo.lane(i).into(), u.lane(i).into(), wl.lane(i).into());
+        }
+    }
+    sum
+}
+
+#[inline(always)]
+fn eight_brdf(s: &States) -> f32 {
+    let mut sum = F8::ZERO;
+    for (((brdf, wo), u), wl) in s.brdf.iter().zip(&s.wo).zip(&s.u).zip(&s.wl) {
+        sum += brdf_step(brdf, *wo, *u, *wl);
+    }
+    (0..8).map(|i| sum.lane(i)).sum()
+}
+
+struct Brdf<'a>(&'a States);
+impl Kernel for Brdf<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        eight_brdf(self.0)
+    }
 }
 
 #[inline(always)]
@@ -167,6 +235,17 @@ fn bench(c: &mut Criterion) {
         b.iter(|| dispatch(Ggx(black_box(&s))))
     });
     g.bench_function("eight lanes, baseline", |b| b.iter(|| eight(black_box(&s))));
+    g.finish();
+
+    let mut g = c.benchmark_group("gltf brdf step");
+    g.throughput(Throughput::Elements(N as u64));
+    g.bench_function("one lane", |b| b.iter(|| one_brdf(black_box(&s))));
+    g.bench_function("eight lanes, AVX2 dispatch", |b| {
+        b.iter(|| dispatch(Brdf(black_box(&s))))
+    });
+    g.bench_function("eight lanes, baseline", |b| {
+        b.iter(|| eight_brdf(black_box(&s)))
+    });
     g.finish();
 
     let mut g = c.benchmark_group("cosine warp step");

@@ -34,6 +34,7 @@ use std::ops::{
 pub trait Mask:
     Copy
     + Debug
+    + PartialEq
     + Send
     + Sync
     + 'static
@@ -64,6 +65,7 @@ pub trait Mask:
 pub trait Bits:
     Copy
     + Debug
+    + PartialEq
     + Send
     + Sync
     + 'static
@@ -689,8 +691,35 @@ pub fn dispatch<K: Kernel>(kernel: K) -> K::Output {
     pulp::Arch::new().dispatch(Adapter(kernel))
 }
 
+/// `$a` where mask `$m` is true and `$b` elsewhere, joined lane by lane by `$select(m, a, b)`;
+/// each side is computed only when some lane takes it. At one lane this is an `if`, so a
+/// one-lane caller pays only for the side it takes; at eight, a side no lane takes is
+/// skipped. Either way a lane's result is the one its own side gives, so its bits do not
+/// depend on the other lanes. A macro, not a function of two closures: LLVM leaves closures
+/// of a lobe's size out of line, outside the AVX2 function ([`Kernel`]).
+macro_rules! select_lazy {
+    ($m:expr, $a:expr, $b:expr, $select:expr) => {{
+        let m = $m;
+        let a = match $crate::lanes::Mask::any(m) {
+            true => Some($a),
+            false => None,
+        };
+        let b = match $crate::lanes::Mask::all(m) {
+            true => None,
+            false => Some($b),
+        };
+        match (a, b) {
+            (Some(a), Some(b)) => $select(m, a, b),
+            (Some(a), None) => a,
+            (None, Some(b)) => b,
+            (None, None) => unreachable!("a mask is either all true or not"),
+        }
+    }};
+}
+pub(crate) use select_lazy;
+
 /// A 2-vector of lanes.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Vec2L<R> {
     pub x: R,
     pub y: R,
@@ -698,7 +727,7 @@ pub struct Vec2L<R> {
 
 /// A 3-vector of lanes: eight directions as three [`F8`]s (structure of arrays), or one as
 /// three `f32`s.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Vec3L<R> {
     pub x: R,
     pub y: R,
@@ -816,6 +845,15 @@ impl<R: Real> Mul for Vec3L<R> {
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
         Vec3L::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
+}
+
+impl<R: Real> Div for Vec3L<R> {
+    type Output = Self;
+    /// The component-wise quotient (colours).
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        Vec3L::new(self.x / o.x, self.y / o.y, self.z / o.z)
     }
 }
 

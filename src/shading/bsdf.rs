@@ -208,7 +208,7 @@ impl LocalBsdf for Bsdf {
         match self {
             Bsdf::Diffuse(b) => b.albedo,
             // A metal's specular colour is its base colour, a dielectric's diffuse one.
-            Bsdf::MetallicRoughness(brdf) => brdf.base_color,
+            Bsdf::MetallicRoughness(brdf) => brdf.base_color(),
             Bsdf::Glass(b) => b.albedo(),
             Bsdf::ThinGlass(b) => b.albedo(),
             Bsdf::Layered(b) => b.albedo(),

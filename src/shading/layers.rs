@@ -305,7 +305,7 @@ impl Layered {
                 let m = 1.0 - mu.min(1.0);
                 let m2 = m * m;
                 coat_weight = coat.weight * (COAT_F0 + (1.0 - COAT_F0) * m2 * m2 * m);
-                if self.base.energy_compensation && !coat.ggx().is_smooth() {
+                if self.base.lanes().energy_compensation && !coat.ggx().is_smooth() {
                     coat_scale = 1.0 / AlbedoTable::get().e(mu, coat.alpha).max(1e-3);
                 }
             }
@@ -400,7 +400,7 @@ impl LocalBsdf for Layered {
 
     #[inline]
     fn albedo(&self) -> Vec3 {
-        self.base.base_color
+        self.base.base_color()
     }
 
     #[inline]

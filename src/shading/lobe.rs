@@ -24,6 +24,18 @@ impl BsdfFlags {
     pub const GLOSSY_REFLECTION: BsdfFlags = BsdfFlags(1 | 8);
     pub const SPECULAR_REFLECTION: BsdfFlags = BsdfFlags(1 | 16);
 
+    /// The flags as a lane's word ([`crate::lanes::Bits`]), for lobes drawn eight at a time.
+    #[inline(always)]
+    pub const fn bits(self) -> u32 {
+        self.0 as u32
+    }
+
+    /// The flags of a lane's word made by [`BsdfFlags::bits`] (its low byte).
+    #[inline(always)]
+    pub const fn from_bits(bits: u32) -> BsdfFlags {
+        BsdfFlags(bits as u8)
+    }
+
     /// Both sets of flags.
     #[inline]
     pub const fn union(self, other: BsdfFlags) -> BsdfFlags {

@@ -380,19 +380,19 @@ impl AlbedoTable {
 
     /// E at direction cosine `mu` and GGX α `alpha` (bilinear in μ and √α).
     pub fn e(&self, mu: f32, alpha: f32) -> f32 {
-        self.e_and_e_s(mu, AlbedoRow::new(alpha)).0
+        self.e_and_e_s(mu, AlbedoRowLanes::new(alpha)).0
     }
 
     /// E_s at direction cosine `mu` and GGX α `alpha`.
     pub fn e_s(&self, mu: f32, alpha: f32) -> f32 {
-        self.e_and_e_s(mu, AlbedoRow::new(alpha)).1
+        self.e_and_e_s(mu, AlbedoRowLanes::new(alpha)).1
     }
 
     /// E and E_s at direction cosine `mu` in roughness row `row`, with one set of bilinear
     /// weights.
     #[inline]
-    pub fn e_and_e_s(&self, mu: f32, row: AlbedoRow) -> (f32, f32) {
-        self.e_and_e_s_lanes(mu, row.into())
+    pub fn e_and_e_s(&self, mu: f32, row: AlbedoRowLanes<f32>) -> (f32, f32) {
+        self.e_and_e_s_lanes(mu, row)
     }
 
     /// [`AlbedoTable::e_and_e_s`] at any width: the four corners gathered per lane.
@@ -408,26 +408,29 @@ impl AlbedoTable {
             x0,
         );
         let fx = x - R::from_i32(x0);
-        let (lo, hi, fy) = (row.lo.wrapping_mul(n), row.hi.wrapping_mul(n), row.t);
-        let bilinear = |t: &[f32; 1024]| {
-            let at = |r: R::Bits, c: R::Bits| R::gather(t, r.wrapping_add(c));
-            let low = at(lo, x0) * (R::ONE - fx) + at(lo, x1) * fx;
-            let high = at(hi, x0) * (R::ONE - fx) + at(hi, x1) * fx;
-            low * (R::ONE - fy) + high * fy
-        };
-        (bilinear(&self.e), bilinear(&self.e_s))
+        let (lo, hi) = (row.lo.wrapping_mul(n), row.hi.wrapping_mul(n));
+        let corners = [
+            lo.wrapping_add(x0),
+            lo.wrapping_add(x1),
+            hi.wrapping_add(x0),
+            hi.wrapping_add(x1),
+        ];
+        (
+            bilinear(&self.e, corners, fx, row.t),
+            bilinear(&self.e_s, corners, fx, row.t),
+        )
     }
 
     /// The cosine-weighted averages over μ of E, E_s and E_s (1 − E) / E at GGX α `alpha`
     /// (linear in √α).
     pub fn averages(&self, alpha: f32) -> [f32; 3] {
-        self.averages_in(AlbedoRow::new(alpha))
+        self.averages_in(AlbedoRowLanes::new(alpha))
     }
 
     /// [`AlbedoTable::averages`] in roughness row `row`.
     #[inline]
-    pub fn averages_in(&self, row: AlbedoRow) -> [f32; 3] {
-        self.averages_in_lanes(row.into())
+    pub fn averages_in(&self, row: AlbedoRowLanes<f32>) -> [f32; 3] {
+        self.averages_in_lanes(row)
     }
 
     /// [`AlbedoTable::averages_in`] at any width.
@@ -442,46 +445,30 @@ impl AlbedoTable {
         let mut out = [R::ZERO; 3];
         for (c, out) in out.iter_mut().enumerate() {
             let c = R::Bits::splat(c as u32);
-            let at = |r: R::Bits| R::gather(&self.averages, r.wrapping_add(c));
-            *out = at(lo) * (R::ONE - t) + at(hi) * t;
+            let (low, high) = (
+                R::gather(&self.averages, lo.wrapping_add(c)),
+                R::gather(&self.averages, hi.wrapping_add(c)),
+            );
+            *out = low * (R::ONE - t) + high * t;
         }
         out
     }
 }
 
-/// Where a GGX α falls between the table's roughness rows (√α on a uniform grid), found once
-/// per material point rather than per lookup.
+/// Table `t` read bilinearly per lane: its entries at `corners` (row and column indices
+/// (lo, x0), (lo, x1), (hi, x0), (hi, x1)) weighted by `fx` along the row and `fy` across.
+#[inline(always)]
+fn bilinear<R: Real>(t: &[f32; 1024], corners: [R::Bits; 4], fx: R, fy: R) -> R {
+    let (a, b) = (R::gather(t, corners[0]), R::gather(t, corners[1]));
+    let (c, d) = (R::gather(t, corners[2]), R::gather(t, corners[3]));
+    let low = a * (R::ONE - fx) + b * fx;
+    let high = c * (R::ONE - fx) + d * fx;
+    low * (R::ONE - fy) + high * fy
+}
+
+/// Where a GGX α falls between the table's roughness rows (√α on a uniform grid), per lane:
+/// found once per material point rather than per lookup.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AlbedoRow {
-    lo: u8,
-    hi: u8,
-    t: f32,
-}
-
-impl AlbedoRow {
-    pub fn new(alpha: f32) -> AlbedoRow {
-        let r = AlbedoRowLanes::new(alpha);
-        AlbedoRow {
-            lo: r.lo as u8,
-            hi: r.hi as u8,
-            t: r.t,
-        }
-    }
-}
-
-impl From<AlbedoRow> for AlbedoRowLanes<f32> {
-    #[inline(always)]
-    fn from(r: AlbedoRow) -> Self {
-        AlbedoRowLanes {
-            lo: r.lo as u32,
-            hi: r.hi as u32,
-            t: r.t,
-        }
-    }
-}
-
-/// [`AlbedoRow`] at any width: each lane's rows and weight.
-#[derive(Clone, Copy, Debug)]
 pub struct AlbedoRowLanes<R: Real> {
     lo: R::Bits,
     hi: R::Bits,
@@ -489,6 +476,17 @@ pub struct AlbedoRowLanes<R: Real> {
 }
 
 impl<R: Real> AlbedoRowLanes<R> {
+    /// Lane `i`'s rows and weight from `lane(i)`.
+    pub fn from_fn(mut lane: impl FnMut(usize) -> AlbedoRowLanes<f32>) -> Self {
+        let rows: [AlbedoRowLanes<f32>; 8] =
+            std::array::from_fn(|i| lane(if i < R::LANES { i } else { 0 }));
+        AlbedoRowLanes {
+            lo: R::Bits::from_fn(|i| rows[i].lo),
+            hi: R::Bits::from_fn(|i| rows[i].hi),
+            t: R::from_fn(|i| rows[i].t),
+        }
+    }
+
     /// The rows around √α on the table's grid, and the weight of the upper one.
     #[inline(always)]
     pub fn new(alpha: R) -> Self {
