@@ -19,39 +19,67 @@
 
 use glam::Vec3;
 
-use super::fresnel::schlick;
+use super::fresnel::{schlick, schlick3};
+use crate::lanes::{Real, Vec3L};
+use crate::math;
 
 /// The reflectance at normal incidence of an interface from index `incident` to
 /// `transmitted`: ((n_t − n_i) / (n_t + n_i))².
-#[inline]
-fn f0_between(transmitted: f32, incident: f32) -> f32 {
+#[inline(always)]
+fn f0_between<R: Real>(transmitted: R, incident: R) -> R {
     let r = (transmitted - incident) / (transmitted + incident);
     r * r
+}
+
+/// One Gaussian of Belcour & Barla's fit from its value, position and variance: its
+/// amplitude value·√(2π·variance) divided by the constant term's 1.0685·10⁻⁷ (so that the fit
+/// integrates to one at zero path difference), its position and its variance. (Constants
+/// all: the compiler folds them.)
+#[inline(always)]
+fn gaussian(value: f64, position: f64, variance: f64) -> [f32; 3] {
+    let amplitude = value * (2.0 * std::f64::consts::PI * variance).sqrt() / 1.0685e-7;
+    [amplitude as f32, position as f32, variance as f32]
+}
+
+/// One Gaussian's term at `phase` (2π times the optical path difference in m) and phase
+/// shift `shift`: a cos(position·phase + shift) e^(−phase² variance).
+#[inline(always)]
+fn term<R: Real>([a, position, variance]: [f32; 3], phase: R, shift: R) -> R {
+    let (_, cos) = math::sin_cos(phase * position + shift);
+    cos * math::exp(-(phase * phase) * variance) * a
 }
 
 /// The linear sRGB channels' sensitivity to interference at optical path difference `opd`
 /// (nm) and phase `shift` per channel: Belcour & Barla's Gaussian fit of the Fourier
 /// transform of the CIE 1931 colour-matching functions, normalised so that the constant term
 /// integrates to one, taken from XYZ to linear sRGB (Rec. 709, D65).
-fn sensitivity(opd: f32, shift: Vec3) -> Vec3 {
-    let phase = 2.0 * std::f64::consts::PI * opd as f64 * 1.0e-9;
-    let gaussian = |value: f64, position: f64, variance: f64, shift: f64| {
-        value
-            * (2.0 * std::f64::consts::PI * variance).sqrt()
-            * (position * phase + shift).cos()
-            * (-phase * phase * variance).exp()
-    };
-    let (sx, sy, sz) = (shift.x as f64, shift.y as f64, shift.z as f64);
-    let x = gaussian(5.4856e-13, 1.6810e+06, 4.3278e+09, sx)
-        + gaussian(9.7470e-14, 2.2399e+06, 4.5282e+09, sx);
-    let y = gaussian(4.4201e-13, 1.7953e+06, 9.3046e+09, sy);
-    let z = gaussian(5.2481e-13, 2.2084e+06, 6.6121e+09, sz);
-    let (x, y, z) = (x / 1.0685e-7, y / 1.0685e-7, z / 1.0685e-7);
-    Vec3::new(
-        (3.2404542 * x - 1.5371385 * y - 0.4985314 * z) as f32,
-        (-0.969_266 * x + 1.8760108 * y + 0.041_556 * z) as f32,
-        (0.0556434 * x - 0.2040259 * y + 1.0572252 * z) as f32,
+#[inline(always)]
+fn sensitivity<R: Real>(opd: R, shift: Vec3L<R>) -> Vec3L<R> {
+    let phase = opd * (2.0e-9 * std::f32::consts::PI);
+    let x = term(gaussian(5.4856e-13, 1.6810e+06, 4.3278e+09), phase, shift.x)
+        + term(gaussian(9.7470e-14, 2.2399e+06, 4.5282e+09), phase, shift.x);
+    let y = term(gaussian(4.4201e-13, 1.7953e+06, 9.3046e+09), phase, shift.y);
+    let z = term(gaussian(5.2481e-13, 2.2084e+06, 6.6121e+09), phase, shift.z);
+    Vec3L::new(
+        x * 3.240_454_2 - y * 1.537_138_5 - z * 0.498_531_4,
+        -(x * 0.969_266) + y * 1.876_010_8 + z * 0.041_556,
+        x * 0.055_643_4 - y * 0.204_025_9 + z * 1.057_225_2,
     )
+}
+
+/// The film → base interface of one channel, the base's index from its normal-incidence
+/// reflectance `f0` (guarded below 1): its reflectance at cosine `cos2` inside the film, and
+/// the phase `phi21` of the film's top from below plus the base's own change (π where the
+/// base's index is below the film's).
+#[inline(always)]
+fn base_interface<R: Real>(f0: R, film: R, cos2: R, phi21: R) -> (R, R) {
+    let s = (f0.clamp(R::ZERO, R::splat(0.9999)) + 1e-4)
+        .min(R::splat(0.9999))
+        .sqrt();
+    let n3 = (R::ONE + s) / (R::ONE - s);
+    let r23 = schlick(f0_between(n3, film), cos2);
+    let pi = R::splat(std::f32::consts::PI);
+    (r23, phi21 + R::select(n3.lt(film), pi, R::ZERO))
 }
 
 /// A thin dielectric film over a base: its index of refraction and thickness in nm.
@@ -64,52 +92,72 @@ pub struct ThinFilm {
 impl ThinFilm {
     /// The reflectance per linear sRGB channel of the film over a base of normal-incidence
     /// reflectance `base_f0`, seen from a medium of index `outside` at cosine `cos_theta1`
-    /// to the (micro)surface normal. A film of no thickness is the base alone (Schlick's
-    /// reflectance of `base_f0`).
+    /// to the (micro)surface normal ([`reflectance`] at one lane).
     pub fn reflectance(&self, outside: f32, base_f0: Vec3, cos_theta1: f32) -> Vec3 {
-        let cos1 = cos_theta1.clamp(0.0, 1.0);
-        if self.thickness <= 0.0 {
-            return base_f0.map(|f0| schlick(f0, cos1));
-        }
-        let film = self.ior;
-        // Snell's law into the film; total internal reflection where it has none.
-        let sin2_2 = (outside / film) * (outside / film) * (1.0 - cos1 * cos1);
-        if sin2_2 >= 1.0 {
-            return Vec3::ONE;
-        }
-        let cos2 = (1.0 - sin2_2).sqrt();
-        // First interface: outside → film, and back.
-        let r12 = schlick(f0_between(film, outside), cos1);
-        let t121 = 1.0 - r12;
-        let phi12 = if film < outside {
-            std::f32::consts::PI
-        } else {
-            0.0
-        };
-        let phi21 = std::f32::consts::PI - phi12;
-        // Second interface: film → base, the base's index from its f0 (guarded below 1).
-        let base_ior = base_f0.map(|f0| {
-            let s = (f0.clamp(0.0, 0.9999) + 1e-4).min(0.9999).sqrt();
-            (1.0 + s) / (1.0 - s)
-        });
-        let r23 = base_ior.map(|n3| schlick(f0_between(n3, film), cos2));
-        let phi23 = base_ior.map(|n3| if n3 < film { std::f32::consts::PI } else { 0.0 });
-        let phi = Vec3::splat(phi21) + phi23;
-        // One round trip through the film.
-        let opd = 2.0 * film * self.thickness * cos2;
-        // The Airy sum in Fourier space: the constant term and two harmonics.
-        let r123 = (r12 * r23).clamp(Vec3::splat(1e-5), Vec3::splat(0.9999));
-        let r = r123.map(f32::sqrt);
-        let rs = t121 * t121 * r23 / (Vec3::ONE - r123);
-        let mut total = Vec3::splat(r12) + rs;
-        let mut cm = rs - Vec3::splat(t121);
-        for m in 1..=2 {
-            cm *= r;
-            let s = 2.0 * sensitivity(m as f32 * opd, m as f32 * phi);
-            total += cm * s;
-        }
-        total.max(Vec3::ZERO)
+        reflectance(
+            self.ior,
+            self.thickness,
+            outside,
+            base_f0.into(),
+            cos_theta1,
+        )
+        .into()
     }
+}
+
+/// The reflectance per linear sRGB channel of a film of index `film` and `thickness` nm over
+/// a base of normal-incidence reflectance `base_f0`, seen from a medium of index `outside`
+/// at cosine `cos_theta1` to the (micro)surface normal, per lane. A film of no thickness is
+/// the base alone (Schlick's reflectance of `base_f0`).
+///
+/// Kept out of line (at eight lanes, then, baseline code outside the AVX2 function, the same
+/// bits): its sixteen cosines and exponentials, inlined into every lobe that reads a
+/// Fresnel term, made the crate take many minutes to compile, for a rare extension.
+#[inline(never)]
+pub fn reflectance<R: Real>(
+    film: R,
+    thickness: R,
+    outside: R,
+    base_f0: Vec3L<R>,
+    cos_theta1: R,
+) -> Vec3L<R> {
+    let cos1 = cos_theta1.clamp(R::ZERO, R::ONE);
+    let pi = R::splat(std::f32::consts::PI);
+    // Snell's law into the film; total internal reflection where it has none.
+    let ratio = outside / film;
+    let sin2_2 = ratio * ratio * (R::ONE - cos1 * cos1);
+    let cos2 = (R::ONE - sin2_2).safe_sqrt();
+    // First interface: outside → film, and back.
+    let r12 = schlick(f0_between(film, outside), cos1);
+    let t121 = R::ONE - r12;
+    let phi12 = R::select(film.lt(outside), pi, R::ZERO);
+    let phi21 = pi - phi12;
+    // Second interface: film → base, the base's index from its f0 (guarded below 1), and
+    // its phase change.
+    let (rx, px) = base_interface(base_f0.x, film, cos2, phi21);
+    let (ry, py) = base_interface(base_f0.y, film, cos2, phi21);
+    let (rz, pz) = base_interface(base_f0.z, film, cos2, phi21);
+    let (r23, phi) = (Vec3L::new(rx, ry, rz), Vec3L::new(px, py, pz));
+    // One round trip through the film.
+    let opd = film * 2.0 * thickness * cos2;
+    // The Airy sum in Fourier space: the constant term and two harmonics.
+    let one = Vec3L::all(R::ONE);
+    let r123 = (r23 * r12)
+        .max(Vec3L::all(R::splat(1e-5)))
+        .min(Vec3L::all(R::splat(0.9999)));
+    let r = Vec3L::new(r123.x.sqrt(), r123.y.sqrt(), r123.z.sqrt());
+    let rs = r23 * (t121 * t121) / (one - r123);
+    let mut total = Vec3L::all(r12) + rs;
+    let mut cm = rs - Vec3L::all(t121);
+    for m in 1..=2 {
+        let m = m as f32;
+        cm = cm * r;
+        let s = sensitivity(opd * m, phi * R::splat(m)) * R::splat(2.0);
+        total = total + cm * s;
+    }
+    let film_reflectance = total.max(Vec3L::all(R::ZERO));
+    let reflected = Vec3L::select(sin2_2.ge(R::ONE), one, film_reflectance);
+    Vec3L::select(thickness.le(R::ZERO), schlick3(base_f0, cos1), reflected)
 }
 
 #[cfg(test)]
@@ -123,7 +171,7 @@ mod tests {
     /// wavelengths.
     #[test]
     fn the_sensitivity_is_white_at_zero_and_fades() {
-        let s0 = sensitivity(0.0, Vec3::ZERO);
+        let s0 = Vec3::from(sensitivity::<f32>(0.0, Vec3L::all(0.0)));
         let white = Vec3::new(
             3.2404542 - 1.5371385 - 0.4985314,
             -0.969_266 + 1.8760108 + 0.041_556,
@@ -134,7 +182,7 @@ mod tests {
             (s0 - white).abs().max_element() < 2e-3,
             "{s0} against {white}"
         );
-        let far = sensitivity(20_000.0, Vec3::ZERO);
+        let far = Vec3::from(sensitivity::<f32>(20_000.0, Vec3L::all(0.0)));
         assert!(far.abs().max_element() < 1e-3, "{far}");
     }
 
@@ -222,6 +270,33 @@ mod tests {
             control > 4.0 * mean,
             "a thicker film's {control} against {mean}"
         );
+    }
+
+    /// The film's reflectance gives the same bits at one lane and eight, over films thin and
+    /// thick (and of no thickness), indices above and below the outside's and the base's,
+    /// and angles up to total internal reflection.
+    #[test]
+    fn the_film_has_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>([ior, thickness, outside, r, g, b, cos]: [R; 7]) -> [R; 3] {
+            let f = reflectance(ior, thickness, outside, Vec3L::new(r, g, b), cos);
+            [f.x, f.y, f.z]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(47);
+        let inputs = (0..800).map(|k| {
+            let thickness = [0.0, 50.0, 1200.0, next() * 900.0][k % 4];
+            let outside = [1.0, 1.5, 2.2][k % 3];
+            [
+                1.0 + next() * 1.5,
+                thickness,
+                outside,
+                next(),
+                next() * 0.5,
+                [0.04, 1.0, next()][k % 3],
+                next() * 1.2 - 0.1,
+            ]
+        });
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [7] -> [3], inputs);
     }
 
     /// Colour comes from the film: a grey base under a 300 nm film of index 1.3 reflects
