@@ -2,12 +2,12 @@
 //! reflected direction, D·V·cos and the pdf), the glTF BRDF's step (its terms of wo, a
 //! drawn direction with its value and pdf, and a light direction's for MIS, on materials
 //! that differ lane by lane: dielectrics, metals and blends, energy-compensated), the cosine
-//! warp and the environment map's
-//! radiance and pdf lookup (the bundled 1k studio map, the directions incoherent as bounce
-//! rays are), for 8192 random states one lane at a time (`f32`), eight at a time in AVX2
-//! (`F8` inside `lanes::dispatch`) and eight at a time in baseline SSE (`F8` outside it).
-//! The three give the same bits (the width tests in `src/`); this measures what the width
-//! buys.
+//! warp, the environment map's radiance and pdf lookup (the bundled 1k studio map, the
+//! directions incoherent as bounce rays are) and its sampling (a cell by the guided
+//! inversions, a point of its bilinear patch, the direction), for 8192 random states one
+//! lane at a time (`f32`), eight at a time in AVX2 (`F8` inside `lanes::dispatch`) and eight
+//! at a time in baseline SSE (`F8` outside it). The three give the same bits (the width tests
+//! in `src/`); this measures what the width buys.
 //!
 //!     cargo bench --bench lanes
 
@@ -199,6 +199,37 @@ fn eight_map(s: &States, map: &EnvMap) -> f32 {
     (0..8).map(|i| sum.lane(i)).sum()
 }
 
+#[inline(always)]
+fn one_map_sample(s: &States, map: &EnvMap) -> f32 {
+    let mut sum = 0.0;
+    for u in &s.u {
+        for i in 0..8 {
+            let (d, l, pdf) = map.sample_lanes::<f32>(u.lane(i).into());
+            sum += d.x + l.y + pdf;
+        }
+    }
+    sum
+}
+
+#[inline(always)]
+fn eight_map_sample(s: &States, map: &EnvMap) -> f32 {
+    let mut sum = F8::ZERO;
+    for u in &s.u {
+        let (d, l, pdf) = map.sample_lanes(*u);
+        sum += d.x + l.y + pdf;
+    }
+    (0..8).map(|i| sum.lane(i)).sum()
+}
+
+struct MapSample<'a>(&'a States, &'a EnvMap);
+impl Kernel for MapSample<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        eight_map_sample(self.0, self.1)
+    }
+}
+
 struct Map<'a>(&'a States, &'a EnvMap);
 impl Kernel for Map<'_> {
     type Output = f32;
@@ -284,6 +315,19 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("eight lanes, baseline", |b| {
         b.iter(|| eight_map(black_box(&sphere), &map))
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("environment sampling");
+    g.throughput(Throughput::Elements(N as u64));
+    g.bench_function("one lane", |b| {
+        b.iter(|| one_map_sample(black_box(&s), &map))
+    });
+    g.bench_function("eight lanes, AVX2 dispatch", |b| {
+        b.iter(|| dispatch(MapSample(black_box(&s), &map)))
+    });
+    g.bench_function("eight lanes, baseline", |b| {
+        b.iter(|| eight_map_sample(black_box(&s), &map))
     });
     g.finish();
 }

@@ -102,6 +102,8 @@ pub trait Bits:
     fn gather<const N: usize>(table: &[u32; N], index: Self) -> Self;
     /// The four words of `table[index % N]` per lane, one load of 16 bytes per lane.
     fn gather4<const N: usize>(table: &[[u32; 4]; N], index: Self) -> [Self; 4];
+    /// `table[index]` per lane, from a table of any length; an index out of range panics.
+    fn gather_slice(table: &[u32], index: Self) -> Self;
 }
 
 /// Each byte value with its bits in reverse order.
@@ -178,6 +180,8 @@ pub trait Real:
     /// The four floats of `table[index]` per lane (a texel, say), one load of 16 bytes per
     /// lane; an index out of range panics.
     fn gather4(table: &[[f32; 4]], index: Self::Bits) -> [Self; 4];
+    /// `table[index]` per lane, from a table of any length; an index out of range panics.
+    fn gather_slice(table: &[f32], index: Self::Bits) -> Self;
 
     /// `self` where `self < o`, else `o`.
     #[inline(always)]
@@ -309,6 +313,10 @@ impl Bits for u32 {
         debug_assert!((index as usize) < N);
         table[index as usize % N]
     }
+    #[inline(always)]
+    fn gather_slice(table: &[u32], index: u32) -> u32 {
+        table[index as usize]
+    }
 }
 
 impl Real for f32 {
@@ -397,6 +405,10 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn gather4(table: &[[f32; 4]], index: u32) -> [f32; 4] {
+        table[index as usize]
+    }
+    #[inline(always)]
+    fn gather_slice(table: &[f32], index: u32) -> f32 {
         table[index as usize]
     }
 }
@@ -566,6 +578,10 @@ impl Bits for U8 {
         let rows = index.0.map(|i| u32::gather4(table, i));
         std::array::from_fn(|k| U8(std::array::from_fn(|i| rows[i][k])))
     }
+    #[inline(always)]
+    fn gather_slice(table: &[u32], index: U8) -> U8 {
+        U8(index.0.map(|i| table[i as usize]))
+    }
 }
 
 impl F8 {
@@ -662,6 +678,10 @@ impl Real for F8 {
     fn gather4(table: &[[f32; 4]], index: U8) -> [F8; 4] {
         let rows = index.0.map(|i| table[i as usize]);
         std::array::from_fn(|k| F8(std::array::from_fn(|i| rows[i][k])))
+    }
+    #[inline(always)]
+    fn gather_slice(table: &[f32], index: U8) -> F8 {
+        F8(index.0.map(|i| table[i as usize]))
     }
 }
 

@@ -39,7 +39,7 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::spectrum::luminance;
-use crate::lanes::{Bits, Real, Vec3L};
+use crate::lanes::{Bits, Mask, Real, Vec2L, Vec3L};
 use crate::math;
 
 /// What light sampling draws directions of the map in proportion to.
@@ -64,90 +64,133 @@ pub enum MapSampling {
 /// direction is the bilinear interpolation of w over sin θ).
 type Texel = Vec4;
 
-/// One entry of a piecewise-constant 1D distribution over n pieces (pbrt-v4's
-/// `PiecewiseConstant1D`): `cdf` at the start of piece i (entry n holds 1), and the guide:
-/// the piece that holds u = i/n.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Cell {
-    cdf: f32,
-    guide: u32,
+/// Piecewise-constant 1D distributions (pbrt-v4's `PiecewiseConstant1D`), one after another:
+/// per entry, `cdf` at the start of a piece (the entry after a distribution's last piece
+/// holds 1) and the guide, the piece that holds u = k/n. Two arrays, which lanes gather from.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Cells {
+    cdf: Vec<f32>,
+    guide: Vec<u32>,
 }
 
-/// Fills `cells` (n + 1 of them) with the distribution of `func` (n values, at least 0) and
-/// returns ∫₀¹ func; with no weight anywhere the distribution is uniform.
-fn build_distribution(func: &[f32], cells: &mut [Cell]) -> f32 {
+impl Cells {
+    fn new(len: usize) -> Cells {
+        Cells {
+            cdf: vec![0.0; len],
+            guide: vec![0; len],
+        }
+    }
+}
+
+/// Fills `cdf` and `guide` (n + 1 entries each) with the distribution of `func` (n values,
+/// at least 0) and returns ∫₀¹ func; with no weight anywhere the distribution is uniform.
+fn build_distribution(func: &[f32], cdf: &mut [f32], guide: &mut [u32]) -> f32 {
     let n = func.len();
-    debug_assert_eq!(cells.len(), n + 1);
+    debug_assert_eq!(cdf.len(), n + 1);
+    debug_assert_eq!(guide.len(), n + 1);
     // The running sum in f64, normalised at the end.
     let integral = func.iter().map(|&f| f as f64).sum::<f64>() / n as f64;
-    cells[0].cdf = 0.0;
+    cdf[0] = 0.0;
     if integral > 0.0 {
         let scale = 1.0 / (integral * n as f64);
         let mut sum = 0.0f64;
-        for (cell, &f) in cells[1..].iter_mut().zip(func) {
+        for (c, &f) in cdf[1..].iter_mut().zip(func) {
             sum += f as f64;
-            cell.cdf = (sum * scale) as f32;
+            *c = (sum * scale) as f32;
         }
     } else {
-        for (i, cell) in cells.iter_mut().enumerate() {
-            cell.cdf = i as f32 / n as f32;
+        for (i, c) in cdf.iter_mut().enumerate() {
+            *c = i as f32 / n as f32;
         }
     }
-    // guide[k] = the piece that u = k/n falls in, by the rule `invert` uses.
+    // guide[k] = the piece that u = k/n falls in, by the rule `invert_lanes` uses.
     let mut piece = 0;
-    for k in 0..n {
+    for (k, g) in guide.iter_mut().take(n).enumerate() {
         let u = k as f32 / n as f32;
-        while piece < n - 1 && cells[piece + 1].cdf <= u {
+        while piece < n - 1 && cdf[piece + 1] <= u {
             piece += 1;
         }
-        cells[k].guide = piece as u32;
+        *g = piece as u32;
     }
     integral as f32
 }
 
-/// The piece of `cells`' distribution (n + 1 cells) that holds `u` ∈ [0, 1): the number of
-/// pieces whose end is at most u, at most n − 1 (pieces of zero weight are never chosen) —
-/// what a binary search over the cdf finds, found from the guide in an expected constant
-/// number of steps. Returns the piece and u's position within it, in [0, 1].
-#[inline]
-fn invert(cells: &[Cell], u: f32) -> (usize, f32) {
-    let n = cells.len() - 1;
+/// The piece that holds `u` ∈ [0, 1) of the distribution of `n` pieces at entry `offset` of
+/// `cdf` and `guide`, per lane: the number of pieces whose end is at most u, at most n − 1
+/// (pieces of zero weight are never chosen) — what a binary search over the whole cdf finds,
+/// found from the guide and a binary search between the guide's two neighbouring entries, an
+/// expected constant number of steps (lanes step together until the last one is done).
+/// Returns the piece and u's position within it, in [0, 1].
+#[inline(always)]
+fn invert_lanes<R: Real>(
+    cdf: &[f32],
+    guide: &[u32],
+    offset: R::Bits,
+    n: u32,
+    u: R,
+) -> (R::Bits, R) {
     let nf = n as f32;
+    let one = R::Bits::splat(1);
     // The guide's slot k with k/n ≤ u < (k + 1)/n, exactly as the guide computed k/n.
-    let mut k = ((u * nf) as usize).min(n - 1);
-    if k as f32 / nf > u {
-        k -= 1;
-    } else if k + 1 < n && (k + 1) as f32 / nf <= u {
-        k += 1;
+    let k = (u * nf).min(R::splat(nf - 1.0)).max(R::ZERO).trunc_i32();
+    let kf = R::from_i32(k);
+    let down = (kf / nf).gt(u);
+    let up = !down & k.lt(R::Bits::splat(n - 1)) & ((kf + 1.0) / nf).le(u);
+    let k = R::Bits::select(down, k.wrapping_sub(one), k);
+    let k = R::Bits::select(up, k.wrapping_add(one), k);
+    // The answer lies between the pieces holding k/n and (k + 1)/n: the last piece i in
+    // [lo, hi] that is lo or starts at most at u.
+    let last = R::Bits::splat(n - 1);
+    let next = k.wrapping_add(one);
+    let mut lo = R::Bits::gather_slice(guide, offset.wrapping_add(k));
+    let mut hi = R::Bits::select(
+        next.lt(last) | next.eq(last),
+        R::Bits::gather_slice(guide, offset.wrapping_add(next)),
+        last,
+    );
+    loop {
+        let open = lo.lt(hi);
+        if open.none() {
+            break;
+        }
+        let mid = lo.wrapping_add(hi).wrapping_add(one).shr(1);
+        let below = R::gather_slice(cdf, offset.wrapping_add(mid)).le(u);
+        lo = R::Bits::select(open & below, mid, lo);
+        hi = R::Bits::select(open & !below, mid.wrapping_sub(one), hi);
     }
-    // The answer lies between the pieces holding k/n and (k + 1)/n.
-    let lo = cells[k].guide as usize;
-    let hi = if k + 1 < n {
-        cells[k + 1].guide as usize
-    } else {
-        n - 1
-    };
-    let i = lo + cells[lo + 1..=hi].partition_point(|c| c.cdf <= u);
-    let (start, end) = (cells[i].cdf, cells[i + 1].cdf);
-    let du = match end - start {
-        width if width > 0.0 => ((u - start) / width).clamp(0.0, 1.0),
-        _ => 0.5,
-    };
-    (i, du)
+    let (start, end) = (
+        R::gather_slice(cdf, offset.wrapping_add(lo)),
+        R::gather_slice(cdf, offset.wrapping_add(lo).wrapping_add(one)),
+    );
+    let width = end - start;
+    let du = R::select(
+        width.gt(R::ZERO),
+        ((u - start) / width).clamp(R::ZERO, R::ONE),
+        R::splat(0.5),
+    );
+    (lo, du)
+}
+
+/// [`invert_lanes`] at one lane, for the whole of `cdf` and `guide` (n + 1 entries).
+#[cfg(test)]
+fn invert(cdf: &[f32], guide: &[u32], u: f32) -> (usize, f32) {
+    let (i, du) = invert_lanes::<f32>(cdf, guide, 0, (cdf.len() - 1) as u32, u);
+    (i as usize, du)
 }
 
 /// The x ∈ [0, 1) that `u` ∈ [0, 1) maps to under the density proportional to
 /// (1 − x)·a + x·b (a, b ≥ 0): the inverse of its cdf, in the form that stays accurate when
 /// a and b differ by orders of magnitude (pbrt-v4 §A.4.2, `SampleLinear`). Uniform when both
 /// are 0.
-#[inline]
-fn sample_linear(u: f32, a: f32, b: f32) -> f32 {
+#[inline(always)]
+fn sample_linear<R: Real>(u: R, a: R, b: R) -> R {
     let sum = a + b;
-    if sum <= 0.0 {
-        return u;
-    }
-    let x = u * sum / (a + ((1.0 - u) * a * a + u * b * b).sqrt());
-    x.min(1.0 - f32::EPSILON / 2.0)
+    let x = u * sum / (a + ((R::ONE - u) * a * a + u * b * b).sqrt());
+    R::select(
+        sum.le(R::ZERO),
+        u,
+        x.min(R::splat(1.0 - f32::EPSILON / 2.0)),
+    )
 }
 
 /// The vertex rows above and below cell row `r` of a map `height` texels high: cell row 0 is
@@ -168,7 +211,7 @@ pub struct EnvMap {
     texels: Vec<[f32; 4]>,
     /// The marginal distribution over the height + 1 rows of cells (height + 2 entries),
     /// then each cell row's conditional one over its width cells (width + 1 entries each).
-    cells: Vec<Cell>,
+    cells: Cells,
     /// ∫ over [0, 1]² of L sin θ, L the lookup's luminance (interpolated as the weights are).
     integral: f32,
     /// sin and cos of the rotation about +Y.
@@ -240,12 +283,14 @@ impl EnvMap {
         // parallel, then the marginal over the rows by their integrals (the half rows at the
         // poles weigh half).
         let (w1, h1) = (width + 1, height + 1);
-        let mut cells = vec![Cell::default(); (h1 + 1) + h1 * w1];
-        let (marginal, rows) = cells.split_at_mut(h1 + 1);
-        let row_weights: Vec<f32> = rows
+        let mut cells = Cells::new((h1 + 1) + h1 * w1);
+        let (marginal_cdf, rows_cdf) = cells.cdf.split_at_mut(h1 + 1);
+        let (marginal_guide, rows_guide) = cells.guide.split_at_mut(h1 + 1);
+        let row_weights: Vec<f32> = rows_cdf
             .par_chunks_mut(w1)
+            .zip(rows_guide.par_chunks_mut(w1))
             .enumerate()
-            .map(|(r, row)| {
+            .map(|(r, (cdf, guide))| {
                 let (a, b) = vertex_rows(r, height);
                 let above = &weights[a * width..(a + 1) * width];
                 let below = &weights[b * width..(b + 1) * width];
@@ -255,14 +300,14 @@ impl EnvMap {
                         above[i] + above[j] + below[i] + below[j]
                     })
                     .collect();
-                let mean = build_distribution(&func, row);
+                let mean = build_distribution(&func, cdf, guide);
                 match r == 0 || r == height {
                     true => 0.5 * mean,
                     false => mean,
                 }
             })
             .collect();
-        build_distribution(&row_weights, marginal);
+        build_distribution(&row_weights, marginal_cdf, marginal_guide);
         // The density over the (u, v) square is the interpolated weight over its integral.
         let to_density = (1.0 / (total * 2.0 * std::f64::consts::PI.powi(2))) as f32;
         let mut padded = vec![Texel::ZERO; w1 * height];
@@ -296,7 +341,7 @@ impl EnvMap {
         let cells = (width + 1)
             .saturating_mul(height + 1)
             .saturating_add(height + 2)
-            .saturating_mul(std::mem::size_of::<Cell>() as u64);
+            .saturating_mul((std::mem::size_of::<f32>() + std::mem::size_of::<u32>()) as u64);
         texels.saturating_add(cells)
     }
 
@@ -385,7 +430,7 @@ impl EnvMap {
     /// `--stats`.
     pub fn memory(&self) -> usize {
         self.texels.len() * std::mem::size_of::<[f32; 4]>()
-            + self.cells.len() * std::mem::size_of::<Cell>()
+            + self.cells.cdf.len() * (std::mem::size_of::<f32>() + std::mem::size_of::<u32>())
     }
 
     /// True when no texel holds any radiance.
@@ -420,18 +465,27 @@ impl EnvMap {
         (u, v)
     }
 
-    /// The world direction of unrotated (u, v), and sin θ there.
-    #[inline]
+    /// The world direction of unrotated (u, v), and sin θ there (the tests' one-lane form
+    /// of [`EnvMap::direction_lanes`]).
+    #[cfg(test)]
     fn direction(&self, uv: Vec2) -> (Vec3, f32) {
-        let (sin_t, cos_t) = (PI * uv.y).sin_cos();
-        let (sin_p, cos_p) = (TAU * (uv.x - 0.5)).sin_cos();
+        let (d, sin_theta) = self.direction_lanes(uv.x, uv.y);
+        (d.into(), sin_theta)
+    }
+
+    /// The world direction of unrotated (u, v), and sin θ there, per lane.
+    #[inline(always)]
+    fn direction_lanes<R: Real>(&self, u: R, v: R) -> (Vec3L<R>, R) {
+        let (sin_t, cos_t) = math::sin_cos(v * PI);
+        let (sin_p, cos_p) = math::sin_cos((u - 0.5) * TAU);
         let (x, z) = (sin_t * cos_p, sin_t * sin_p);
         // R_y(rotation)·(x, y, z).
-        let (s, c) = self.rotation;
-        (Vec3::new(c * x + s * z, cos_t, -s * x + c * z), sin_t)
+        let (s, c) = (R::splat(self.rotation.0), R::splat(self.rotation.1));
+        (Vec3L::new(c * x + s * z, cos_t, -s * x + c * z), sin_t)
     }
 
     /// The texel at `row`, `col` (col ≤ width: the padding column).
+    #[cfg(test)]
     #[inline]
     fn texel(&self, row: usize, col: usize) -> Texel {
         Vec4::from_array(self.texels[row * (self.width + 1) + col])
@@ -459,18 +513,17 @@ impl EnvMap {
         let y1 = R::Bits::select(y0.lt(last), y0.wrapping_add(R::Bits::splat(1)), last);
         let fy = (y - R::from_i32(y0)).clamp(R::ZERO, R::ONE);
         let stride = R::Bits::splat(self.width as u32 + 1);
-        // The texel `dx` right of column x0 in `row`, its four channels.
-        let corner = |row: R::Bits, dx: u32| {
-            let texel = row
-                .wrapping_mul(stride)
-                .wrapping_add(x0)
-                .wrapping_add(R::Bits::splat(dx));
-            R::gather4(&self.texels, texel)
-        };
-        let (t00, t10, t01, t11) = (corner(y0, 0), corner(y0, 1), corner(y1, 0), corner(y1, 1));
-        // As glam's lerp: a(1 − t) + bt.
-        let lerp = |a: R, b: R, t: R| a * (R::ONE - t) + b * t;
-        std::array::from_fn(|k| lerp(lerp(t00[k], t10[k], fx), lerp(t01[k], t11[k], fx), fy))
+        // The texels at and right of column x0 in rows y0 and y1, their four channels.
+        let (top, bottom) = (
+            y0.wrapping_mul(stride).wrapping_add(x0),
+            y1.wrapping_mul(stride).wrapping_add(x0),
+        );
+        let one = R::Bits::splat(1);
+        let t00 = R::gather4(&self.texels, top);
+        let t10 = R::gather4(&self.texels, top.wrapping_add(one));
+        let t01 = R::gather4(&self.texels, bottom);
+        let t11 = R::gather4(&self.texels, bottom.wrapping_add(one));
+        bilinear(t00, t10, t01, t11, fx, fy)
     }
 
     /// The radiance seen along unit direction `dir` (bilinear between texel centres).
@@ -523,40 +576,58 @@ impl EnvMap {
     /// where the map's parametrisation degenerates).
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3, f32) {
-        let (w1, h1) = (self.width + 1, self.height + 1);
-        // The cell, then the point within its bilinear patch from the remainders.
-        let (r, dv) = invert(&self.cells[..h1 + 1], u.y);
-        let start = h1 + 1 + r * w1;
-        let (i, du) = invert(&self.cells[start..start + w1], u.x);
-        let (a, b) = vertex_rows(r, self.height);
-        let (t00, t10) = (self.texel(a, i), self.texel(a, i + 1));
-        let (t01, t11) = (self.texel(b, i), self.texel(b, i + 1));
-        let fy = sample_linear(dv, t00.w + t10.w, t01.w + t11.w);
+        let (dir, l, pdf) = self.sample_lanes::<f32>(u.into());
+        (dir.into(), l.into(), pdf)
+    }
+
+    /// [`EnvMap::sample`] at any width: the cell by the guided inversions of the marginal and
+    /// the cell row's conditional, then the point within the cell's bilinear patch from the
+    /// remainders (pbrt-v4 §A.4.2), its four corners gathered per lane.
+    #[inline(always)]
+    pub fn sample_lanes<R: Real>(&self, u: Vec2L<R>) -> (Vec3L<R>, Vec3L<R>, R) {
+        let (width, height) = (self.width as u32, self.height as u32);
+        let (w1, h1) = (width + 1, height + 1);
+        let (cdf, guide) = (&self.cells.cdf[..], &self.cells.guide[..]);
+        let (r, dv) = invert_lanes(cdf, guide, R::Bits::splat(0), h1, u.y);
+        let start = R::Bits::splat(h1 + 1).wrapping_add(r.wrapping_mul(R::Bits::splat(w1)));
+        let (i, du) = invert_lanes(cdf, guide, start, width, u.x);
+        // The vertex rows above and below cell row r (as `vertex_rows`).
+        let one = R::Bits::splat(1);
+        let top = r.eq(R::Bits::splat(0));
+        let bottom = r.eq(R::Bits::splat(height));
+        let a = R::Bits::select(top, r, r.wrapping_sub(one));
+        let b = R::Bits::select(bottom, r.wrapping_sub(one), r);
+        let (stride, i1) = (R::Bits::splat(w1), i.wrapping_add(one));
+        let (a, b) = (a.wrapping_mul(stride), b.wrapping_mul(stride));
+        let t00 = R::gather4(&self.texels, a.wrapping_add(i));
+        let t10 = R::gather4(&self.texels, a.wrapping_add(i1));
+        let t01 = R::gather4(&self.texels, b.wrapping_add(i));
+        let t11 = R::gather4(&self.texels, b.wrapping_add(i1));
+        let fy = sample_linear(dv, t00[3] + t10[3], t01[3] + t11[3]);
         let fx = sample_linear(
             du,
-            t00.w + (t01.w - t00.w) * fy,
-            t10.w + (t11.w - t10.w) * fy,
+            t00[3] + (t01[3] - t00[3]) * fy,
+            t10[3] + (t11[3] - t10[3]) * fy,
         );
         // Cell column i spans u from (i + ½)/w to (i + 3/2)/w, wrapping past 1; cell row r
         // spans v from (r − ½)/h to (r + ½)/h, clipped to [0, 1] at the poles.
         let (w, h) = (self.width as f32, self.height as f32);
-        let u = (i as f32 + 0.5 + fx) / w;
-        let u = if u >= 1.0 { u - 1.0 } else { u };
-        let v = if r == 0 {
-            0.5 * fy / h
-        } else if r == self.height {
-            (h - 0.5 + 0.5 * fy) / h
-        } else {
-            (r as f32 - 0.5 + fy) / h
-        };
-        let below_one = 1.0 - f32::EPSILON / 2.0;
-        let (dir, sin_theta) = self.direction(Vec2::new(u.min(below_one), v.min(below_one)));
-        let l = t00.lerp(t10, fx).lerp(t01.lerp(t11, fx), fy);
-        let pdf = match sin_theta > 0.0 {
-            true => l.w / sin_theta,
-            false => 0.0,
-        };
-        (dir, l.truncate() * self.scale, pdf)
+        let uu = (R::from_i32(i) + 0.5 + fx) / w;
+        let uu = R::select(uu.ge(R::ONE), uu - 1.0, uu);
+        let v_top = fy * 0.5 / h;
+        let v_bottom = (R::splat(h - 0.5) + fy * 0.5) / h;
+        let v_middle = (R::from_i32(r) - 0.5 + fy) / h;
+        let v = R::select(top, v_top, R::select(bottom, v_bottom, v_middle));
+        let below_one = R::splat(1.0 - f32::EPSILON / 2.0);
+        let (dir, sin_theta) = self.direction_lanes(uu.min(below_one), v.min(below_one));
+        let l = bilinear(t00, t10, t01, t11, fx, fy);
+        let pdf = R::select(sin_theta.gt(R::ZERO), l[3] / sin_theta, R::ZERO);
+        let scale = R::splat(self.scale);
+        (
+            dir,
+            Vec3L::new(l[0] * scale, l[1] * scale, l[2] * scale),
+            pdf,
+        )
     }
 
     /// The solid-angle pdf of [`EnvMap::sample`] drawing unit direction `dir`.
@@ -564,6 +635,19 @@ impl EnvMap {
     pub fn pdf(&self, dir: Vec3) -> f32 {
         self.radiance_pdf_lanes(dir.into()).1
     }
+}
+
+/// The four channels of texels `t00`, `t10` (a row) and `t01`, `t11` (the next) interpolated
+/// by `fx` along the rows and `fy` across, each as glam's lerp: a(1 − t) + bt.
+#[inline(always)]
+fn bilinear<R: Real>(t00: [R; 4], t10: [R; 4], t01: [R; 4], t11: [R; 4], fx: R, fy: R) -> [R; 4] {
+    let mut l = [R::ZERO; 4];
+    for (k, l) in l.iter_mut().enumerate() {
+        let top = t00[k] * (R::ONE - fx) + t10[k] * fx;
+        let bottom = t01[k] * (R::ONE - fx) + t11[k] * fx;
+        *l = top * (R::ONE - fy) + bottom * fy;
+    }
+    l
 }
 
 /// The solid-angle pdf of unit direction `dir` whose interpolated density (over (u, v), by
@@ -653,6 +737,48 @@ mod tests {
 
     /// The radiance and pdf of a turned, scaled, random map at eight lanes have the bits of
     /// one lane, over random directions, the poles and the seam.
+    /// Sampling gives the same bits at one lane and eight, on a map with a bright sun and
+    /// black texels (pieces of no weight, guide slots far apart), at the poles' half rows
+    /// and the seam, with lanes that take different numbers of search steps side by side.
+    #[test]
+    fn sampling_has_the_same_bits_at_every_width() {
+        static MAPS: std::sync::OnceLock<[EnvMap; 2]> = std::sync::OnceLock::new();
+        #[inline(always)]
+        fn kernel<R: Real>([u, v, which]: [R; 3]) -> [R; 7] {
+            let map = &MAPS.get().expect("made below")[(which.lane(0) > 0.5) as usize];
+            let (d, l, pdf) = map.sample_lanes(Vec2L::new(u, v));
+            [d.x, d.y, d.z, l.x, l.y, l.z, pdf]
+        }
+        let (w, h) = (41, 23);
+        let mut next = crate::sampling::hash::uniform_sequence(52);
+        let texels: Vec<Vec3> = (0..w * h)
+            .map(|i| match i % 7 {
+                0 | 3 => Vec3::ZERO,
+                _ => Vec3::new(next(), next(), next()),
+            })
+            .collect();
+        let mut sunny = texels.clone();
+        sunny[5 * w + 17] = Vec3::splat(5e4);
+        MAPS.get_or_init(|| {
+            [
+                EnvMap::new(w, h, texels, 0.3, 1.0),
+                EnvMap::sampled(w, h, sunny, -1.1, 2.0, MapSampling::Compensated),
+            ]
+        });
+        // Eight lanes in a row on one map, the next eight on the other.
+        let inputs = (0..16_000).map(|k| {
+            let which = ((k / 8) % 2) as f32;
+            let (u, v) = match k % 50 {
+                0 => (0.0, 0.0),
+                1 => (next(), 0.999_999_94),
+                2 => (0.999_999_94, next()),
+                _ => (next(), next()),
+            };
+            [u, v, which]
+        });
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [3] -> [7], inputs);
+    }
+
     #[test]
     fn lookups_have_the_same_bits_at_every_width() {
         static MAP: std::sync::OnceLock<EnvMap> = std::sync::OnceLock::new();
@@ -937,12 +1063,12 @@ mod tests {
         ];
         for func in funcs {
             let n = func.len();
-            let mut cells = vec![Cell::default(); n + 1];
-            build_distribution(&func, &mut cells);
-            let binary = |u: f32| cells.partition_point(|c| c.cdf <= u).clamp(1, n) - 1;
+            let mut cells = Cells::new(n + 1);
+            build_distribution(&func, &mut cells.cdf, &mut cells.guide);
+            let binary = |u: f32| cells.cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
             let mut us: Vec<f32> = (0..10_000).map(|i| i as f32 / 10_000.0).collect();
-            for c in &cells {
-                for u in [c.cdf, f32::from_bits(c.cdf.to_bits().saturating_sub(1))] {
+            for &c in &cells.cdf {
+                for u in [c, f32::from_bits(c.to_bits().saturating_sub(1))] {
                     if (0.0..1.0).contains(&u) {
                         us.push(u);
                         us.push(f32::from_bits(u.to_bits() + 1).min(0.999_999_94));
@@ -950,7 +1076,7 @@ mod tests {
                 }
             }
             for u in us {
-                let (i, du) = invert(&cells, u);
+                let (i, du) = invert(&cells.cdf, &cells.guide, u);
                 assert_eq!(i, binary(u), "n {n}, u {u}");
                 assert!((0.0..=1.0).contains(&du));
                 if n > 1 && func.iter().any(|&f| f > 0.0) {
@@ -965,14 +1091,14 @@ mod tests {
     #[test]
     fn a_wrong_guide_is_caught() {
         let func = vec![1.0f32, 2.0, 3.0, 4.0];
-        let mut cells = vec![Cell::default(); 5];
-        build_distribution(&func, &mut cells);
+        let mut cells = Cells::new(5);
+        build_distribution(&func, &mut cells.cdf, &mut cells.guide);
         let right: Vec<usize> = (0..100)
-            .map(|i| invert(&cells, i as f32 / 100.0).0)
+            .map(|i| invert(&cells.cdf, &cells.guide, i as f32 / 100.0).0)
             .collect();
-        cells[1].guide += 1;
+        cells.guide[1] += 1;
         let wrong: Vec<usize> = (0..100)
-            .map(|i| invert(&cells, i as f32 / 100.0).0)
+            .map(|i| invert(&cells.cdf, &cells.guide, i as f32 / 100.0).0)
             .collect();
         assert_ne!(right, wrong);
     }
