@@ -67,9 +67,10 @@
 use glam::{Vec2, Vec3};
 
 use super::fresnel;
+use super::gltf_brdf::DirectionLanes;
 use super::lobe::{BsdfFlags, BsdfSample, LocalBsdf};
-use super::microfacet::{AlbedoTable, Ggx};
-use crate::lanes::{Real, Vec3L};
+use super::microfacet::{ggx_d, ggx_g1, ggx_v, visible_normal, AlbedoRowLanes, AlbedoTable, Ggx};
+use crate::lanes::{select_lazy, Bits, Mask, Real, Vec2L, Vec3L};
 
 /// The lobes of a rough interface.
 const GLOSSY: BsdfFlags = BsdfFlags::REFLECTION
@@ -622,67 +623,169 @@ impl ThinDielectric {
         self.alpha < Ggx::SMOOTH_ALPHA
     }
 
-    #[inline]
-    fn ggx(&self) -> Ggx {
-        Ggx::new(self.alpha)
+    /// The sheet as lanes of one.
+    #[inline(always)]
+    pub fn lanes(&self) -> ThinDielectricLanes<f32> {
+        ThinDielectricLanes {
+            eta: self.eta,
+            alpha: self.alpha,
+            tint: self.tint.into(),
+            compensated: self.compensated,
+        }
+    }
+}
+
+/// A thin dielectric sheet per lane (see [`ThinDielectric`]): the one source of its lobes,
+/// run at one lane by [`ThinDielectric`] and at eight by shading that keeps eight paths
+/// together. Its compensation's scale of wo is computed by [`ThinDielectricLanes::scale`]
+/// and passed in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinDielectricLanes<R: Real> {
+    pub eta: R,
+    pub alpha: R,
+    pub tint: Vec3L<R>,
+    /// Compensate the energy single scattering loses: one choice for every lane.
+    pub compensated: bool,
+}
+
+impl<R: Real> ThinDielectricLanes<R> {
+    /// True per lane where the sheet is smooth: a delta lobe.
+    #[inline(always)]
+    pub fn smooth(&self) -> R::Mask {
+        self.alpha.lt(R::splat(Ggx::SMOOTH_ALPHA))
     }
 
-    /// f·|cos θi| and pdf for upright `wo` (wo.z > 0).
-    #[inline]
-    fn eval_pdf_upright(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        const NOTHING: (Vec3, f32) = (Vec3::ZERO, 0.0);
-        if wi.z == 0.0 || !wi.is_finite() {
-            return NOTHING;
+    /// The compensation's scale seen from `wo`: 1 / E(|μo|), E the white GGX lobe's albedo;
+    /// 1 without compensation, for a smooth sheet or a wo in the plane.
+    #[inline(always)]
+    pub fn scale(&self, wo: Vec3L<R>) -> R {
+        if !self.compensated {
+            return R::ONE;
         }
+        let row = AlbedoRowLanes::new(self.alpha);
+        let e = AlbedoTable::get().e_and_e_s_lanes(wo.z.abs(), row).0;
+        let rough = !self.smooth() & wo.z.ne(R::ZERO);
+        R::select(rough, e.max(R::splat(1e-3)).recip(), R::ONE)
+    }
+
+    /// 1 where wo is above the surface, −1 below (negation turns a query upright, see
+    /// [`Upright`]), and the lanes where wo sees the sheet at all (not in its plane).
+    #[inline(always)]
+    fn upright(wo: Vec3L<R>) -> (R, R::Mask) {
+        let above = wo.z.gt(R::ZERO);
+        let sign = R::select(above, R::ONE, -R::ONE);
+        (sign, above | wo.z.lt(R::ZERO))
+    }
+
+    /// f·|cos θi| and pdf, given the compensation's `scale` of wo: zero for a smooth sheet,
+    /// a wo in the plane, a wi in it or not finite, or values f32 cannot hold.
+    #[inline(always)]
+    pub fn eval_pdf(&self, scale: R, wo: Vec3L<R>, wi: Vec3L<R>) -> (Vec3L<R>, R) {
+        let (sign, seen) = Self::upright(wo);
+        let (wo, wi) = (wo * sign, wi * sign);
+        let inf = R::splat(f32::INFINITY);
+        let finite = |x: R| x.abs().lt(inf);
         // The reflection lobe's direction: wi itself, or wi mirrored through the plane.
-        let transmitted = wi.z < 0.0;
-        let wr = Vec3::new(wi.x, wi.y, wi.z.abs());
-        let h = (wo + wr).normalize_or_zero();
+        let transmitted = wi.z.lt(R::ZERO);
+        let wr = Vec3L::new(wi.x, wi.y, wi.z.abs());
+        let h = (wo + wr).normalize();
         let wo_h = wo.dot(h);
-        if wo_h.is_nan() || wo_h <= 0.0 {
-            return NOTHING;
-        }
-        let ggx = self.ggx();
-        let d = ggx.d(h);
-        let f = fresnel_dielectric(wo_h, self.eta);
-        let lobe = d * ggx.v(wo, wr) * wr.z;
-        let pdf = ggx.reflection_pdf(wo, d);
-        let (value, pdf) = match transmitted {
-            true => (self.tint * ((1.0 - f) * lobe), (1.0 - f) * pdf),
-            false => (Vec3::splat(f * lobe), f * pdf),
-        };
-        match value.is_finite() && pdf.is_finite() {
-            true => (value, pdf),
-            false => NOTHING,
+        let d = ggx_d(self.alpha, h);
+        let f = fresnel::dielectric(wo_h, self.eta);
+        let lobe = d * ggx_v(self.alpha, wo, wr) * wr.z;
+        let pdf = ggx_g1(self.alpha, wo) * d / (wo.z * 4.0);
+        let kept = R::ONE - f;
+        let value = Vec3L::select(transmitted, self.tint * (kept * lobe), Vec3L::all(f * lobe));
+        let pdf = R::select(transmitted, kept * pdf, f * pdf);
+        let ok = seen
+            & !self.smooth()
+            & wi.z.ne(R::ZERO)
+            & finite(wi.x)
+            & finite(wi.y)
+            & finite(wi.z)
+            & wo_h.gt(R::ZERO)
+            & finite(value.x)
+            & finite(value.y)
+            & finite(value.z)
+            & finite(pdf);
+        (
+            Vec3L::select(ok, value * scale, Vec3L::all(R::ZERO)),
+            R::select(ok, pdf, R::ZERO),
+        )
+    }
+
+    /// A direction and its lobe: the reflection about a visible normal drawn with `u` (the
+    /// mirror of a smooth sheet), kept with probability F(wo·h) (`uc` below it) or mirrored
+    /// through the plane. Not valid for a wo in the plane or a reflection below it.
+    #[inline(always)]
+    pub fn sample_direction(&self, wo: Vec3L<R>, uc: R, u: Vec2L<R>) -> DirectionLanes<R> {
+        let (sign, seen) = Self::upright(wo);
+        let wo = wo * sign;
+        let flag = |f: BsdfFlags| R::Bits::splat(f.bits());
+        let drawn = select_lazy!(
+            self.smooth(),
+            {
+                let reflect = uc.lt(fresnel::dielectric(wo.z, self.eta));
+                DirectionLanes {
+                    wi: Vec3L::select(
+                        reflect,
+                        Vec3L::new(-wo.x, -wo.y, wo.z),
+                        Vec3L::new(-wo.x, -wo.y, -wo.z),
+                    ),
+                    flags: R::Bits::select(
+                        reflect,
+                        flag(BsdfFlags::SPECULAR_REFLECTION),
+                        flag(SPECULAR_TRANSMISSION),
+                    ),
+                    valid: R::Mask::splat(true),
+                }
+            },
+            {
+                let h = visible_normal(self.alpha, self.alpha, wo, u);
+                let wo_h = wo.dot(h);
+                let wi = h * (wo_h * 2.0) - wo;
+                let reflect = uc.lt(fresnel::dielectric(wo_h, self.eta));
+                DirectionLanes {
+                    wi: Vec3L::select(reflect, wi, Vec3L::new(wi.x, wi.y, -wi.z)),
+                    flags: R::Bits::select(
+                        reflect,
+                        flag(BsdfFlags::GLOSSY_REFLECTION),
+                        flag(GLOSSY_TRANSMISSION),
+                    ),
+                    valid: wo_h.gt(R::ZERO) & wi.z.gt(R::ZERO),
+                }
+            },
+            DirectionLanes::select
+        );
+        DirectionLanes {
+            wi: drawn.wi * sign,
+            flags: drawn.flags,
+            valid: drawn.valid & seen,
         }
     }
 
-    /// An upright direction from upright `wo`: the reflection about a visible normal drawn
-    /// with `u`, kept with probability F(wo·h) (`uc` below it) or mirrored through the plane.
-    #[inline]
-    fn sample_upright(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        if self.is_specular() {
-            return Some(match uc < fresnel_dielectric(wo.z, self.eta) {
-                true => (
-                    Vec3::new(-wo.x, -wo.y, wo.z),
-                    BsdfFlags::SPECULAR_REFLECTION,
-                ),
-                false => (-wo, SPECULAR_TRANSMISSION),
-            });
-        }
-        let h = self.ggx().sample_visible_normal(wo, u);
-        let wo_h = wo.dot(h);
-        if wo_h.is_nan() || wo_h <= 0.0 {
-            return None;
-        }
-        let wi = 2.0 * wo_h * h - wo;
-        if wi.z.is_nan() || wi.z <= 0.0 {
-            return None;
-        }
-        Some(match uc < fresnel_dielectric(wo_h, self.eta) {
-            true => (wi, BsdfFlags::GLOSSY_REFLECTION),
-            false => (Vec3::new(wi.x, wi.y, -wi.z), GLOSSY_TRANSMISSION),
-        })
+    /// The smooth sheet's weight and probability in direction `wi` of lobe `flags`
+    /// ([`BsdfFlags::bits`]): F(|n·wo|) for the mirror, (1 − F) tint and 1 − F straight
+    /// through; valid where the probability is positive and wo is not in the plane.
+    #[inline(always)]
+    pub fn sample_delta(&self, wo: Vec3L<R>, flags: R::Bits) -> (Vec3L<R>, R, R::Mask) {
+        let f = fresnel::dielectric(wo.z.abs(), self.eta);
+        let transmission = R::Bits::splat(BsdfFlags::TRANSMISSION.bits());
+        let through = (flags & transmission).eq(transmission);
+        let kept = R::ONE - f;
+        let f_cos = Vec3L::select(through, self.tint * kept, Vec3L::all(f));
+        let pdf = R::select(through, kept, f);
+        (f_cos, pdf, pdf.gt(R::ZERO) & wo.z.ne(R::ZERO))
+    }
+
+    /// The lobes each lane has ([`BsdfFlags::bits`]).
+    #[inline(always)]
+    pub fn flags(&self) -> R::Bits {
+        R::Bits::select(
+            self.smooth(),
+            R::Bits::splat(SPECULAR.bits()),
+            R::Bits::splat(GLOSSY.bits()),
+        )
     }
 }
 
@@ -697,19 +800,15 @@ impl LocalBsdf for ThinDielectric {
         if !self.compensated || self.is_specular() || wo.z == 0.0 {
             return self;
         }
-        let e = AlbedoTable::get().e(wo.z.abs(), self.alpha);
         ThinDielectric {
-            scale: 1.0 / e.max(1e-3),
+            scale: self.lanes().scale(wo.into()),
             ..self
         }
     }
 
     #[inline]
     fn flags(&self) -> BsdfFlags {
-        match self.is_specular() {
-            true => SPECULAR,
-            false => GLOSSY,
-        }
+        BsdfFlags::from_bits(self.lanes().flags())
     }
 
     #[inline]
@@ -729,13 +828,8 @@ impl LocalBsdf for ThinDielectric {
 
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        match (self.is_specular(), Upright::of(wo, self.eta)) {
-            (false, Some(up)) => {
-                let (f, pdf) = self.eval_pdf_upright(up.sign * wo, up.sign * wi);
-                (f * self.scale, pdf)
-            }
-            _ => (Vec3::ZERO, 0.0),
-        }
+        let (f, pdf) = self.lanes().eval_pdf(self.scale, wo.into(), wi.into());
+        (f.into(), pdf)
     }
 
     #[inline(always)]
@@ -745,26 +839,18 @@ impl LocalBsdf for ThinDielectric {
 
     #[inline]
     fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        let up = Upright::of(wo, self.eta)?;
-        let (wi, flags) = self.sample_upright(up.sign * wo, uc, u)?;
-        Some((up.sign * wi, flags))
+        let d = self.lanes().sample_direction(wo.into(), uc, u.into());
+        d.valid
+            .then(|| (d.wi.into(), BsdfFlags::from_bits(d.flags)))
     }
 
-    /// The smooth sheet's sample in direction `wi`: weight and probability F(n·wo) for the
-    /// mirror, (1 − F) tint and 1 − F straight through.
+    /// The smooth sheet's sample in direction `wi` ([`ThinDielectricLanes::sample_delta`]).
     #[inline]
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
-        if wo.z == 0.0 {
-            return None;
-        }
-        let f = fresnel_dielectric(wo.z.abs(), self.eta);
-        let (f_cos, pdf) = match flags.contains(BsdfFlags::TRANSMISSION) {
-            true => (self.tint * (1.0 - f), 1.0 - f),
-            false => (Vec3::splat(f), f),
-        };
-        (pdf > 0.0).then_some(BsdfSample {
+        let (f_cos, pdf, valid) = self.lanes().sample_delta(wo.into(), flags.bits());
+        valid.then(|| BsdfSample {
             wi,
-            f_cos,
+            f_cos: f_cos.into(),
             pdf,
             flags,
         })
@@ -778,6 +864,75 @@ mod tests {
     /// Refraction at eight lanes has the bits of one lane, and the same lanes refract,
     /// over directions from both sides, indices below and above 1 (total internal reflection
     /// among them) and tilted normals.
+    /// The thin sheet gives the same bits at one lane and eight, in and out of the AVX2
+    /// dispatch: smooth and rough sheets side by side, wo on both sides and in the plane,
+    /// both lobes drawn, compensated or not (eight lanes in a row alike).
+    #[test]
+    fn the_thin_sheet_has_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>(x: [R; 12]) -> [R; 13] {
+            let sheet = ThinDielectricLanes {
+                eta: x[0],
+                alpha: x[1],
+                tint: Vec3L::new(x[2], x[3], x[4]),
+                compensated: x[11].lane(0) < 0.5,
+            };
+            let d = |a: R, b: R| {
+                let z = a * 2.0 - 1.0;
+                let r = (R::ONE - z * z).safe_sqrt();
+                let (s, c) = crate::math::sin_cos(b * std::f32::consts::TAU);
+                Vec3L::new(r * c, r * s, z)
+            };
+            let (wo, wi) = (d(x[5], x[6]), d(x[7], x[8]));
+            let scale = sheet.scale(wo);
+            let (f, pdf) = sheet.eval_pdf(scale, wo, wi);
+            let s = sheet.sample_direction(wo, x[9], Vec2L::new(x[10], x[6]));
+            let (f_d, pdf_d, valid_d) = sheet.sample_delta(wo, s.flags);
+            let flag = |m: R::Mask| R::select(m, R::ONE, R::ZERO);
+            [
+                scale,
+                f.x,
+                f.z,
+                pdf,
+                R::select(s.valid, s.wi.x, R::ZERO),
+                R::select(s.valid, s.wi.z, R::ZERO),
+                R::from_bits(R::Bits::select(s.valid, s.flags, R::Bits::splat(0))),
+                flag(s.valid),
+                f_d.y,
+                pdf_d,
+                flag(valid_d),
+                R::from_bits(sheet.flags()),
+                flag(sheet.smooth()),
+            ]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(4533);
+        let inputs: Vec<[f32; 12]> = (0..4000)
+            .map(|k| {
+                let mut x = [0.0f32; 12];
+                for v in x.iter_mut() {
+                    *v = next();
+                }
+                x[0] += 1.0;
+                x[1] = [0.0, x[1] * x[1], 0.5, x[1]][k % 4];
+                // A wo in the plane now and then.
+                if k % 97 == 5 {
+                    x[5] = 0.5;
+                }
+                x[11] = ((k / 8) % 2) as f32;
+                x
+            })
+            .collect();
+        crate::lanes::assert_same_bits_at_every_width!(kernel: [12] -> [13], inputs.clone());
+        // Both lobes of both kinds are drawn.
+        let lobes: std::collections::BTreeSet<u32> = inputs
+            .into_iter()
+            .map(kernel::<f32>)
+            .filter(|o| o[7] > 0.0)
+            .map(|o| o[6].to_bits())
+            .collect();
+        assert_eq!(lobes.len(), 4, "{lobes:?}");
+    }
+
     #[test]
     fn refraction_has_the_same_bits_at_every_width() {
         #[inline(always)]
