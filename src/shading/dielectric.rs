@@ -120,35 +120,6 @@ pub fn refract_lanes<R: Real>(w: Vec3L<R>, n: Vec3L<R>, eta: R) -> (Vec3L<R>, R:
     (t, !sin2_t.ge(R::ONE))
 }
 
-/// Which way up a query is: directions are turned (negated) so that wo lies above the
-/// surface, where the interface then has relative index `eta` (η outside, 1/η inside).
-/// Negation keeps D, G and Fresnel (the isotropic microsurface seen from below is the same
-/// distribution of normals, pointing down), and swaps the media.
-#[derive(Clone, Copy)]
-struct Upright {
-    /// 1 when wo was outside, −1 when it was inside.
-    sign: f32,
-    /// The relative index below over above, once turned.
-    eta: f32,
-}
-
-impl Upright {
-    /// None for a wo in the surface's plane (or not finite): it sees no microfacet.
-    #[inline]
-    fn of(wo: Vec3, eta: f32) -> Option<Upright> {
-        if wo.z > 0.0 {
-            Some(Upright { sign: 1.0, eta })
-        } else if wo.z < 0.0 {
-            Some(Upright {
-                sign: -1.0,
-                eta: 1.0 / eta,
-            })
-        } else {
-            None
-        }
-    }
-}
-
 /// A rough or smooth dielectric interface between the outside (+z) and a medium of relative
 /// index `eta` below it (see the module documentation for its formulas, sampling and
 /// radiance convention).
@@ -232,96 +203,266 @@ impl Dielectric {
         self.alpha < Ggx::SMOOTH_ALPHA || self.eta == 1.0
     }
 
-    #[inline]
-    fn ggx(&self) -> Ggx {
-        Ggx::new(self.alpha)
+    /// The interface as lanes of one (its dispersion already resolved by
+    /// [`Dielectric::at_wavelength`]).
+    #[inline(always)]
+    pub fn lanes(&self) -> DielectricLanes<f32> {
+        DielectricLanes {
+            eta: self.eta,
+            alpha: self.alpha,
+            tint: self.tint.into(),
+            compensated: self.compensated,
+        }
+    }
+}
+
+/// A rough or smooth dielectric interface per lane (see [`Dielectric`]): the one source of
+/// its lobes, run at one lane by [`Dielectric`] and at eight by shading that keeps eight
+/// paths together. Its compensation's scale of wo comes from [`DielectricLanes::scale`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DielectricLanes<R: Real> {
+    /// n_inside / n_outside.
+    pub eta: R,
+    pub alpha: R,
+    pub tint: Vec3L<R>,
+    /// Compensate the energy single scattering loses: one choice for every lane.
+    pub compensated: bool,
+}
+
+/// A direction drawn from an interface per lane, with its f·|cos θi|, pdf and lobe: `drawn`
+/// where the numbers map to a direction, `valid` where it is also one to go on with (a
+/// positive, finite pdf and a finite value).
+#[derive(Clone, Copy, Debug)]
+pub struct InterfaceSample<R: Real> {
+    pub wi: Vec3L<R>,
+    pub f_cos: Vec3L<R>,
+    pub pdf: R,
+    pub flags: R::Bits,
+    pub drawn: R::Mask,
+    pub valid: R::Mask,
+}
+
+impl<R: Real> DielectricLanes<R> {
+    /// True per lane where the interface is a delta lobe: smooth, or index-matched (η = 1).
+    #[inline(always)]
+    pub fn specular(&self) -> R::Mask {
+        self.alpha.lt(R::splat(Ggx::SMOOTH_ALPHA)) | self.eta.eq(R::ONE)
+    }
+
+    /// Which way up a query is: directions are turned (negated) so that wo lies above the
+    /// surface, where the interface then has relative index η (η outside, 1/η inside).
+    /// Negation keeps D, G and Fresnel (the isotropic microsurface seen from below is the same
+    /// distribution of normals, pointing down), and swaps the media. Returns 1 where wo is
+    /// outside, −1 inside; the relative index once turned; and the lanes where wo sees the
+    /// interface (not in its plane, and finite).
+    #[inline(always)]
+    fn upright(&self, wo: Vec3L<R>) -> (R, R, R::Mask) {
+        let above = wo.z.gt(R::ZERO);
+        let sign = R::select(above, R::ONE, -R::ONE);
+        let eta = R::select(above, self.eta, self.eta.recip());
+        (sign, eta, above | wo.z.lt(R::ZERO))
+    }
+
+    /// The compensation's scale seen from `wo`: 1 / E(|μo|), E the power the white rough
+    /// interface returns from wo's side ([`DielectricAlbedoTable`]); 1 without compensation,
+    /// for a delta lobe or a wo in the plane.
+    #[inline(always)]
+    pub fn scale(&self, wo: Vec3L<R>) -> R {
+        if !self.compensated {
+            return R::ONE;
+        }
+        let (_, eta, seen) = self.upright(wo);
+        let e = DielectricAlbedoTable::get().e_lanes(wo.z.abs(), self.alpha, eta);
+        let rough = seen & !self.specular();
+        R::select(rough, e.max(R::splat(1e-3)).recip(), R::ONE)
     }
 
     /// f·|cos θi| and the pdf of upright `wo` (wo.z > 0) and `wi` through microfacet normal
-    /// `h` (h.z > 0, facing wo), `eta` the upright relative index.
-    #[inline]
-    fn lobe(&self, wo: Vec3, wi: Vec3, h: Vec3, eta: f32) -> (Vec3, f32) {
-        let ggx = self.ggx();
-        let (wo_h, wi_h) = (wo.dot(h), wi.dot(h));
-        let d = ggx.d(h);
-        let f = fresnel_dielectric(wo_h, eta);
-        // The density of h among the normals visible from wo (Heitz 2018, eq. 3).
-        let pdf_h = ggx.g1(wo) * wo_h * d / wo.z;
-        if wi.z > 0.0 {
-            // Walter eq. 20; the Jacobian 1 / (4 wo·h) (eq. 14).
-            let value = f * d * ggx.v(wo, wi) * wi.z;
-            (Vec3::splat(value), f * pdf_h / (4.0 * wo_h))
-        } else {
-            // Walter eq. 21 divided through by η_o² (wo's medium is "above", index 1 here):
-            // η_o wo·h + η_i wi·h → wo·h + η wi·h; G2 / (|n·wo| |n·wi|) = 4 V.
-            let t = 1.0 - f;
-            let denominator = (wo_h + eta * wi_h) * (wo_h + eta * wi_h);
-            let g2_over_cosines = 4.0 * ggx.v(wo, wi);
-            let value = t * d * g2_over_cosines * wo_h * wi_h.abs() * wi.z.abs() / denominator;
-            // The Jacobian η_i² |wi·h| / (η_o wo·h + η_i wi·h)² (eq. 17).
-            let pdf = t * pdf_h * eta * eta * wi_h.abs() / denominator;
-            (self.tint * value, pdf)
-        }
-    }
-
-    /// [`LocalBsdf::eval_pdf`] for upright `wo` and any `wi`.
-    #[inline]
-    fn eval_pdf_upright(&self, wo: Vec3, wi: Vec3, eta: f32) -> (Vec3, f32) {
-        const NOTHING: (Vec3, f32) = (Vec3::ZERO, 0.0);
-        if wi.z == 0.0 || !wi.is_finite() {
-            return NOTHING;
-        }
-        // The generalized half vector (Walter eq. 16), turned to +z.
-        let eta_i = if wi.z > 0.0 { 1.0 } else { eta };
-        let h = wo + eta_i * wi;
-        let length2 = h.length_squared();
-        if !(length2 > 0.0 && length2.is_finite()) {
-            return NOTHING;
-        }
-        let h = h * (h.z.signum() / length2.sqrt());
-        // Microfacets either direction sees from behind scatter nothing.
-        if wo.dot(h) <= 0.0 || wi.dot(h) * wi.z <= 0.0 {
-            return NOTHING;
-        }
-        let (value, pdf) = self.lobe(wo, wi, h, eta);
-        match value.is_finite() && pdf.is_finite() {
-            true => (value, pdf),
-            false => NOTHING,
-        }
-    }
-
-    /// An upright direction from upright `wo`: h from `u`, the lobe from `uc`. Also returns h.
-    /// Always inlined: where the compiler chose not to, the albedo table's 0.17 s took 30%
-    /// more instructions (its closure and `fract` no longer inlined either).
+    /// `h` (h.z > 0, facing wo), `eta` the upright relative index: Walter's reflection where
+    /// wi is above (eq. 20, the Jacobian 1 / (4 wo·h), eq. 14), his transmission below.
     #[inline(always)]
-    fn sample_upright(&self, wo: Vec3, uc: f32, u: Vec2, eta: f32) -> Option<(Vec3, Vec3)> {
-        let h = self.ggx().sample_visible_normal(wo, u);
-        let wo_h = wo.dot(h);
-        if wo_h.is_nan() || wo_h <= 0.0 {
-            return None;
-        }
-        let wi = if uc < fresnel_dielectric(wo_h, eta) {
-            let wi = 2.0 * wo_h * h - wo;
-            (wi.z > 0.0).then_some(wi)?
-        } else {
-            let wi = refract(wo, h, eta)?;
-            (wi.z < 0.0).then_some(wi)?
-        };
-        Some((wi, h))
+    fn lobe(&self, wo: Vec3L<R>, wi: Vec3L<R>, h: Vec3L<R>, eta: R) -> (Vec3L<R>, R) {
+        let alpha = self.alpha;
+        let (wo_h, wi_h) = (wo.dot(h), wi.dot(h));
+        let d = ggx_d(alpha, h);
+        let f = fresnel::dielectric(wo_h, eta);
+        // The density of h among the normals visible from wo (Heitz 2018, eq. 3).
+        let pdf_h = ggx_g1(alpha, wo) * wo_h * d / wo.z;
+        let v = ggx_v(alpha, wo, wi);
+        select_lazy!(
+            wi.z.gt(R::ZERO),
+            {
+                let value = f * d * v * wi.z;
+                (Vec3L::all(value), f * pdf_h / (wo_h * 4.0))
+            },
+            {
+                // Walter eq. 21 divided through by η_o² (wo's medium is "above", index 1
+                // here): η_o wo·h + η_i wi·h → wo·h + η wi·h; G2 / (|n·wo| |n·wi|) = 4 V.
+                let t = R::ONE - f;
+                let denominator = (wo_h + eta * wi_h) * (wo_h + eta * wi_h);
+                let g2_over_cosines = v * 4.0;
+                let value = t * d * g2_over_cosines * wo_h * wi_h.abs() * wi.z.abs() / denominator;
+                // The Jacobian η_i² |wi·h| / (η_o wo·h + η_i wi·h)² (eq. 17).
+                let pdf = t * pdf_h * eta * eta * wi_h.abs() / denominator;
+                (self.tint * value, pdf)
+            },
+            |m, a: (Vec3L<R>, R), b: (Vec3L<R>, R)| (
+                Vec3L::select(m, a.0, b.0),
+                R::select(m, a.1, b.1)
+            )
+        )
     }
 
-    /// The smooth interface's direction from upright `wo`: the mirror when `uc` < F(n·wo),
-    /// else the refracted direction.
-    #[inline]
-    fn sample_smooth_upright(&self, wo: Vec3, uc: f32, eta: f32) -> Option<(Vec3, BsdfFlags)> {
-        if uc < fresnel_dielectric(wo.z, eta) {
-            return Some((
-                Vec3::new(-wo.x, -wo.y, wo.z),
-                BsdfFlags::SPECULAR_REFLECTION,
-            ));
+    /// f·|cos θi| and pdf, given the compensation's `scale` of wo: zero for a delta lobe, a
+    /// wo in the plane, a wi in it or not finite, microfacets either direction sees from
+    /// behind, or values f32 cannot hold.
+    #[inline(always)]
+    pub fn eval_pdf(&self, scale: R, wo: Vec3L<R>, wi: Vec3L<R>) -> (Vec3L<R>, R) {
+        let (sign, eta, seen) = self.upright(wo);
+        let (wo, wi) = (wo * sign, wi * sign);
+        let inf = R::splat(f32::INFINITY);
+        let finite = |x: R| x.abs().lt(inf);
+        // The generalized half vector (Walter eq. 16), turned to +z.
+        let eta_i = R::select(wi.z.gt(R::ZERO), R::ONE, eta);
+        let h = wo + wi * eta_i;
+        let length2 = h.length_squared();
+        let h = h * (R::ONE.copysign(h.z) / length2.sqrt());
+        let (value, pdf) = self.lobe(wo, wi, h, eta);
+        let ok = seen
+            & !self.specular()
+            & wi.z.ne(R::ZERO)
+            & finite(wi.x)
+            & finite(wi.y)
+            & finite(wi.z)
+            & length2.gt(R::ZERO)
+            & finite(length2)
+            // Microfacets either direction sees from behind scatter nothing.
+            & wo.dot(h).gt(R::ZERO)
+            & (wi.dot(h) * wi.z).gt(R::ZERO)
+            & finite(value.x)
+            & finite(value.y)
+            & finite(value.z)
+            & finite(pdf);
+        (
+            Vec3L::select(ok, value * scale, Vec3L::all(R::ZERO)),
+            R::select(ok, pdf, R::ZERO),
+        )
+    }
+
+    /// A direction drawn with normal sample `u` and lobe choice `uc`, with its f·|cos θi|
+    /// (scaled by `scale`) and pdf computed from the drawn microfacet normal (the value and
+    /// pdf [`DielectricLanes::eval_pdf`] gives the direction up to rounding); for a delta
+    /// lobe the mirror with probability F(n·wo), else the refraction, weighted as
+    /// [`DielectricLanes::sample_delta`] weights them.
+    #[inline(always)]
+    pub fn sample(&self, scale: R, wo: Vec3L<R>, uc: R, u: Vec2L<R>) -> InterfaceSample<R> {
+        let (sign, eta, seen) = self.upright(wo);
+        let wo_up = wo * sign;
+        let flag = |f: BsdfFlags| R::Bits::splat(f.bits());
+        let inf = R::splat(f32::INFINITY);
+        let finite = |x: R| x.abs().lt(inf);
+        let drawn = select_lazy!(
+            self.specular(),
+            {
+                let reflect = uc.lt(fresnel::dielectric(wo_up.z, eta));
+                let z = Vec3L::new(R::ZERO, R::ZERO, R::ONE);
+                let (t, refracts) = refract_lanes(wo_up, z, eta);
+                let wi = Vec3L::select(reflect, Vec3L::new(-wo_up.x, -wo_up.y, wo_up.z), t);
+                let flags = R::Bits::select(
+                    reflect,
+                    flag(BsdfFlags::SPECULAR_REFLECTION),
+                    flag(SPECULAR_TRANSMISSION),
+                );
+                let drawn = reflect | (refracts & t.z.lt(R::ZERO));
+                let (f_cos, pdf, valid) = self.sample_delta(wo, flags);
+                InterfaceSample {
+                    wi: wi * sign,
+                    f_cos,
+                    pdf,
+                    flags,
+                    drawn,
+                    valid: valid & drawn,
+                }
+            },
+            {
+                let h = visible_normal(self.alpha, self.alpha, wo_up, u);
+                let wo_h = wo_up.dot(h);
+                let reflect = uc.lt(fresnel::dielectric(wo_h, eta));
+                let mirror = h * (wo_h * 2.0) - wo_up;
+                let (t, refracts) = refract_lanes(wo_up, h, eta);
+                let wi = Vec3L::select(reflect, mirror, t);
+                let drawn = wo_h.gt(R::ZERO)
+                    & ((reflect & mirror.z.gt(R::ZERO)) | (!reflect & refracts & t.z.lt(R::ZERO)));
+                let (f_cos, pdf) = self.lobe(wo_up, wi, h, eta);
+                let f_cos = f_cos * scale;
+                let flags = R::Bits::select(
+                    wi.z.gt(R::ZERO),
+                    flag(BsdfFlags::GLOSSY_REFLECTION),
+                    flag(GLOSSY_TRANSMISSION),
+                );
+                let valid = drawn
+                    & pdf.gt(R::ZERO)
+                    & finite(pdf)
+                    & finite(f_cos.x)
+                    & finite(f_cos.y)
+                    & finite(f_cos.z);
+                InterfaceSample {
+                    wi: wi * sign,
+                    f_cos,
+                    pdf,
+                    flags,
+                    drawn,
+                    valid,
+                }
+            },
+            InterfaceSample::select
+        );
+        InterfaceSample {
+            drawn: drawn.drawn & seen,
+            valid: drawn.valid & seen,
+            ..drawn
         }
-        let wi = refract(wo, Vec3::Z, eta)?;
-        (wi.z < 0.0).then_some((wi, SPECULAR_TRANSMISSION))
+    }
+
+    /// The smooth interface's weight and probability for lobe `flags` ([`BsdfFlags::bits`]):
+    /// F(n·wo) for the mirror, (1 − F) tint (η_o/η_i)² and 1 − F for the refraction; valid
+    /// where the probability is positive and wo sees the interface.
+    #[inline(always)]
+    pub fn sample_delta(&self, wo: Vec3L<R>, flags: R::Bits) -> (Vec3L<R>, R, R::Mask) {
+        let (sign, eta, seen) = self.upright(wo);
+        let f = fresnel::dielectric(wo.z * sign, eta);
+        let transmission = R::Bits::splat(BsdfFlags::TRANSMISSION.bits());
+        let through = (flags & transmission).eq(transmission);
+        let kept = R::ONE - f;
+        // Radiance: (η_o / η_i)² = 1 / η² with η upright (wi's medium below).
+        let f_cos = Vec3L::select(through, self.tint * (kept / (eta * eta)), Vec3L::all(f));
+        let pdf = R::select(through, kept, f);
+        (f_cos, pdf, pdf.gt(R::ZERO) & seen)
+    }
+
+    /// The lobes each lane has ([`BsdfFlags::bits`]).
+    #[inline(always)]
+    pub fn flags(&self) -> R::Bits {
+        R::Bits::select(
+            self.specular(),
+            R::Bits::splat(SPECULAR.bits()),
+            R::Bits::splat(GLOSSY.bits()),
+        )
+    }
+}
+
+impl<R: Real> InterfaceSample<R> {
+    /// `a` where `m` is true, `b` elsewhere.
+    #[inline(always)]
+    fn select(m: R::Mask, a: Self, b: Self) -> Self {
+        InterfaceSample {
+            wi: Vec3L::select(m, a.wi, b.wi),
+            f_cos: Vec3L::select(m, a.f_cos, b.f_cos),
+            pdf: R::select(m, a.pdf, b.pdf),
+            flags: R::Bits::select(m, a.flags, b.flags),
+            drawn: (m & a.drawn) | (!m & b.drawn),
+            valid: (m & a.valid) | (!m & b.valid),
+        }
     }
 }
 
@@ -333,25 +474,18 @@ impl LocalBsdf for Dielectric {
 
     #[inline]
     fn at(self, wo: Vec3) -> Dielectric {
-        if !self.compensated || self.is_specular() {
+        if !self.compensated || self.is_specular() || wo.z == 0.0 || wo.z.is_nan() {
             return self;
         }
-        let Some(up) = Upright::of(wo, self.eta) else {
-            return self;
-        };
-        let e = DielectricAlbedoTable::get().e(wo.z.abs(), self.alpha, up.eta);
         Dielectric {
-            scale: 1.0 / e.max(1e-3),
+            scale: self.lanes().scale(wo.into()),
             ..self
         }
     }
 
     #[inline]
     fn flags(&self) -> BsdfFlags {
-        match self.is_specular() {
-            true => SPECULAR,
-            false => GLOSSY,
-        }
+        BsdfFlags::from_bits(self.lanes().flags())
     }
 
     #[inline]
@@ -371,13 +505,8 @@ impl LocalBsdf for Dielectric {
 
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        match (self.is_specular(), Upright::of(wo, self.eta)) {
-            (false, Some(up)) => {
-                let (f, pdf) = self.eval_pdf_upright(up.sign * wo, up.sign * wi, up.eta);
-                (f * self.scale, pdf)
-            }
-            _ => (Vec3::ZERO, 0.0),
-        }
+        let (f, pdf) = self.lanes().eval_pdf(self.scale, wo.into(), wi.into());
+        (f.into(), pdf)
     }
 
     #[inline(always)]
@@ -387,65 +516,33 @@ impl LocalBsdf for Dielectric {
 
     #[inline]
     fn sample_direction(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<(Vec3, BsdfFlags)> {
-        let up = Upright::of(wo, self.eta)?;
-        let wo_up = up.sign * wo;
-        let (wi, flags) = match self.is_specular() {
-            true => self.sample_smooth_upright(wo_up, uc, up.eta)?,
-            false => {
-                let (wi, _) = self.sample_upright(wo_up, uc, u, up.eta)?;
-                let flags = match wi.z > 0.0 {
-                    true => BsdfFlags::GLOSSY_REFLECTION,
-                    false => GLOSSY_TRANSMISSION,
-                };
-                (wi, flags)
-            }
-        };
-        Some((up.sign * wi, flags))
+        let s = self.lanes().sample(self.scale, wo.into(), uc, u.into());
+        s.drawn
+            .then(|| (s.wi.into(), BsdfFlags::from_bits(s.flags)))
     }
 
-    /// The smooth interface's sample in direction `wi`: weight and probability F(n·wo) for
-    /// the mirror, (1 − F) tint (η_o/η_i)² and 1 − F for the refraction.
+    /// The smooth interface's sample in direction `wi` ([`DielectricLanes::sample_delta`]).
     #[inline]
     fn sample_delta(&self, wo: Vec3, wi: Vec3, flags: BsdfFlags) -> Option<BsdfSample> {
-        let up = Upright::of(wo, self.eta)?;
-        let f = fresnel_dielectric(up.sign * wo.z, up.eta);
-        let (f_cos, pdf) = match flags.contains(BsdfFlags::TRANSMISSION) {
-            // Radiance: (η_o / η_i)² = 1 / η² with η upright (wi's medium below).
-            true => (self.tint * ((1.0 - f) / (up.eta * up.eta)), 1.0 - f),
-            false => (Vec3::splat(f), f),
-        };
-        (pdf > 0.0).then_some(BsdfSample {
+        let (f_cos, pdf, valid) = self.lanes().sample_delta(wo.into(), flags.bits());
+        valid.then(|| BsdfSample {
             wi,
-            f_cos,
+            f_cos: f_cos.into(),
             pdf,
             flags,
         })
     }
 
     /// A direction drawn with normal sample `u` and lobe choice `uc`, its f·|cos θi| and pdf
-    /// computed from the drawn microfacet normal (the value and pdf
-    /// [`LocalBsdf::eval_pdf`] gives the returned direction up to rounding); for a smooth
-    /// interface, the delta sample as [`LocalBsdf::sample_delta`] weights it.
+    /// computed from the drawn microfacet normal ([`DielectricLanes::sample`]).
     #[inline]
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let up = Upright::of(wo, self.eta)?;
-        let wo_up = up.sign * wo;
-        if self.is_specular() {
-            let (wi, flags) = self.sample_smooth_upright(wo_up, uc, up.eta)?;
-            return self.sample_delta(wo, up.sign * wi, flags);
-        }
-        let (wi, h) = self.sample_upright(wo_up, uc, u, up.eta)?;
-        let (f_cos, pdf) = self.lobe(wo_up, wi, h, up.eta);
-        let f_cos = f_cos * self.scale;
-        let flags = match wi.z > 0.0 {
-            true => BsdfFlags::GLOSSY_REFLECTION,
-            false => GLOSSY_TRANSMISSION,
-        };
-        (pdf > 0.0 && pdf.is_finite() && f_cos.is_finite()).then_some(BsdfSample {
-            wi: up.sign * wi,
-            f_cos,
-            pdf,
-            flags,
+        let s = self.lanes().sample(self.scale, wo.into(), uc, u.into());
+        s.valid.then(|| BsdfSample {
+            wi: s.wi.into(),
+            f_cos: s.f_cos.into(),
+            pdf: s.pdf,
+            flags: BsdfFlags::from_bits(s.flags),
         })
     }
 }
@@ -528,24 +625,57 @@ impl DielectricAlbedoTable {
 
     /// E at direction cosine `mu`, GGX α `alpha` and relative index `eta` seen from wo's side.
     pub fn e(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
-        let (n_mu, n_r, n_eta) = (Self::N_MU, Self::N_R, Self::N_ETA);
-        let side = usize::from(eta < 1.0);
-        let n = if eta < 1.0 { 1.0 / eta } else { eta };
-        let grid = |x: f32, cells: usize| {
-            let x = x.clamp(0.0, 1.0) * (cells - 1) as f32;
-            let lo = (x as usize).min(cells - 2);
-            (lo, x - lo as f32)
-        };
-        let (i, fi) = grid(mu, n_mu);
-        let (j, fj) = grid(alpha.max(0.0).sqrt(), n_r);
-        let (k, fk) = grid((n - 1.0) / (Self::N_MAX - 1.0), n_eta);
-        let at = |k: usize, j: usize, i: usize| self.e[((side * n_eta + k) * n_r + j) * n_mu + i];
-        let plane = |k: usize| {
-            let row = |j: usize| at(k, j, i) * (1.0 - fi) + at(k, j, i + 1) * fi;
-            row(j) * (1.0 - fj) + row(j + 1) * fj
-        };
-        plane(k) * (1.0 - fk) + plane(k + 1) * fk
+        self.e_lanes(mu, alpha, eta)
     }
+
+    /// [`DielectricAlbedoTable::e`] at any width: trilinear in μ, √α and the index, the
+    /// eight corners gathered per lane.
+    #[inline(always)]
+    pub fn e_lanes<R: Real>(&self, mu: R, alpha: R, eta: R) -> R {
+        let (n_mu, n_r, n_eta) = (Self::N_MU as u32, Self::N_R as u32, Self::N_ETA as u32);
+        let inside = eta.lt(R::ONE);
+        let n = R::select(inside, eta.recip(), eta);
+        let (i, fi) = grid(mu, n_mu);
+        let (j, fj) = grid(alpha.max(R::ZERO).sqrt(), n_r);
+        let (k, fk) = grid((n - 1.0) / (Self::N_MAX - 1.0), n_eta);
+        let side = R::Bits::select(inside, R::Bits::splat(1), R::Bits::splat(0));
+        let one = R::Bits::splat(1);
+        // Entry ((side n_eta + k) n_r + j) n_mu + i, and the next along μ.
+        let block = side.wrapping_mul(R::Bits::splat(n_eta)).wrapping_add(k);
+        let (near, far) = (
+            block.wrapping_mul(R::Bits::splat(n_r)).wrapping_add(j),
+            block
+                .wrapping_add(one)
+                .wrapping_mul(R::Bits::splat(n_r))
+                .wrapping_add(j),
+        );
+        let mus = R::Bits::splat(n_mu);
+        let row = |r: R::Bits| r.wrapping_mul(mus).wrapping_add(i);
+        let (a, b) = (row(near), row(near.wrapping_add(one)));
+        let (c, d) = (row(far), row(far.wrapping_add(one)));
+        let plane_near = along_mu(&self.e, a, fi) * (R::ONE - fj) + along_mu(&self.e, b, fi) * fj;
+        let plane_far = along_mu(&self.e, c, fi) * (R::ONE - fj) + along_mu(&self.e, d, fi) * fj;
+        plane_near * (R::ONE - fk) + plane_far * fk
+    }
+}
+
+/// Table `e` between entry `start` and the next, by weight `f` of the next.
+#[inline(always)]
+fn along_mu<R: Real>(e: &[f32], start: R::Bits, f: R) -> R {
+    let (a, b) = (
+        R::gather_slice(e, start),
+        R::gather_slice(e, start.wrapping_add(R::Bits::splat(1))),
+    );
+    a * (R::ONE - f) + b * f
+}
+
+/// Where `x` ∈ [0, 1] (clamped) falls on a grid of `cells` points: the point below (at most
+/// the last but one) and the weight of the one above.
+#[inline(always)]
+fn grid<R: Real>(x: R, cells: u32) -> (R::Bits, R) {
+    let x = x.clamp(R::ZERO, R::ONE) * (cells - 1) as f32;
+    let lo = x.min(R::splat((cells - 2) as f32)).trunc_i32();
+    (lo, x - R::from_i32(lo))
 }
 
 /// The thin-walled transmissive surface of `KHR_materials_transmission` without
@@ -669,7 +799,7 @@ impl<R: Real> ThinDielectricLanes<R> {
     }
 
     /// 1 where wo is above the surface, −1 below (negation turns a query upright, see
-    /// [`Upright`]), and the lanes where wo sees the sheet at all (not in its plane).
+    /// [`DielectricLanes`]), and the lanes where wo sees the sheet at all (not in its plane).
     #[inline(always)]
     fn upright(wo: Vec3L<R>) -> (R, R::Mask) {
         let above = wo.z.gt(R::ZERO);
@@ -864,6 +994,83 @@ mod tests {
     /// Refraction at eight lanes has the bits of one lane, and the same lanes refract,
     /// over directions from both sides, indices below and above 1 (total internal reflection
     /// among them) and tilted normals.
+    /// The interface gives the same bits at one lane and eight, inside the AVX2 dispatch:
+    /// smooth, rough and index-matched interfaces side by side, wo outside, inside and in
+    /// the plane, indices above and below 1 (total internal reflection among them), both
+    /// models (eight lanes in a row alike).
+    #[test]
+    fn the_interface_has_the_same_bits_at_every_width() {
+        #[inline(always)]
+        fn kernel<R: Real>(x: [R; 12]) -> [R; 16] {
+            let glass = DielectricLanes {
+                eta: x[0],
+                alpha: x[1],
+                tint: Vec3L::new(x[2], x[3], x[4]),
+                compensated: x[11].lane(0) < 0.5,
+            };
+            let d = |a: R, b: R| {
+                let z = a * 2.0 - 1.0;
+                let r = (R::ONE - z * z).safe_sqrt();
+                let (s, c) = crate::math::sin_cos(b * std::f32::consts::TAU);
+                Vec3L::new(r * c, r * s, z)
+            };
+            let (wo, wi) = (d(x[5], x[6]), d(x[7], x[8]));
+            let scale = glass.scale(wo);
+            let (f, pdf) = glass.eval_pdf(scale, wo, wi);
+            let s = glass.sample(scale, wo, x[9], Vec2L::new(x[10], x[6]));
+            let (f_d, pdf_d, valid_d) = glass.sample_delta(wo, s.flags);
+            let flag = |m: R::Mask| R::select(m, R::ONE, R::ZERO);
+            let kept = |v: R| R::select(s.drawn, v, R::ZERO);
+            [
+                scale,
+                f.x,
+                f.z,
+                pdf,
+                kept(s.wi.x),
+                kept(s.wi.z),
+                R::select(s.valid, s.f_cos.y, R::ZERO),
+                R::select(s.valid, s.pdf, R::ZERO),
+                R::from_bits(R::Bits::select(s.drawn, s.flags, R::Bits::splat(0))),
+                flag(s.drawn),
+                flag(s.valid),
+                f_d.x,
+                pdf_d,
+                flag(valid_d),
+                R::from_bits(glass.flags()),
+                flag(glass.specular()),
+            ]
+        }
+        let mut next = crate::sampling::hash::uniform_sequence(4544);
+        let inputs: Vec<[f32; 12]> = (0..4000)
+            .map(|k| {
+                let mut x = [0.0f32; 12];
+                for v in x.iter_mut() {
+                    *v = next();
+                }
+                x[0] = [1.5, 1.0 / 1.5, 1.0, 0.8 + 2.0 * x[0]][k % 4];
+                x[1] = [0.0, x[1] * x[1], 0.5, x[1]][(k / 4) % 4];
+                if k % 97 == 5 {
+                    x[5] = 0.5;
+                }
+                x[11] = ((k / 8) % 2) as f32;
+                x
+            })
+            .collect();
+        crate::lanes::assert_same_bits_at_every_width!(
+            kernel: [12] -> [16],
+            inputs.clone(),
+            dispatched only
+        );
+        // Every lobe is drawn.
+        let lobes: std::collections::BTreeSet<u32> = inputs
+            .into_iter()
+            .map(kernel::<f32>)
+            .filter(|o| o[10] > 0.0)
+            .map(|o| o[8].to_bits())
+            .collect();
+        assert_eq!(lobes.len(), 4, "{lobes:?}");
+    }
+
     /// The thin sheet gives the same bits at one lane and eight, in and out of the AVX2
     /// dispatch: smooth and rough sheets side by side, wo on both sides and in the plane,
     /// both lobes drawn, compensated or not (eight lanes in a row alike).
