@@ -991,9 +991,16 @@ impl LocalBsdf for ThinDielectric {
 mod tests {
     use super::*;
 
-    /// Refraction at eight lanes has the bits of one lane, and the same lanes refract,
-    /// over directions from both sides, indices below and above 1 (total internal reflection
-    /// among them) and tilted normals.
+    /// The unit direction of (a, b) ∈ [0, 1)²: z = 2a − 1, azimuth 2πb (uniform over the
+    /// sphere), at any width.
+    #[inline(always)]
+    fn sphere<R: Real>(a: R, b: R) -> Vec3L<R> {
+        let z = a * 2.0 - 1.0;
+        let r = (R::ONE - z * z).safe_sqrt();
+        let (s, c) = crate::math::sin_cos(b * std::f32::consts::TAU);
+        Vec3L::new(r * c, r * s, z)
+    }
+
     /// The interface gives the same bits at one lane and eight, inside the AVX2 dispatch:
     /// smooth, rough and index-matched interfaces side by side, wo outside, inside and in
     /// the plane, indices above and below 1 (total internal reflection among them), both
@@ -1008,13 +1015,7 @@ mod tests {
                 tint: Vec3L::new(x[2], x[3], x[4]),
                 compensated: x[11].lane(0) < 0.5,
             };
-            let d = |a: R, b: R| {
-                let z = a * 2.0 - 1.0;
-                let r = (R::ONE - z * z).safe_sqrt();
-                let (s, c) = crate::math::sin_cos(b * std::f32::consts::TAU);
-                Vec3L::new(r * c, r * s, z)
-            };
-            let (wo, wi) = (d(x[5], x[6]), d(x[7], x[8]));
+            let (wo, wi) = (sphere(x[5], x[6]), sphere(x[7], x[8]));
             let scale = glass.scale(wo);
             let (f, pdf) = glass.eval_pdf(scale, wo, wi);
             let s = glass.sample(scale, wo, x[9], Vec2L::new(x[10], x[6]));
@@ -1084,13 +1085,7 @@ mod tests {
                 tint: Vec3L::new(x[2], x[3], x[4]),
                 compensated: x[11].lane(0) < 0.5,
             };
-            let d = |a: R, b: R| {
-                let z = a * 2.0 - 1.0;
-                let r = (R::ONE - z * z).safe_sqrt();
-                let (s, c) = crate::math::sin_cos(b * std::f32::consts::TAU);
-                Vec3L::new(r * c, r * s, z)
-            };
-            let (wo, wi) = (d(x[5], x[6]), d(x[7], x[8]));
+            let (wo, wi) = (sphere(x[5], x[6]), sphere(x[7], x[8]));
             let scale = sheet.scale(wo);
             let (f, pdf) = sheet.eval_pdf(scale, wo, wi);
             let s = sheet.sample_direction(wo, x[9], Vec2L::new(x[10], x[6]));
@@ -1140,6 +1135,9 @@ mod tests {
         assert_eq!(lobes.len(), 4, "{lobes:?}");
     }
 
+    /// Refraction at eight lanes has the bits of one lane, and the same lanes refract,
+    /// over directions from both sides, indices below and above 1 (total internal reflection
+    /// among them) and tilted normals.
     #[test]
     fn refraction_has_the_same_bits_at_every_width() {
         #[inline(always)]
