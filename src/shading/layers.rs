@@ -600,8 +600,9 @@ impl LocalBsdf for Layered {
 
     #[inline]
     fn at(self, wo: Vec3) -> Layered {
+        // The base's terms of wo are among the layers' (`LayerTermsLanes::base`): its own
+        // cache would go unread.
         Layered {
-            base: self.base.at(wo),
             outgoing: Some((wo, self.lanes().outgoing(wo.into()))),
             ..self
         }
